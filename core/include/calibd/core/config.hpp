@@ -1,0 +1,29 @@
+#pragma once
+/// \file
+/// The calibration configuration a user writes for a vehicle: sensors, intrinsics, boards and the
+/// prior (mechanical design or last known) extrinsic. A plain struct with defaults, validated once.
+
+#include <string>
+#include <vector>
+
+#include "calibd/core/board.hpp"
+#include "calibd/core/camera_model.hpp"
+#include "calibd/core/geometry.hpp"
+
+namespace calibd {
+
+struct CalibConfig {
+  std::string camera_id = "front";
+  CameraIntrinsics camera;
+  std::string lidar_id = "roof";
+  std::string lidar_model = "ot128";  ///< LidarKindFromName() names
+  std::vector<BoardGeometry> boards;  ///< boards expected in the scene (ids must be distinct)
+  /// Prior T_camera_lidar (maps LiDAR points into the camera frame), e.g. from the mechanical
+  /// design.
+  Pose prior_T_camera_lidar = Pose::Identity();
+
+  /// Checks every field once; on failure `error` names the bad key (e.g. "boards[1].tag_size_m").
+  bool IsValid(std::string* error) const;
+};
+
+}  // namespace calibd

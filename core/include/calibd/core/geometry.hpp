@@ -1,0 +1,30 @@
+#pragma once
+/// \file
+/// Rigid-transform helpers. Transforms are named by frames: T_a_b maps a point from frame b into
+/// frame a (p_a = T_a_b * p_b).
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace calibd {
+
+using Pose = Eigen::Isometry3d;
+
+/// Rotation from roll (about x), pitch (about y), yaw (about z), radians: R = Rz(yaw) Ry(pitch)
+/// Rx(roll).
+Eigen::Matrix3d RotationFromRpy(double roll, double pitch, double yaw);
+
+/// Inverse of RotationFromRpy, radians, pitch in [-pi/2, pi/2]. Ill-conditioned near pitch = +-90
+/// deg (shared/FACTS.md): compare rotations with RotationAngle, never with Euler differences.
+Eigen::Vector3d RpyFromRotation(const Eigen::Matrix3d& R);
+
+/// Pose from translation (m) and roll/pitch/yaw (radians).
+Pose PoseFromXyzRpy(const Eigen::Vector3d& xyz, const Eigen::Vector3d& rpy);
+
+/// Angle of R_a^T R_b in radians: the rotation error between two estimates.
+double RotationAngle(const Eigen::Matrix3d& R_a, const Eigen::Matrix3d& R_b);
+
+/// Rotation of `angle` radians about the unit `axis`.
+Eigen::Matrix3d RotationFromAxisAngle(const Eigen::Vector3d& axis, double angle);
+
+}  // namespace calibd

@@ -1,0 +1,42 @@
+#pragma once
+/// \file
+/// What calibd knows of a LiDAR's scan geometry: enough to build a range image (paper §III-C-1)
+/// and, in the simulator, to generate its scan pattern. LiDAR frame: x forward, y left, z up.
+
+#include <string>
+#include <vector>
+
+namespace calibd {
+
+enum class LidarKind {
+  kOt128,   ///< Hesai OT128-like mechanical spinning LiDAR, 128 rings (Pandar128E4X table)
+  kM1,      ///< RoboSense M1-like MEMS LiDAR: 5 lasers, ~120x25 deg, no rings
+  kFalcon,  ///< Seyond/Innovusion Falcon-like polygon-mirror LiDAR, denser central band, no rings
+};
+
+struct LidarModel {
+  LidarKind kind = LidarKind::kOt128;
+  std::string name;                        ///< "ot128", "m1", "falcon"
+  bool has_rings = true;                   ///< ring index is meaningful (row of the range image)
+  std::vector<double> ring_elevation_deg;  ///< per ring index, degrees (empty without rings)
+  double azimuth_resolution_deg = 0.2;     ///< horizontal angular step of the pattern
+  double elevation_resolution_deg =
+      0.125;                        ///< finest vertical step (range-image row size w/o rings)
+  double azimuth_min_deg = -180.0;  ///< horizontal field of view (azimuth = atan2(y, x))
+  double azimuth_max_deg = 180.0;
+  double elevation_min_deg = -25.0;  ///< vertical field of view
+  double elevation_max_deg = 15.0;
+  double min_range_m = 0.3;
+  double max_range_m = 200.0;
+  double range_quantization_m = 0.004;  ///< range resolution of the sensor
+  double frame_rate_hz = 10.0;
+  int nominal_points_per_frame = 0;  ///< typical returns per frame (for buffer sizing)
+};
+
+/// Parses "ot128", "m1" or "falcon". Returns false and sets `error` for any other name.
+bool LidarKindFromName(const std::string& name, LidarKind* kind, std::string* error);
+
+/// The built-in description of a LiDAR kind.
+LidarModel MakeLidarModel(LidarKind kind);
+
+}  // namespace calibd

@@ -1,0 +1,101 @@
+#include "calibd/core/camera_model.hpp"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace calibd {
+
+bool CameraIntrinsics::IsValid(std::string* error) const {
+  std::ostringstream why;
+  if (width <= 0 || height <= 0)
+    why << "width/height must be positive";
+  else if (!(fx > 0.0) || !(fy > 0.0))
+    why << "fx/fy must be positive";
+  else if (!(cx >= 0.0 && cx < width && cy >= 0.0 && cy < height))
+    why << "cx/cy must lie inside the image";
+  else if (!std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(p1) || !std::isfinite(p2) ||
+           !std::isfinite(k3))
+    why << "distortion coefficients must be finite";
+  if (why.tellp() == 0) return true;
+  if (error) *error = why.str();
+  return false;
+}
+
+namespace {
+
+// Derivative of the radial map d(r) = r (1 + k1 r^2 + k2 r^4 + k3 r^6).
+double RadialSlope(const CameraIntrinsics& c, double r) {
+  const double r2 = r * r;
+  return 1.0 + r2 * (3.0 * c.k1 + r2 * (5.0 * c.k2 + r2 * 7.0 * c.k3));
+}
+
+}  // namespace
+
+CameraModel::CameraModel(const CameraIntrinsics& intrinsics) : intrinsics_(intrinsics) {
+  const auto& c = intrinsics_;
+  // Radius that covers the image corners, from the undistorted corner radius with a margin.
+  const double corner_x = std::max(c.cx, c.width - 1 - c.cx) / c.fx;
+  const double corner_y = std::max(c.cy, c.height - 1 - c.cy) / c.fy;
+  const double corner_r = std::hypot(corner_x, corner_y);
+  // Walk outward until the radial map stops increasing (fold-over) or we pass twice the corner
+  // radius.
+  const double step = 1e-3;
+  double r = step;
+  double limit = 2.0 * corner_r + 0.5;
+  for (; r < limit; r += step) {
+    if (RadialSlope(c, r) <= 0.05) break;
+  }
+  max_radius_ = r - step;
+}
+
+Eigen::Vector2d CameraModel::DistortToPixel(const Eigen::Vector2d& xy) const {
+  const auto& c = intrinsics_;
+  const double x = xy.x(), y = xy.y();
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (c.k1 + r2 * (c.k2 + r2 * c.k3));
+  const double xd = x * radial + 2.0 * c.p1 * x * y + c.p2 * (r2 + 2.0 * x * x);
+  const double yd = y * radial + c.p1 * (r2 + 2.0 * y * y) + 2.0 * c.p2 * x * y;
+  return {c.fx * xd + c.cx, c.fy * yd + c.cy};
+}
+
+bool CameraModel::Project(const Eigen::Vector3d& p_camera, Eigen::Vector2d* uv,
+                          double margin_px) const {
+  if (!(p_camera.z() > 1e-9)) return false;
+  const Eigen::Vector2d xy = p_camera.head<2>() / p_camera.z();
+  if (!(xy.norm() <= max_radius_)) return false;  // fold-over gate (shared/FACTS.md)
+  *uv = DistortToPixel(xy);
+  const auto& c = intrinsics_;
+  return uv->x() >= -0.5 - margin_px && uv->x() <= c.width - 0.5 + margin_px &&
+         uv->y() >= -0.5 - margin_px && uv->y() <= c.height - 0.5 + margin_px;
+}
+
+bool CameraModel::Unproject(const Eigen::Vector2d& uv, Eigen::Vector2d* xy_normalized) const {
+  const auto& c = intrinsics_;
+  const Eigen::Vector2d target((uv.x() - c.cx) / c.fx, (uv.y() - c.cy) / c.fy);
+  Eigen::Vector2d xy = target;  // start from the distorted normalised point
+  for (int it = 0; it < 30; ++it) {
+    const Eigen::Vector2d pred = DistortToPixel(xy);
+    const Eigen::Vector2d err((pred.x() - uv.x()) / c.fx, (pred.y() - uv.y()) / c.fy);
+    if (err.norm() * c.fx < 1e-9) {
+      *xy_normalized = xy;
+      return xy.norm() <= max_radius_;
+    }
+    // Numerical 2x2 Jacobian of the normalised forward map.
+    const double h = 1e-7;
+    Eigen::Matrix2d J;
+    for (int k = 0; k < 2; ++k) {
+      Eigen::Vector2d xh = xy;
+      xh[k] += h;
+      const Eigen::Vector2d ph = DistortToPixel(xh);
+      J(0, k) = (ph.x() - pred.x()) / (c.fx * h);
+      J(1, k) = (ph.y() - pred.y()) / (c.fy * h);
+    }
+    xy -= J.inverse() * err;
+    if (!xy.allFinite()) return false;
+  }
+  return false;
+}
+
+}  // namespace calibd

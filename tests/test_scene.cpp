@@ -1,0 +1,110 @@
+#include "scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace calibd::sim {
+namespace {
+
+Primitive UnitBoxAt(const Pose& T_world_local, Eigen::Vector3d half = {0.5, 0.5, 0.5}) {
+  Primitive p;
+  p.shape = Primitive::Shape::kBox;
+  p.T_world_local = T_world_local;
+  p.half_extents = half;
+  return p;
+}
+
+TEST(SceneTest, RayHitsAxisAlignedBoxFrontFace) {
+  Pose T = Pose::Identity();
+  T.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);
+  const Primitive box = UnitBoxAt(T);
+  double t = 0.0;
+  Eigen::Vector3d n;
+  ASSERT_TRUE(
+      IntersectBox(box, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), 0.0, 100.0, &t, &n));
+  EXPECT_NEAR(t, 4.5, 1e-12);
+  EXPECT_NEAR(n.x(), -1.0, 1e-12);
+}
+
+TEST(SceneTest, RayMissesBoxBesideIt) {
+  Pose T = Pose::Identity();
+  T.translation() = Eigen::Vector3d(5.0, 0.6, 0.0);
+  double t = 0.0;
+  Eigen::Vector3d n;
+  EXPECT_FALSE(IntersectBox(UnitBoxAt(T), Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), 0.0,
+                            100.0, &t, &n));
+}
+
+TEST(SceneTest, RotatedBoxHitDistanceMatchesGeometry) {
+  // A thin slab rotated 45 deg about z, centred at (4, 0, 0): the ray along x meets its face where
+  // the face plane crosses the x axis, at 4 - h*sqrt(2) for half thickness h.
+  Pose T = Pose::Identity();
+  T.linear() = RotationFromRpy(0.0, 0.0, M_PI / 4.0);
+  T.translation() = Eigen::Vector3d(4.0, 0.0, 0.0);
+  const double h = 0.01;
+  double t = 0.0;
+  Eigen::Vector3d n;
+  ASSERT_TRUE(IntersectBox(UnitBoxAt(T, {h, 1.0, 1.0}), Eigen::Vector3d::Zero(),
+                           Eigen::Vector3d::UnitX(), 0.0, 100.0, &t, &n));
+  EXPECT_NEAR(t, 4.0 - h * std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(n.dot(Eigen::Vector3d(-1, -1, 0).normalized()), 1.0, 1e-12);
+}
+
+TEST(SceneTest, BoxRespectsTMax) {
+  Pose T = Pose::Identity();
+  T.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);
+  double t = 0.0;
+  Eigen::Vector3d n;
+  EXPECT_FALSE(IntersectBox(UnitBoxAt(T), Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), 0.0,
+                            4.0, &t, &n));
+}
+
+TEST(SceneTest, CylinderSideAndCap) {
+  Primitive c;
+  c.shape = Primitive::Shape::kCylinder;
+  c.T_world_local.translation() = Eigen::Vector3d(3.0, 0.0, 0.0);
+  c.radius = 0.2;
+  c.height = 2.0;
+  double t = 0.0;
+  Eigen::Vector3d n;
+  ASSERT_TRUE(
+      IntersectCylinder(c, Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::UnitX(), 0.0, 100.0, &t, &n));
+  EXPECT_NEAR(t, 2.8, 1e-12);
+  EXPECT_NEAR(n.x(), -1.0, 1e-12);
+  // From above, straight down onto the top cap.
+  ASSERT_TRUE(IntersectCylinder(c, Eigen::Vector3d(3.05, 0, 5), -Eigen::Vector3d::UnitZ(), 0.0,
+                                100.0, &t, &n));
+  EXPECT_NEAR(t, 3.0, 1e-12);
+  EXPECT_NEAR(n.z(), 1.0, 1e-12);
+  // Passing above the top misses.
+  EXPECT_FALSE(IntersectCylinder(c, Eigen::Vector3d(0, 0, 2.5), Eigen::Vector3d::UnitX(), 0.0,
+                                 100.0, &t, &n));
+}
+
+TEST(SceneTest, CastReturnsNearestPrimitive) {
+  Scene scene;
+  Primitive ground;
+  ground.shape = Primitive::Shape::kPlaneZ0;
+  ground.kind = SurfaceKind::kGround;
+  scene.Add(ground);
+  Pose near = Pose::Identity(), far = Pose::Identity();
+  near.translation() = Eigen::Vector3d(5.0, 0.0, 1.0);
+  far.translation() = Eigen::Vector3d(9.0, 0.0, 1.0);
+  const int far_id = scene.Add(UnitBoxAt(far));
+  const int near_id = scene.Add(UnitBoxAt(near));
+  scene.Finalize();
+  Hit hit;
+  ASSERT_TRUE(scene.Cast(Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::UnitX(), 0.0, 100.0, &hit));
+  EXPECT_EQ(hit.primitive, near_id);
+  EXPECT_NEAR(hit.t, 4.5, 1e-12);
+  EXPECT_NE(hit.primitive, far_id);
+  // Looking down at 45 deg hits the ground first.
+  ASSERT_TRUE(scene.Cast(Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(1, 0, -1).normalized(), 0.0,
+                         100.0, &hit));
+  EXPECT_EQ(scene.primitives[hit.primitive].kind, SurfaceKind::kGround);
+  EXPECT_NEAR(hit.t, std::sqrt(2.0), 1e-12);
+}
+
+}  // namespace
+}  // namespace calibd::sim

@@ -1,0 +1,188 @@
+#include "scene.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace calibd::sim {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+Aabb ComputeBounds(const Primitive& p) {
+  Aabb b;
+  if (p.shape == Primitive::Shape::kPlaneZ0) {
+    b.lo = Eigen::Vector3d(-kInf, -kInf, -1e-9);
+    b.hi = Eigen::Vector3d(kInf, kInf, 1e-9);
+    return b;
+  }
+  // Corners of the local box (a cylinder's bounding box in its local frame) mapped to W.
+  Eigen::Vector3d lo_l, hi_l;
+  if (p.shape == Primitive::Shape::kBox) {
+    lo_l = -p.half_extents;
+    hi_l = p.half_extents;
+  } else {
+    lo_l = Eigen::Vector3d(-p.radius, -p.radius, 0.0);
+    hi_l = Eigen::Vector3d(p.radius, p.radius, p.height);
+  }
+  b.lo = Eigen::Vector3d::Constant(kInf);
+  b.hi = Eigen::Vector3d::Constant(-kInf);
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d corner((c & 1) ? hi_l.x() : lo_l.x(), (c & 2) ? hi_l.y() : lo_l.y(),
+                                 (c & 4) ? hi_l.z() : lo_l.z());
+    const Eigen::Vector3d w = p.T_world_local * corner;
+    b.lo = b.lo.cwiseMin(w);
+    b.hi = b.hi.cwiseMax(w);
+  }
+  return b;
+}
+
+// Slab test against an axis-aligned box; returns the entry distance.
+bool SlabEnter(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Eigen::Vector3d& o,
+               const Eigen::Vector3d& inv_d, double t_min, double t_max, double* t_enter,
+               int* axis) {
+  double t0 = t_min, t1 = t_max;
+  int enter_axis = -1;
+  for (int k = 0; k < 3; ++k) {
+    double ta = (lo[k] - o[k]) * inv_d[k];
+    double tb = (hi[k] - o[k]) * inv_d[k];
+    if (std::isnan(ta) || std::isnan(tb)) {  // ray parallel and on a slab plane
+      if (o[k] < lo[k] || o[k] > hi[k]) return false;
+      continue;
+    }
+    if (ta > tb) std::swap(ta, tb);
+    if (ta > t0) {
+      t0 = ta;
+      enter_axis = k;
+    }
+    if (tb < t1) t1 = tb;
+    if (t0 > t1) return false;
+  }
+  if (enter_axis < 0) return false;  // origin inside the box: no entry surface
+  *t_enter = t0;
+  *axis = enter_axis;
+  return true;
+}
+}  // namespace
+
+bool IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min, double t_max,
+                     double* t, Eigen::Vector3d* normal) {
+  if (std::abs(d.z()) < 1e-12) return false;
+  const double tt = -o.z() / d.z();
+  if (!(tt > t_min && tt < t_max)) return false;
+  *t = tt;
+  *normal = Eigen::Vector3d(0.0, 0.0, o.z() >= 0.0 ? 1.0 : -1.0);
+  return true;
+}
+
+bool IntersectBox(const Primitive& box, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                  double t_min, double t_max, double* t, Eigen::Vector3d* normal) {
+  const Eigen::Matrix3d R = box.T_world_local.linear();
+  const Eigen::Vector3d o_l = R.transpose() * (o - box.T_world_local.translation());
+  const Eigen::Vector3d d_l = R.transpose() * d;
+  const Eigen::Vector3d inv_d = d_l.cwiseInverse();
+  int axis = -1;
+  double tt = 0.0;
+  if (!SlabEnter(-box.half_extents, box.half_extents, o_l, inv_d, t_min, t_max, &tt, &axis))
+    return false;
+  Eigen::Vector3d n_l = Eigen::Vector3d::Zero();
+  n_l[axis] = d_l[axis] > 0.0 ? -1.0 : 1.0;
+  *t = tt;
+  *normal = R * n_l;
+  return true;
+}
+
+bool IntersectCylinder(const Primitive& cyl, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                       double t_min, double t_max, double* t, Eigen::Vector3d* normal) {
+  const Eigen::Matrix3d R = cyl.T_world_local.linear();
+  const Eigen::Vector3d o_l = R.transpose() * (o - cyl.T_world_local.translation());
+  const Eigen::Vector3d d_l = R.transpose() * d;
+  double best = t_max;
+  Eigen::Vector3d n_best = Eigen::Vector3d::Zero();
+  bool found = false;
+  // Side: (ox + t dx)^2 + (oy + t dy)^2 = r^2, with 0 <= z <= height.
+  const double a = d_l.x() * d_l.x() + d_l.y() * d_l.y();
+  if (a > 1e-15) {
+    const double b = 2.0 * (o_l.x() * d_l.x() + o_l.y() * d_l.y());
+    const double c = o_l.x() * o_l.x() + o_l.y() * o_l.y() - cyl.radius * cyl.radius;
+    const double disc = b * b - 4.0 * a * c;
+    if (disc >= 0.0) {
+      const double sq = std::sqrt(disc);
+      const double t0 = (-b - sq) / (2.0 * a);  // entry only: rays never start inside a pole
+      const double z = o_l.z() + t0 * d_l.z();
+      if (t0 > t_min && t0 < best && z >= 0.0 && z <= cyl.height) {
+        best = t0;
+        n_best = Eigen::Vector3d(o_l.x() + t0 * d_l.x(), o_l.y() + t0 * d_l.y(), 0.0).normalized();
+        found = true;
+      }
+    }
+  }
+  // Caps at z = 0 and z = height.
+  if (std::abs(d_l.z()) > 1e-15) {
+    for (double zc : {0.0, cyl.height}) {
+      const double tc = (zc - o_l.z()) / d_l.z();
+      if (!(tc > t_min && tc < best)) continue;
+      const double x = o_l.x() + tc * d_l.x(), y = o_l.y() + tc * d_l.y();
+      if (x * x + y * y > cyl.radius * cyl.radius) continue;
+      best = tc;
+      n_best = Eigen::Vector3d(0.0, 0.0, d_l.z() > 0.0 ? -1.0 : 1.0);
+      found = true;
+    }
+  }
+  if (!found) return false;
+  *t = best;
+  *normal = R * n_best;
+  return true;
+}
+
+int Scene::Add(const Primitive& p) {
+  primitives.push_back(p);
+  return static_cast<int>(primitives.size()) - 1;
+}
+
+void Scene::Finalize() {
+  bounds_.clear();
+  bounds_.reserve(primitives.size());
+  for (const auto& p : primitives) bounds_.push_back(ComputeBounds(p));
+}
+
+bool Scene::Cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
+                 double t_max, Hit* hit) const {
+  const Eigen::Vector3d inv_d = dir.cwiseInverse();
+  double best = t_max;
+  bool found = false;
+  for (size_t i = 0; i < primitives.size(); ++i) {
+    const Primitive& p = primitives[i];
+    double t = 0.0;
+    Eigen::Vector3d n;
+    bool ok = false;
+    switch (p.shape) {
+      case Primitive::Shape::kPlaneZ0:
+        ok = IntersectGround(origin, dir, t_min, best, &t, &n);
+        break;
+      case Primitive::Shape::kBox:
+      case Primitive::Shape::kCylinder: {
+        double te = 0.0;
+        int axis = 0;
+        // Cheap world-AABB rejection first (also rejects boxes farther than the best hit).
+        const Aabb& b = bounds_[i];
+        const bool inside =
+            (origin.array() >= b.lo.array()).all() && (origin.array() <= b.hi.array()).all();
+        if (!inside && !SlabEnter(b.lo, b.hi, origin, inv_d, t_min, best, &te, &axis)) break;
+        ok = p.shape == Primitive::Shape::kBox
+                 ? IntersectBox(p, origin, dir, t_min, best, &t, &n)
+                 : IntersectCylinder(p, origin, dir, t_min, best, &t, &n);
+        break;
+      }
+    }
+    if (ok && t < best) {
+      best = t;
+      hit->t = t;
+      hit->primitive = static_cast<int>(i);
+      hit->normal = n.dot(dir) > 0.0 ? Eigen::Vector3d(-n) : n;
+      found = true;
+    }
+  }
+  return found;
+}
+
+}  // namespace calibd::sim

@@ -1,0 +1,76 @@
+#pragma once
+/// \file
+/// A workshop scene of simple primitives and a ray caster over it. World frame W: z up, ground z =
+/// 0.
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "calibd/core/geometry.hpp"
+
+namespace calibd::sim {
+
+enum class SurfaceKind { kGround, kWall, kClutter, kBoard, kStand };
+
+struct Primitive {
+  enum class Shape { kPlaneZ0, kBox, kCylinder } shape = Shape::kBox;
+  SurfaceKind kind = SurfaceKind::kClutter;
+  /// kBox: box frame (centre, axes); kCylinder: base centre, axis = local z. Unused for kPlaneZ0.
+  Pose T_world_local = Pose::Identity();
+  Eigen::Vector3d half_extents{0.5, 0.5, 0.5};  ///< kBox half sizes along local x, y, z (m)
+  double radius = 0.1;                          ///< kCylinder radius (m)
+  double height = 1.0;                          ///< kCylinder height along local z (m)
+  float albedo = 0.5f;   ///< reflectance 0..1: camera grey level and LiDAR intensity
+  int board_index = -1;  ///< index into Scene::boards for kBoard, else -1
+};
+
+/// A board placed in the scene: its pose T_world_board (board frame of calibd/core/board.hpp).
+struct PlacedBoard {
+  Pose T_world_board = Pose::Identity();
+  int primitive_index = -1;  ///< the kBox primitive that is the board's slab
+};
+
+struct Hit {
+  double t = 0.0;          ///< distance along the (unit) ray, m
+  int primitive = -1;      ///< index into Scene::primitives
+  Eigen::Vector3d normal;  ///< unit surface normal in W, facing the ray origin
+};
+
+/// Axis-aligned bounding box of a primitive, for culling.
+struct Aabb {
+  Eigen::Vector3d lo, hi;
+};
+
+class Scene {
+ public:
+  std::vector<Primitive> primitives;
+  std::vector<PlacedBoard> boards;
+
+  /// Adds a primitive and returns its index. Call Finalize() after the last one.
+  int Add(const Primitive& p);
+  /// Precomputes bounding boxes. Must be called before casting.
+  void Finalize();
+
+  /// Nearest intersection of the ray origin + t * dir (dir unit length) with t in (t_min, t_max).
+  bool Cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double t_max,
+            Hit* hit) const;
+
+  /// Bounding box of primitive i (the ground plane has an infinite one).
+  const Aabb& bounds(int i) const { return bounds_[i]; }
+
+ private:
+  std::vector<Aabb> bounds_;
+};
+
+/// Ray-primitive intersections, exposed for tests. Return the entry distance t in (t_min, t_max)
+/// and the outward normal in W; false when there is none.
+bool IntersectBox(const Primitive& box, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
+                  double t_min, double t_max, double* t, Eigen::Vector3d* normal);
+bool IntersectCylinder(const Primitive& cyl, const Eigen::Vector3d& origin,
+                       const Eigen::Vector3d& dir, double t_min, double t_max, double* t,
+                       Eigen::Vector3d* normal);
+bool IntersectGround(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
+                     double t_max, double* t, Eigen::Vector3d* normal);
+
+}  // namespace calibd::sim
