@@ -1,5 +1,8 @@
 #include "calibd/core/lidar_model.hpp"
 
+#include <algorithm>
+#include <iterator>
+
 namespace calibd {
 
 bool LidarKindFromName(const std::string& name, LidarKind* kind, std::string* error) {
@@ -16,12 +19,113 @@ bool LidarKindFromName(const std::string& name, LidarKind* kind, std::string* er
   return true;
 }
 
-// PLACEHOLDER: replaced by the full tables (being written).
-LidarModel MakeLidarModel(LidarKind kind) {
+namespace {
+
+// Vertical angle (elevation, degrees, upward positive) of each of the 128 channels of a Hesai
+// Pandar128E3X/E4X, channel 1 (top) first, i.e. in the channel order of the point cloud packet.
+// Source: the nominal per-channel elevation table that Hesai publishes with its Pandar128 SDK
+// (github.com/HesaiTechnology/HesaiLidar_Swift_SDK, default correction table), which matches the
+// "Channel Distribution" appendix of the Pandar128E4X user manual: 14.436 deg at the top, -25.016
+// deg at the bottom, and a central band from +2.0 to -6.1 deg with ~0.125 deg spacing. A real unit
+// ships its own calibrated table; these design values are what we simulate.
+constexpr double kPandar128ElevationDeg[128] = {
+    14.436,  13.535,  13.080,  12.624,  12.163,  11.702,  11.237,  10.771,  10.301,  9.830,
+    9.355,   8.880,   8.401,   7.921,   7.437,   6.954,   6.467,   5.980,   5.487,   4.997,
+    4.501,   4.009,   3.509,   3.014,   2.512,   2.014,   1.885,   1.761,   1.637,   1.511,
+    1.386,   1.258,   1.130,   1.009,   0.880,   0.756,   0.630,   0.505,   0.379,   0.251,
+    0.124,   0.000,   -0.129,  -0.254,  -0.380,  -0.506,  -0.632,  -0.760,  -0.887,  -1.012,
+    -1.141,  -1.266,  -1.393,  -1.519,  -1.646,  -1.773,  -1.901,  -2.027,  -2.155,  -2.282,
+    -2.409,  -2.535,  -2.662,  -2.789,  -2.916,  -3.044,  -3.172,  -3.299,  -3.425,  -3.552,
+    -3.680,  -3.806,  -3.933,  -4.062,  -4.190,  -4.318,  -4.444,  -4.571,  -4.698,  -4.824,
+    -4.951,  -5.081,  -5.209,  -5.336,  -5.463,  -5.589,  -5.717,  -5.843,  -5.968,  -6.099,
+    -6.607,  -7.118,  -7.624,  -8.135,  -8.640,  -9.149,  -9.652,  -10.160, -10.664, -11.170,
+    -11.670, -12.174, -12.672, -13.173, -13.668, -14.166, -14.658, -15.154, -15.643, -16.135,
+    -16.620, -17.108, -17.590, -18.073, -18.548, -19.031, -19.501, -19.981, -20.445, -20.920,
+    -21.379, -21.850, -22.304, -22.770, -23.219, -23.680, -24.123, -25.016,
+};
+
+LidarModel MakeOt128() {
   LidarModel m;
-  m.kind = kind;
-  m.name = kind == LidarKind::kOt128 ? "ot128" : kind == LidarKind::kM1 ? "m1" : "falcon";
+  m.kind = LidarKind::kOt128;
+  m.name = "ot128";
+  m.has_rings = true;
+  m.ring_elevation_deg.assign(std::begin(kPandar128ElevationDeg), std::end(kPandar128ElevationDeg));
+  // 10 Hz spin with 0.2 deg firing steps (manual: 0.2 deg horizontal resolution at 10 Hz in
+  // standard mode) gives 1800 columns of 128 firings.
+  m.azimuth_resolution_deg = 0.2;
+  m.elevation_resolution_deg = 0.125;  // finest channel spacing, in the central band
+  m.azimuth_min_deg = -180.0;
+  m.azimuth_max_deg = 180.0;
+  m.elevation_min_deg = *std::min_element(m.ring_elevation_deg.begin(), m.ring_elevation_deg.end());
+  m.elevation_max_deg = *std::max_element(m.ring_elevation_deg.begin(), m.ring_elevation_deg.end());
+  m.min_range_m = 0.3;             // manual: 0.3 m minimum range
+  m.max_range_m = 200.0;           // 200 m at 10% reflectivity
+  m.range_quantization_m = 0.004;  // packet distance unit: 4 mm
+  m.frame_rate_hz = 10.0;
+  m.nominal_points_per_frame = 1800 * 128;  // 230,400 single-return firings
   return m;
+}
+
+LidarModel MakeM1() {
+  LidarModel m;
+  m.kind = LidarKind::kM1;
+  m.name = "m1";
+  m.has_rings = false;  // 5 lasers each raster-scanned by a MEMS mirror: no fixed rows
+  // RS-LiDAR-M1 user guide / datasheet: 120 x 25 deg FOV built from 5 laser zones side by side,
+  // 0.2 deg average resolution both ways, 10 Hz, ~787,500 points/s single return, 5 mm distance
+  // resolution in the MSOP packet, 0.5 m to 200 m.
+  m.azimuth_resolution_deg = 0.2;
+  m.elevation_resolution_deg = 0.2;
+  m.azimuth_min_deg = -60.0;
+  m.azimuth_max_deg = 60.0;
+  m.elevation_min_deg = -12.5;
+  m.elevation_max_deg = 12.5;
+  m.min_range_m = 0.5;
+  m.max_range_m = 200.0;
+  m.range_quantization_m = 0.005;
+  m.frame_rate_hz = 10.0;
+  // 5 zones x 126 fast-axis lines x 125 samples (the simulator's raster, lidar_sim.cpp).
+  m.nominal_points_per_frame = 5 * 126 * 125;  // 78,750
+  return m;
+}
+
+LidarModel MakeFalcon() {
+  LidarModel m;
+  m.kind = LidarKind::kFalcon;
+  m.name = "falcon";
+  m.has_rings = false;  // galvo lines are not fixed channels; no ring index is reported
+  // Seyond (Innovusion) Falcon-like: a rotating polygon sweeps each line horizontally over
+  // 120 deg, a galvanometer steps the line vertically over ~25 deg and packs lines densely
+  // around the horizon (the "region of interest" of the datasheets, ~0.06-0.1 deg there).
+  // The simulator's pattern (lidar_sim.cpp): lines every 0.075 deg within +-3 deg of the
+  // horizon, every 0.2 deg outside (175 lines), 750 samples per line (0.16 deg), 10 Hz:
+  // 131,250 points per frame, inside the 100k-150k typical of the sensor at 10 Hz.
+  m.azimuth_resolution_deg = 0.16;
+  m.elevation_resolution_deg = 0.075;
+  m.azimuth_min_deg = -60.0;
+  m.azimuth_max_deg = 60.0;
+  m.elevation_min_deg = -12.5;
+  m.elevation_max_deg = 12.5;
+  m.min_range_m = 0.5;
+  m.max_range_m = 250.0;
+  m.range_quantization_m = 0.0025;
+  m.frame_rate_hz = 10.0;
+  m.nominal_points_per_frame = 175 * 750;  // 131,250
+  return m;
+}
+
+}  // namespace
+
+LidarModel MakeLidarModel(LidarKind kind) {
+  switch (kind) {
+    case LidarKind::kOt128:
+      return MakeOt128();
+    case LidarKind::kM1:
+      return MakeM1();
+    case LidarKind::kFalcon:
+      return MakeFalcon();
+  }
+  return MakeOt128();
 }
 
 }  // namespace calibd

@@ -13,6 +13,7 @@ struct LcmLogWriter::Impl {
   std::string path;
 };
 
+LcmLogWriter::LcmLogWriter() = default;
 LcmLogWriter::~LcmLogWriter() { Close(nullptr); }
 
 bool LcmLogWriter::Open(const std::string& path, std::string* error) {

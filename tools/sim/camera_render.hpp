@@ -15,29 +15,47 @@
 namespace calibd::sim {
 
 struct CameraImaging {
-  double blur_sigma_px = 0.7;  ///< Gaussian optical blur
+  double blur_sigma_px = 0.7;  ///< Gaussian optical blur; 0 disables it
   double noise_sigma = 2.0;    ///< additive Gaussian noise, grey levels
   double exposure_min = 0.8;   ///< per-frame exposure gain drawn uniformly in [min, max]
   double exposure_max = 1.2;
-  int board_supersample = 4;  ///< sub-samples per axis on board pixels (anti-aliasing)
+  /// Sub-samples per axis on pixels covering a board (anti-aliasing). Tag corners are sub-pixel
+  /// accurate only with supersampling; cost grows with its square on board pixels.
+  int board_supersample = 4;
+  /// Worker threads for ray casting and noise. The image does not depend on it.
+  int num_threads = 2;
 };
 
 class CameraRenderer {
  public:
+  /// Builds the per-pixel ray table (about 60 MB at 3840x1920) and the render workspace.
   CameraRenderer(const CameraIntrinsics& intrinsics, const CameraImaging& imaging);
 
   /// Renders the scene seen from T_world_camera (camera frame: x right, y down, z forward) into
   /// `image` (resized to the intrinsics' size, CV_8UC1, reused between calls). `faces[i]` textures
-  /// scene.boards[i]. Deterministic for a given seed.
+  /// scene.boards[i]. Deterministic for a given seed. Uses an internal workspace: do not call
+  /// concurrently on one renderer.
   void Render(const Scene& scene, const std::vector<BoardFace>& faces, const Pose& T_world_camera,
               uint64_t seed, cv::Mat* image) const;
 
   const CameraModel& model() const { return model_; }
 
+  /// Undistorted normalised (x, y) of pixel (u, v) from the ray table; NaN where the pixel lies
+  /// beyond the model's valid radius.
+  Eigen::Vector2d RayAt(int u, int v) const;
+
  private:
+  /// Normalised-coordinate bounds of the rays of one screen tile (its pixels +- 1 px).
+  struct TileBounds {
+    float x_lo, x_hi, y_lo, y_hi;
+  };
+
   CameraModel model_;
   CameraImaging imaging_;
   std::vector<float> ray_lut_;  ///< per pixel, undistorted normalised (x, y)
+  int tiles_x_ = 0, tiles_y_ = 0;
+  std::vector<TileBounds> tile_bounds_;
+  mutable cv::Mat shaded_;  ///< workspace: the noiseless, unblurred frame
 };
 
 }  // namespace calibd::sim

@@ -16,6 +16,11 @@ struct LidarNoise {
   double angular_jitter_deg = 0.01;   ///< Gaussian jitter of each beam's direction
   double dropout_probability = 0.02;  ///< chance that a return is lost
   double beam_divergence_mrad = 2.0;  ///< beam footprint; edges within it give mixed points
+  /// When a footprint straddles surfaces more than `mixed_point_min_gap_m` apart, the chance that
+  /// the sensor reports one blended ("ghost") range between them instead of the nearest surface.
+  /// 0 disables mixed points; the footprint still picks the nearest surface at edges.
+  double mixed_point_probability = 0.5;
+  double mixed_point_min_gap_m = 0.3;  ///< depth gap within a footprint that can give a mixed point
 };
 
 /// One beam of a scan pattern.
@@ -47,16 +52,45 @@ class LidarSimulator {
 
   /// Casts one sweep. The sensor moves from T_world_lidar_start (at time offset 0) to
   /// T_world_lidar_end (at 1 / frame_rate_hz), interpolated per beam; each point is expressed in
-  /// the LiDAR frame at its own firing time, as a real sensor reports it. Deterministic for a seed.
+  /// the LiDAR frame at its own firing time, as a real sensor reports it (not motion compensated).
+  /// Each beam is cast along its jittered direction and reported along its nominal one (the
+  /// encoder/mirror reading), so jitter shows up as angular noise of the points. Work is split in
+  /// fixed chunks with one random stream each and run on up to 2 threads: the output depends on
+  /// the seed and inputs only. Rotation is slerped at most every 20 us of firing time.
+  /// Deterministic for a seed.
   void Scan(const Scene& scene, const Pose& T_world_lidar_start, const Pose& T_world_lidar_end,
             int frame_index, uint64_t seed, LidarScan* out);
 
   const LidarModel& model() const { return model_; }
 
  private:
+  /// Per-beam state shared by the two passes of Scan (main rays, then edges and output).
+  struct BeamState {
+    float dir[3];       ///< true (jittered) beam direction, LiDAR frame at firing time
+    float t;            ///< main-ray hit distance, m; < 0 when missed (dropped beams are cast)
+    float intensity;    ///< of the main-ray hit
+    int32_t primitive;  ///< main-ray hit primitive, -1 when missed
+    bool dropped;
+  };
+  struct BeamOut {
+    float x, y, z, intensity;
+    int16_t board;
+    bool valid;
+  };
+
+  void RebuildPatternIfNeeded(int frame_index);
+  void CastMainRays(const Scene& scene, const Pose& T_world_lidar_start,
+                    const Pose& T_world_lidar_end, uint64_t seed, size_t chunk);
+  void FinishBeams(const Scene& scene, const Pose& T_world_lidar_start,
+                   const Pose& T_world_lidar_end, uint64_t seed, size_t chunk);
+
   LidarModel model_;
   LidarNoise noise_;
-  std::vector<Beam> beams_;  ///< reused between frames
+  std::vector<Beam> beams_;         ///< reused between frames
+  std::vector<float> nominal_dir_;  ///< 3 per beam: reported direction (LiDAR frame)
+  int pattern_key_ = -1;            ///< which frame phase beams_ holds, -1 before the first
+  std::vector<BeamState> state_;    ///< reused between frames
+  std::vector<BeamOut> out_;        ///< reused between frames
 };
 
 }  // namespace calibd::sim

@@ -12,7 +12,7 @@ namespace calibd {
 
 class LcmLogWriter {
  public:
-  LcmLogWriter() = default;
+  LcmLogWriter();
   ~LcmLogWriter();
   LcmLogWriter(const LcmLogWriter&) = delete;
   LcmLogWriter& operator=(const LcmLogWriter&) = delete;

@@ -1,0 +1,30 @@
+# Thin wrapper over CMake presets. `make demo` and `make test` install missing Debian packages,
+# configure, build and run. PRESET=debug|release|asan (default release).
+PRESET ?= release
+BUILD  := build/$(PRESET)
+JOBS   ?= $(shell nproc)
+
+.PHONY: all deps configure build test demo format clean
+
+all: build
+
+deps:
+	@bash deploy/install-deps.sh
+
+configure: deps
+	@cmake --preset $(PRESET) >/dev/null
+
+build: configure
+	@cmake --build --preset $(PRESET) -j $(JOBS)
+
+test: build
+	@ctest --preset $(PRESET) -j $(JOBS)
+
+demo: build
+	@bash tools/demo.sh $(BUILD)
+
+format:
+	@find core drivers agent tools tests lcm_types \( -name '*.cpp' -o -name '*.hpp' \) -print0 2>/dev/null | xargs -0 clang-format -i
+
+clean:
+	@rm -rf build

@@ -1,0 +1,191 @@
+#include "calibd/drivers/config_file.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <iomanip>
+#include <sstream>
+
+#include "calibd/drivers/atomic_file.hpp"
+
+namespace calibd {
+
+namespace {
+
+// Thrown only inside this file, to carry the failing key up to the parse entry point.
+struct KeyError {
+  std::string key, what;
+};
+
+YAML::Node Child(const YAML::Node& parent, const std::string& name, const std::string& key) {
+  const YAML::Node n = parent[name];
+  if (!n) throw KeyError{key, "missing"};
+  return n;
+}
+
+template <typename T>
+T Get(const YAML::Node& parent, const std::string& name, const std::string& key) {
+  const YAML::Node n = Child(parent, name, key);
+  try {
+    return n.as<T>();
+  } catch (const YAML::Exception&) {
+    throw KeyError{key, "has the wrong type"};
+  }
+}
+
+template <typename T>
+T GetOr(const YAML::Node& parent, const std::string& name, const std::string& key, T fallback) {
+  if (!parent[name]) return fallback;
+  return Get<T>(parent, name, key);
+}
+
+void CheckKnown(const YAML::Node& map, std::initializer_list<const char*> known,
+                const std::string& prefix) {
+  if (!map.IsMap()) throw KeyError{prefix.empty() ? "<root>" : prefix, "must be a mapping"};
+  for (const auto& kv : map) {
+    const std::string k = kv.first.as<std::string>();
+    bool ok = false;
+    for (const char* n : known) ok = ok || k == n;
+    if (!ok) throw KeyError{prefix.empty() ? k : prefix + "." + k, "unknown key"};
+  }
+}
+
+void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
+  CheckKnown(root, {"camera", "lidar", "boards", "prior"}, "");
+  const YAML::Node cam = Child(root, "camera", "camera");
+  CheckKnown(cam, {"id", "width", "height", "fx", "fy", "cx", "cy", "distortion"}, "camera");
+  c->camera_id = Get<std::string>(cam, "id", "camera.id");
+  c->camera.width = Get<int>(cam, "width", "camera.width");
+  c->camera.height = Get<int>(cam, "height", "camera.height");
+  c->camera.fx = Get<double>(cam, "fx", "camera.fx");
+  c->camera.fy = Get<double>(cam, "fy", "camera.fy");
+  c->camera.cx = Get<double>(cam, "cx", "camera.cx");
+  c->camera.cy = Get<double>(cam, "cy", "camera.cy");
+  const auto dist = Get<std::vector<double>>(cam, "distortion", "camera.distortion");
+  if (dist.size() != 5) throw KeyError{"camera.distortion", "must list k1, k2, p1, p2, k3"};
+  c->camera.k1 = dist[0];
+  c->camera.k2 = dist[1];
+  c->camera.p1 = dist[2];
+  c->camera.p2 = dist[3];
+  c->camera.k3 = dist[4];
+
+  const YAML::Node lidar = Child(root, "lidar", "lidar");
+  CheckKnown(lidar, {"id", "model"}, "lidar");
+  c->lidar_id = Get<std::string>(lidar, "id", "lidar.id");
+  c->lidar_model = Get<std::string>(lidar, "model", "lidar.model");
+
+  const YAML::Node boards = Child(root, "boards", "boards");
+  if (!boards.IsSequence()) throw KeyError{"boards", "must be a list"};
+  c->boards.clear();
+  for (size_t i = 0; i < boards.size(); ++i) {
+    const std::string key = "boards[" + std::to_string(i) + "]";
+    const YAML::Node b = boards[i];
+    CheckKnown(b,
+               {"id", "width_m", "height_m", "tag_family", "tag_id", "tag_size_m", "tag_offset_m"},
+               key);
+    BoardGeometry g;
+    g.board_id = Get<int>(b, "id", key + ".id");
+    g.width_m = Get<double>(b, "width_m", key + ".width_m");
+    g.height_m = GetOr<double>(b, "height_m", key + ".height_m", g.width_m);
+    g.tag_family = GetOr<std::string>(b, "tag_family", key + ".tag_family", g.tag_family);
+    g.tag_id = GetOr<int>(b, "tag_id", key + ".tag_id", g.board_id);
+    g.tag_size_m = Get<double>(b, "tag_size_m", key + ".tag_size_m");
+    const auto off =
+        GetOr<std::vector<double>>(b, "tag_offset_m", key + ".tag_offset_m", {0.0, 0.0});
+    if (off.size() != 2) throw KeyError{key + ".tag_offset_m", "must be [x, y]"};
+    g.tag_offset_m = Eigen::Vector2d(off[0], off[1]);
+    c->boards.push_back(g);
+  }
+
+  const YAML::Node prior = Child(root, "prior", "prior");
+  CheckKnown(prior, {"T_camera_lidar"}, "prior");
+  const YAML::Node T = Child(prior, "T_camera_lidar", "prior.T_camera_lidar");
+  if (!T.IsSequence() || T.size() != 4)
+    throw KeyError{"prior.T_camera_lidar", "must be 4 rows of 4 numbers"};
+  Pose pose = Pose::Identity();
+  for (int r = 0; r < 4; ++r) {
+    const std::string key = "prior.T_camera_lidar[" + std::to_string(r) + "]";
+    std::vector<double> row;
+    try {
+      row = T[r].as<std::vector<double>>();
+    } catch (const YAML::Exception&) {
+      throw KeyError{key, "must be a row of 4 numbers"};
+    }
+    if (row.size() != 4) throw KeyError{key, "must be a row of 4 numbers"};
+    for (int col = 0; col < 4; ++col) pose.matrix()(r, col) = row[col];
+  }
+  if (!pose.matrix().row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)))
+    throw KeyError{"prior.T_camera_lidar[3]", "must be [0, 0, 0, 1]"};
+  c->prior_T_camera_lidar = pose;
+}
+
+// Shortest decimal text that reads back to the same double (0.48, not 0.47999999999999998).
+std::string Num(double v) {
+  for (int digits = 6; digits <= 17; ++digits) {
+    std::ostringstream o;
+    o << std::setprecision(digits) << v;
+    if (std::stod(o.str()) == v) return o.str();
+  }
+  return std::to_string(v);
+}
+
+}  // namespace
+
+bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* error) {
+  CalibConfig c;
+  try {
+    ParseOrThrow(YAML::Load(text), &c);
+  } catch (const KeyError& e) {
+    if (error) *error = e.key + ": " + e.what;
+    return false;
+  } catch (const YAML::Exception& e) {
+    if (error) *error = std::string("YAML syntax: ") + e.what();
+    return false;
+  }
+  if (!c.IsValid(error)) return false;
+  *config = c;
+  return true;
+}
+
+bool LoadConfigFile(const std::string& path, CalibConfig* config, std::string* error) {
+  std::string text, why;
+  if (!ReadWholeFile(path, &text, error)) return false;
+  if (!ParseConfigYaml(text, config, &why)) {
+    if (error) *error = path + ": " + why;
+    return false;
+  }
+  return true;
+}
+
+std::string ConfigToYaml(const CalibConfig& c) {
+  std::ostringstream o;
+  const auto& k = c.camera;
+  o << "# calibd calibration config: sensors, intrinsics, boards and the prior extrinsic.\n";
+  o << "camera:\n  id: " << c.camera_id << "\n  width: " << k.width << "\n  height: " << k.height
+    << "\n  fx: " << Num(k.fx) << "\n  fy: " << Num(k.fy) << "\n  cx: " << Num(k.cx)
+    << "\n  cy: " << Num(k.cy) << "\n  distortion: [" << Num(k.k1) << ", " << Num(k.k2) << ", "
+    << Num(k.p1) << ", " << Num(k.p2) << ", " << Num(k.k3)
+    << "]  # k1, k2, p1, p2, k3 (OpenCV radial-tangential)\n";
+  o << "lidar:\n  id: " << c.lidar_id << "\n  model: " << c.lidar_model << "\n";
+  o << "boards:\n";
+  for (const auto& b : c.boards) {
+    o << "  - id: " << b.board_id << "\n    width_m: " << Num(b.width_m)
+      << "\n    height_m: " << Num(b.height_m) << "\n    tag_family: " << b.tag_family
+      << "\n    tag_id: " << b.tag_id << "\n    tag_size_m: " << Num(b.tag_size_m)
+      << "\n    tag_offset_m: [" << Num(b.tag_offset_m.x()) << ", " << Num(b.tag_offset_m.y())
+      << "]\n";
+  }
+  o << "prior:\n  # maps LiDAR points into the camera frame (camera: x right, y down, z forward)\n";
+  o << "  T_camera_lidar:\n";
+  for (int r = 0; r < 4; ++r) {
+    o << "    - [";
+    for (int col = 0; col < 4; ++col)
+      o << Num(c.prior_T_camera_lidar.matrix()(r, col)) << (col < 3 ? ", " : "]\n");
+  }
+  return o.str();
+}
+
+bool SaveConfigFile(const std::string& path, const CalibConfig& config, std::string* error) {
+  return WriteFileAtomic(path, ConfigToYaml(config), error);
+}
+
+}  // namespace calibd

@@ -1,0 +1,105 @@
+// CameraModel: projection, undistortion and the fold-over gate (shared/FACTS.md).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <string>
+#include <vector>
+
+#include "calibd/core/camera_model.hpp"
+
+namespace calibd {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+TEST(CameraModel, UnprojectProjectRoundTripOverTheWholeImage) {
+  const CameraIntrinsics c;  // defaults, with distortion
+  const CameraModel model(c);
+  double worst = 0.0;
+  for (double v = 0.0; v <= c.height - 1; v += (c.height - 1) / 24.0) {
+    for (double u = 0.0; u <= c.width - 1; u += (c.width - 1) / 48.0) {
+      const Eigen::Vector2d uv(u, v);
+      Eigen::Vector2d xy;
+      ASSERT_TRUE(model.Unproject(uv, &xy)) << "u=" << u << " v=" << v;
+      Eigen::Vector2d back;
+      ASSERT_TRUE(model.Project(Eigen::Vector3d(xy.x(), xy.y(), 1.0) * 7.0, &back))
+          << "u=" << u << " v=" << v;
+      worst = std::max(worst, (back - uv).norm());
+    }
+  }
+  EXPECT_LT(worst, 1e-6);
+}
+
+TEST(CameraModel, DistortToPixelMatchesOpenCvProjectPoints) {
+  const CameraIntrinsics c;
+  const CameraModel model(c);
+  const cv::Matx33d K(c.fx, 0.0, c.cx, 0.0, c.fy, c.cy, 0.0, 0.0, 1.0);
+  const std::vector<double> dist{c.k1, c.k2, c.p1, c.p2, c.k3};  // OpenCV order
+  std::vector<cv::Point3d> points;
+  for (double y = -0.35; y <= 0.35; y += 0.05) {
+    for (double x = -0.7; x <= 0.7; x += 0.05) points.emplace_back(x, y, 1.0);
+  }
+  std::vector<cv::Point2d> uv_cv;
+  cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, dist, uv_cv);
+  ASSERT_EQ(uv_cv.size(), points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector2d uv = model.DistortToPixel({points[i].x, points[i].y});
+    EXPECT_NEAR(uv.x(), uv_cv[i].x, 1e-6) << "point " << i;
+    EXPECT_NEAR(uv.y(), uv_cv[i].y, 1e-6) << "point " << i;
+  }
+}
+
+TEST(CameraModel, FoldOverGateRejectsFarOffAxisPointsThatDistortIntoTheImage) {
+  // With the default k3 < 0 the radial map turns back and crosses zero near 70 degrees off-axis
+  // (shared/FACTS.md): a 360-degree LiDAR point there distorts *into* the image.
+  const CameraIntrinsics c;
+  ASSERT_LT(c.k3, 0.0);
+  const CameraModel model(c);
+  int folded_inside = 0;
+  for (double deg = 60.0; deg < 89.5; deg += 0.25) {
+    // Slightly above the horizontal meridian, on the right of the optical axis.
+    const double r = std::tan(deg * kDegToRad);
+    const Eigen::Vector2d xy(r * std::cos(0.02), r * std::sin(0.02));
+    const Eigen::Vector2d naive = model.DistortToPixel(xy);
+    const bool naive_inside =
+        naive.x() >= 0 && naive.x() <= c.width - 1 && naive.y() >= 0 && naive.y() <= c.height - 1;
+    if (!naive_inside) continue;
+    ++folded_inside;
+    Eigen::Vector2d uv;
+    EXPECT_FALSE(model.Project(Eigen::Vector3d(xy.x(), xy.y(), 1.0) * 5.0, &uv))
+        << deg << " deg off-axis lands naively at " << naive.transpose();
+  }
+  // The test is only meaningful if the fold-over really happens with these coefficients.
+  EXPECT_GT(folded_inside, 0);
+  // And the gate still admits everything that truly images, up to the image corners' rays.
+  Eigen::Vector2d corner_xy;
+  ASSERT_TRUE(model.Unproject({0.0, 0.0}, &corner_xy));
+  EXPECT_GT(model.max_undistorted_radius(), corner_xy.norm());
+}
+
+TEST(CameraModel, RejectsPointsBehindTheCamera) {
+  const CameraModel model{CameraIntrinsics{}};
+  Eigen::Vector2d uv;
+  EXPECT_FALSE(model.Project({0.0, 0.0, -5.0}, &uv));
+  EXPECT_FALSE(model.Project({0.1, -0.05, -1.0}, &uv));  // would land near the centre if mirrored
+  EXPECT_FALSE(model.Project({1.0, 0.0, 0.0}, &uv));
+  EXPECT_TRUE(model.Project({0.1, -0.05, 1.0}, &uv));
+}
+
+TEST(CameraModel, IsValidNamesTheBadField) {
+  CameraIntrinsics c;
+  std::string error;
+  EXPECT_TRUE(c.IsValid(&error));
+  c.fx = 0.0;
+  EXPECT_FALSE(c.IsValid(&error));
+  EXPECT_NE(error.find("fx"), std::string::npos) << error;
+  c.fx = -3325.0;
+  error.clear();
+  EXPECT_FALSE(c.IsValid(&error));
+  EXPECT_NE(error.find("fx"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace calibd

@@ -1,0 +1,96 @@
+#include "calibd/drivers/config_file.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "temp_dir.hpp"
+
+namespace calibd {
+namespace {
+
+CalibConfig Example() {
+  CalibConfig c;
+  c.camera_id = "front";
+  c.lidar_id = "roof";
+  c.lidar_model = "m1";
+  for (int i = 0; i < 3; ++i) {
+    BoardGeometry g;
+    g.board_id = i;
+    g.tag_id = 10 + i;
+    c.boards.push_back(g);
+  }
+  c.prior_T_camera_lidar = PoseFromXyzRpy({0.1, -0.2, 0.3}, {-1.6, 0.02, -1.55});
+  return c;
+}
+
+TEST(ConfigFileTest, RoundTripsThroughYaml) {
+  const CalibConfig c = Example();
+  CalibConfig back;
+  std::string error;
+  ASSERT_TRUE(ParseConfigYaml(ConfigToYaml(c), &back, &error)) << error;
+  EXPECT_EQ(back.camera_id, "front");
+  EXPECT_EQ(back.lidar_model, "m1");
+  ASSERT_EQ(back.boards.size(), 3u);
+  EXPECT_EQ(back.boards[2].tag_id, 12);
+  EXPECT_DOUBLE_EQ(back.boards[1].tag_size_m, 0.48);
+  EXPECT_DOUBLE_EQ(back.camera.k3, c.camera.k3);
+  EXPECT_TRUE(back.prior_T_camera_lidar.isApprox(c.prior_T_camera_lidar, 1e-15));
+}
+
+TEST(ConfigFileTest, SaveAndLoadThroughAFile) {
+  testing::TempDir dir;
+  std::string error;
+  ASSERT_TRUE(SaveConfigFile(dir.file("calib.yaml"), Example(), &error)) << error;
+  CalibConfig back;
+  ASSERT_TRUE(LoadConfigFile(dir.file("calib.yaml"), &back, &error)) << error;
+  EXPECT_EQ(back.boards.size(), 3u);
+}
+
+struct BadCase {
+  std::string find, replace, expected_key;
+};
+
+class ConfigFileBadKeyTest : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(ConfigFileBadKeyTest, ErrorNamesTheKey) {
+  std::string yaml = ConfigToYaml(Example());
+  const auto& p = GetParam();
+  const auto pos = yaml.find(p.find);
+  ASSERT_NE(pos, std::string::npos) << p.find;
+  yaml.replace(pos, p.find.size(), p.replace);
+  CalibConfig c;
+  std::string error;
+  EXPECT_FALSE(ParseConfigYaml(yaml, &c, &error));
+  EXPECT_EQ(error.rfind(p.expected_key, 0), 0u) << "error was: " << error;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Keys, ConfigFileBadKeyTest,
+    ::testing::Values(BadCase{"fx: ", "fx: -", "camera.intrinsics"},
+                      BadCase{"model: m1", "model: velodyne", "lidar.model"},
+                      BadCase{"tag_size_m: 0.48", "tag_size_m: big", "boards[0].tag_size_m"},
+                      BadCase{"tag_id: 11", "tag_id: 10", "boards[1].tag_id"},
+                      BadCase{"  width: ", "  widht: 1\n  width: ", "camera.widht"},
+                      BadCase{"distortion: [", "distortion: [1, ", "camera.distortion"},
+                      BadCase{"    - [0, 0, 0, 1]", "    - [0, 0, 1, 1]",
+                              "prior.T_camera_lidar[3]"},
+                      BadCase{"lidar:\n  id: roof\n", "lidar:\n", "lidar.id"}));
+
+TEST(ConfigFileTest, MissingFileNamesThePath) {
+  CalibConfig c;
+  std::string error;
+  EXPECT_FALSE(LoadConfigFile("/nonexistent/calib.yaml", &c, &error));
+  EXPECT_NE(error.find("/nonexistent/calib.yaml"), std::string::npos);
+}
+
+TEST(ConfigFileTest, NonRotationPriorIsRejected) {
+  CalibConfig c = Example();
+  c.prior_T_camera_lidar.matrix()(0, 0) = 2.0;
+  std::string error;
+  EXPECT_FALSE(c.IsValid(&error));
+  EXPECT_EQ(error.rfind("prior.T_camera_lidar", 0), 0u) << error;
+}
+
+}  // namespace
+}  // namespace calibd

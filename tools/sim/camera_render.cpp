@@ -1,0 +1,498 @@
+#include "camera_render.hpp"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <random>
+#include <thread>
+
+namespace calibd::sim {
+
+namespace {
+
+constexpr int kTile = 32;        // screen tile side for primitive culling, pixels
+constexpr int kRowChunk = 8;     // rows handed to a worker at a time
+constexpr double kTMin = 1e-6;   // ignore hits closer than this to the camera, m
+constexpr double kZNear = 1e-3;  // near plane for culling rectangles, m
+constexpr double kSkyAlbedo = 0.7;
+constexpr double kFrontFaceZ = -1e-4;  // board.hpp: the printed face is z_B = 0
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// Runs body(first_row, last_row) over [0, rows) in chunks on `threads` workers. Each row is
+// computed independently of the split, so the output does not depend on the thread count.
+template <typename Body>
+void ParallelRows(int rows, int threads, const Body& body) {
+  std::atomic<int> next{0};
+  auto worker = [&]() {
+    for (;;) {
+      const int r0 = next.fetch_add(kRowChunk);
+      if (r0 >= rows) return;
+      body(r0, std::min(rows, r0 + kRowChunk));
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int i = 1; i < std::max(1, threads); ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+}
+
+// Jacobian of the distorted pixel w.r.t. normalised (x, y) for the OpenCV radial-tangential
+// model of camera_model.hpp (same formula as CameraModel::DistortToPixel, differentiated).
+Eigen::Matrix2d DistortionJacobian(const CameraIntrinsics& c, const Eigen::Vector2d& xy) {
+  const double x = xy.x(), y = xy.y();
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (c.k1 + r2 * (c.k2 + r2 * c.k3));
+  const double d_radial = c.k1 + r2 * (2.0 * c.k2 + r2 * 3.0 * c.k3);  // d radial / d r2
+  Eigen::Matrix2d J;
+  J(0, 0) = radial + 2.0 * x * x * d_radial + 2.0 * c.p1 * y + 6.0 * c.p2 * x;
+  J(0, 1) = 2.0 * x * y * d_radial + 2.0 * c.p1 * x + 2.0 * c.p2 * y;
+  J(1, 0) = 2.0 * x * y * d_radial + 2.0 * c.p1 * x + 2.0 * c.p2 * y;
+  J(1, 1) = radial + 2.0 * y * y * d_radial + 6.0 * c.p1 * y + 2.0 * c.p2 * x;
+  J.row(0) *= c.fx;
+  J.row(1) *= c.fy;
+  return J;
+}
+
+// Newton on the forward model from a warm start (the neighbouring pixel's solution): two or three
+// steps instead of CameraModel::Unproject's cold start and numerical Jacobian.
+bool UndistortFrom(const CameraModel& model, const Eigen::Vector2d& uv, Eigen::Vector2d xy,
+                   Eigen::Vector2d* out) {
+  for (int it = 0; it < 20; ++it) {
+    const Eigen::Vector2d residual = model.DistortToPixel(xy) - uv;
+    if (residual.norm() < 1e-8) {
+      *out = xy;
+      return xy.norm() <= model.max_undistorted_radius();
+    }
+    xy -= DistortionJacobian(model.intrinsics(), xy).inverse() * residual;
+    if (!xy.allFinite()) return false;
+  }
+  return false;
+}
+
+// floor() without a libm call (the baseline x86-64 target has no SSE4.1 round instruction);
+// valid for |v| < 2^62, far beyond any coordinate here.
+int64_t FastFloor(double v) {
+  const auto i = static_cast<int64_t>(v);
+  return i - (v < static_cast<double>(i) ? 1 : 0);
+}
+
+// Deterministic integer hash (a 32-bit avalanche mix) for the procedural ground texture.
+uint32_t Hash2(int64_t x, int64_t y, uint32_t salt) {
+  uint32_t h = static_cast<uint32_t>(x) * 0x8da6b343u ^ static_cast<uint32_t>(y) * 0xd8163841u ^
+               salt * 0xcb1ab31fu;
+  h ^= h >> 16;
+  h *= 0x7feb352du;
+  h ^= h >> 15;
+  h *= 0x846ca68bu;
+  h ^= h >> 16;
+  return h;
+}
+
+// Smooth value noise in [0, 1] over square cells of `cell` metres.
+double ValueNoise(double x, double y, double cell, uint32_t salt) {
+  const double gx = x / cell, gy = y / cell;
+  const int64_t ix = FastFloor(gx), iy = FastFloor(gy);
+  double fx = gx - static_cast<double>(ix), fy = gy - static_cast<double>(iy);
+  fx = fx * fx * (3.0 - 2.0 * fx);
+  fy = fy * fy * (3.0 - 2.0 * fy);
+  constexpr double kScale = 1.0 / 4294967296.0;
+  const double v00 = Hash2(ix, iy, salt) * kScale, v10 = Hash2(ix + 1, iy, salt) * kScale;
+  const double v01 = Hash2(ix, iy + 1, salt) * kScale, v11 = Hash2(ix + 1, iy + 1, salt) * kScale;
+  return (v00 + (v10 - v00) * fx) * (1.0 - fy) + (v01 + (v11 - v01) * fx) * fy;
+}
+
+// Concrete-like floor albedo (about 0.25..0.45) from the world position: blotches of ~0.2 m and
+// ~1 m, and faint saw-cut joints every 4 m. Gives the detector a realistic, textured background.
+double GroundAlbedo(double x, double y) {
+  const double n = 0.65 * ValueNoise(x, y, 0.2, 17u) + 0.35 * ValueNoise(x, y, 1.0, 91u);
+  double albedo = 0.25 + 0.2 * n;
+  const double jx = x * 0.25 - static_cast<double>(FastFloor(x * 0.25 + 0.5));
+  const double jy = y * 0.25 - static_cast<double>(FastFloor(y * 0.25 + 0.5));
+  if (std::min(std::abs(jx), std::abs(jy)) < 0.012 * 0.25) albedo *= 0.85;
+  return albedo;
+}
+
+// A primitive as seen from this frame's camera centre, prepared for fast ray tests.
+struct FramePrimitive {
+  const Primitive* p = nullptr;
+  Eigen::Matrix3d R_local_camera;
+  Eigen::Vector3d o_local;  // camera centre in the primitive's frame
+  Eigen::Vector3d l_local;  // light direction in the primitive's frame
+  // Boards only: hit points are shaded in the board frame of board.hpp.
+  const BoardFace* face = nullptr;
+  Eigen::Matrix3d R_board_camera;
+  Eigen::Vector3d o_board;  // camera centre in the board frame
+};
+
+struct Rect {
+  double x_lo, x_hi, y_lo, y_hi;
+};
+
+// Rectangle in normalised image coordinates (x/z, y/z) that contains every ray from the camera
+// centre hitting the convex hull of `corners_camera` in front of the near plane; false when the
+// hull lies entirely behind it. The hull is clipped at z = kZNear, so a primitive beside the
+// camera does not force the whole image.
+bool NormalisedRect(const std::array<Eigen::Vector3d, 8>& corners_camera, Rect* rect) {
+  std::vector<Eigen::Vector3d> pts;
+  pts.reserve(20);
+  for (const auto& c : corners_camera) {
+    if (c.z() >= kZNear) pts.push_back(c);
+  }
+  // The 12 box edges join corners whose indices differ in exactly one bit.
+  for (int a = 0; a < 8; ++a) {
+    for (int bit = 1; bit < 8; bit <<= 1) {
+      if (a & bit) continue;
+      const Eigen::Vector3d& pa = corners_camera[a];
+      const Eigen::Vector3d& pb = corners_camera[a | bit];
+      if ((pa.z() < kZNear) == (pb.z() < kZNear)) continue;
+      const double s = (kZNear - pa.z()) / (pb.z() - pa.z());
+      pts.push_back(pa + s * (pb - pa));
+    }
+  }
+  if (pts.empty()) return false;
+  rect->x_lo = rect->y_lo = std::numeric_limits<double>::infinity();
+  rect->x_hi = rect->y_hi = -std::numeric_limits<double>::infinity();
+  for (const auto& p : pts) {
+    const double x = p.x() / p.z(), y = p.y() / p.z();
+    rect->x_lo = std::min(rect->x_lo, x);
+    rect->x_hi = std::max(rect->x_hi, x);
+    rect->y_lo = std::min(rect->y_lo, y);
+    rect->y_hi = std::max(rect->y_hi, y);
+  }
+  return true;
+}
+
+}  // namespace
+
+CameraRenderer::CameraRenderer(const CameraIntrinsics& intrinsics, const CameraImaging& imaging)
+    : model_(intrinsics), imaging_(imaging) {
+  const int W = intrinsics.width, H = intrinsics.height;
+  ray_lut_.assign(static_cast<size_t>(W) * static_cast<size_t>(H) * 2, kNaN);
+  ParallelRows(H, imaging_.num_threads, [&](int v0, int v1) {
+    for (int v = v0; v < v1; ++v) {
+      Eigen::Vector2d prev;
+      bool have_prev = false;
+      float* row = ray_lut_.data() + static_cast<size_t>(v) * static_cast<size_t>(W) * 2;
+      for (int u = 0; u < W; ++u) {
+        const Eigen::Vector2d uv(u, v);
+        Eigen::Vector2d xy;
+        // Warm start from the left neighbour in the same row only, so that rows are independent.
+        bool ok = have_prev && UndistortFrom(model_, uv, prev, &xy);
+        if (!ok) ok = model_.Unproject(uv, &xy);
+        have_prev = ok;
+        if (!ok) continue;
+        prev = xy;
+        row[2 * u] = static_cast<float>(xy.x());
+        row[2 * u + 1] = static_cast<float>(xy.y());
+      }
+    }
+  });
+
+  // Ray bounds of each tile over its pixels +- 1 px, padded for sub-samples that extrapolate
+  // half a pixel beyond the image border.
+  tiles_x_ = (W + kTile - 1) / kTile;
+  tiles_y_ = (H + kTile - 1) / kTile;
+  tile_bounds_.resize(static_cast<size_t>(tiles_x_) * static_cast<size_t>(tiles_y_));
+  const auto pad = static_cast<float>(2.0 / std::min(intrinsics.fx, intrinsics.fy));
+  for (int ty = 0; ty < tiles_y_; ++ty) {
+    for (int tx = 0; tx < tiles_x_; ++tx) {
+      TileBounds b{std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                   std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()};
+      for (int v = std::max(0, ty * kTile - 1); v < std::min(H, (ty + 1) * kTile + 1); ++v) {
+        for (int u = std::max(0, tx * kTile - 1); u < std::min(W, (tx + 1) * kTile + 1); ++u) {
+          const float* r = &ray_lut_[(static_cast<size_t>(v) * static_cast<size_t>(W) + u) * 2];
+          if (std::isnan(r[0])) continue;
+          b.x_lo = std::min(b.x_lo, r[0]);
+          b.x_hi = std::max(b.x_hi, r[0]);
+          b.y_lo = std::min(b.y_lo, r[1]);
+          b.y_hi = std::max(b.y_hi, r[1]);
+        }
+      }
+      b.x_lo -= pad;
+      b.x_hi += pad;
+      b.y_lo -= pad;
+      b.y_hi += pad;
+      tile_bounds_[static_cast<size_t>(ty * tiles_x_ + tx)] = b;
+    }
+  }
+  shaded_.create(H, W, CV_8UC1);
+}
+
+Eigen::Vector2d CameraRenderer::RayAt(int u, int v) const {
+  const size_t i =
+      (static_cast<size_t>(v) * static_cast<size_t>(model_.intrinsics().width) + u) * 2;
+  return {ray_lut_[i], ray_lut_[i + 1]};
+}
+
+void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& faces,
+                            const Pose& T_world_camera, uint64_t seed, cv::Mat* image) const {
+  const CameraIntrinsics& cam = model_.intrinsics();
+  const int W = cam.width, H = cam.height;
+  const Eigen::Matrix3d R_world_camera = T_world_camera.linear();
+  const Eigen::Matrix3d R_camera_world = R_world_camera.transpose();
+  const Eigen::Vector3d origin = T_world_camera.translation();
+  // Fixed key light from above and slightly behind a camera looking along +x in the workshop.
+  const Eigen::Vector3d light = Eigen::Vector3d(-0.4, 0.3, 0.85).normalized();
+
+  // Per-frame draws: exposure first, then the noise seed (std::mt19937_64 is fully specified, so
+  // the sequence is the same on every platform).
+  std::mt19937_64 rng(seed);
+  const double u01 = static_cast<double>(rng() >> 11) * 0x1.0p-53;
+  const double exposure =
+      imaging_.exposure_min + (imaging_.exposure_max - imaging_.exposure_min) * u01;
+  const uint64_t noise_seed = rng();
+
+  // Prepare primitives and their screen rectangles (normalised coordinates).
+  std::vector<FramePrimitive> prims;
+  std::vector<Rect> rects;
+  std::vector<int> board_prims;  // indices into prims of board slabs with a face
+  bool has_ground = false;       // the z = 0 plane is tested by every ray
+  const double board_margin = 3.0 / std::min(cam.fx, cam.fy);  // >= 2 px after distortion
+  for (size_t i = 0; i < scene.primitives.size(); ++i) {
+    const Primitive& p = scene.primitives[i];
+    if (p.shape == Primitive::Shape::kPlaneZ0) {
+      has_ground = true;
+      continue;
+    }
+    Eigen::Vector3d lo, hi;
+    if (p.shape == Primitive::Shape::kBox) {
+      lo = -p.half_extents;
+      hi = p.half_extents;
+    } else {
+      lo = Eigen::Vector3d(-p.radius, -p.radius, 0.0);
+      hi = Eigen::Vector3d(p.radius, p.radius, p.height);
+    }
+    std::array<Eigen::Vector3d, 8> corners;
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d corner_local((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(),
+                                         (c & 4) ? hi.z() : lo.z());
+      corners[c] = R_camera_world * (p.T_world_local * corner_local - origin);
+    }
+    Rect rect;
+    if (!NormalisedRect(corners, &rect)) continue;  // entirely behind the camera
+    FramePrimitive fp;
+    fp.p = &p;
+    const Eigen::Matrix3d R_local_world = p.T_world_local.linear().transpose();
+    fp.R_local_camera = R_local_world * R_world_camera;
+    fp.o_local = R_local_world * (origin - p.T_world_local.translation());
+    fp.l_local = R_local_world * light;
+    if (p.kind == SurfaceKind::kBoard && p.board_index >= 0 &&
+        p.board_index < static_cast<int>(faces.size()) &&
+        p.board_index < static_cast<int>(scene.boards.size())) {
+      const Pose& T_world_board = scene.boards[static_cast<size_t>(p.board_index)].T_world_board;
+      fp.face = &faces[static_cast<size_t>(p.board_index)];
+      const Eigen::Matrix3d R_board_world = T_world_board.linear().transpose();
+      fp.R_board_camera = R_board_world * R_world_camera;
+      fp.o_board = R_board_world * (origin - T_world_board.translation());
+      board_prims.push_back(static_cast<int>(prims.size()));
+    }
+    prims.push_back(fp);
+    rects.push_back(rect);
+  }
+
+  // Bin primitives and supersampled board rectangles into tiles (CSR lists, primitive order).
+  const size_t num_tiles = tile_bounds_.size();
+  std::vector<int> tile_prim_begin(num_tiles + 1, 0), tile_prims;
+  std::vector<int> tile_board_begin(num_tiles + 1, 0), tile_boards;
+  std::vector<Rect> board_rects;
+  for (int b : board_prims) {
+    Rect r = rects[static_cast<size_t>(b)];
+    r.x_lo -= board_margin;
+    r.x_hi += board_margin;
+    r.y_lo -= board_margin;
+    r.y_hi += board_margin;
+    board_rects.push_back(r);
+  }
+  auto overlaps = [](const TileBounds& t, const Rect& r) {
+    return r.x_hi >= t.x_lo && r.x_lo <= t.x_hi && r.y_hi >= t.y_lo && r.y_lo <= t.y_hi;
+  };
+  for (size_t t = 0; t < num_tiles; ++t) {
+    const TileBounds& tb = tile_bounds_[t];
+    for (size_t k = 0; k < prims.size(); ++k) {
+      if (overlaps(tb, rects[k])) tile_prims.push_back(static_cast<int>(k));
+    }
+    tile_prim_begin[t + 1] = static_cast<int>(tile_prims.size());
+    for (size_t k = 0; k < board_rects.size(); ++k) {
+      if (overlaps(tb, board_rects[k])) tile_boards.push_back(static_cast<int>(k));
+    }
+    tile_board_begin[t + 1] = static_cast<int>(tile_boards.size());
+  }
+
+  // Linear radiance (albedo times Lambert-with-ambient shading) along the camera ray through
+  // normalised (x, y). The ray direction (x, y, 1) is left unnormalised: every test below is
+  // invariant to its length, and t is only compared, never reported.
+  auto trace = [&](double x, double y, const int* list, int list_size) -> double {
+    if (std::isnan(x)) return 0.0;  // beyond the model's valid radius: no light reaches it
+    const Eigen::Vector3d d_camera(x, y, 1.0);
+    const Eigen::Vector3d d = R_world_camera * d_camera;
+    double best = std::numeric_limits<double>::infinity();
+    int hit_prim = -1, hit_axis = -1;
+    bool hit_ground = false;
+    Eigen::Vector3d hit_normal = Eigen::Vector3d::Zero();  // cylinders only
+    if (has_ground && d.z() != 0.0) {
+      const double t = -origin.z() / d.z();  // the plane z_W = 0 (scene.hpp)
+      if (t > kTMin) {
+        best = t;
+        hit_ground = true;
+      }
+    }
+    for (int k = 0; k < list_size; ++k) {
+      const auto index = static_cast<size_t>(list[k]);
+      const Rect& r = rects[index];
+      if (x < r.x_lo || x > r.x_hi || y < r.y_lo || y > r.y_hi) continue;  // exact ray cull
+      const FramePrimitive& fp = prims[index];
+      if (fp.p->shape == Primitive::Shape::kBox) {
+        // Slab test in the box frame with the camera centre precomputed there.
+        const Eigen::Vector3d d_l = fp.R_local_camera * d_camera;
+        const Eigen::Vector3d& o_l = fp.o_local;
+        const Eigen::Vector3d& h = fp.p->half_extents;
+        double t0 = 0.0, t1 = best;
+        int axis = -1;
+        bool miss = false;
+        for (int a = 0; a < 3 && !miss; ++a) {
+          if (d_l[a] == 0.0) {
+            miss = o_l[a] < -h[a] || o_l[a] > h[a];
+            continue;
+          }
+          const double inv = 1.0 / d_l[a];
+          double ta = (-h[a] - o_l[a]) * inv, tb = (h[a] - o_l[a]) * inv;
+          if (ta > tb) std::swap(ta, tb);
+          if (ta > t0) {
+            t0 = ta;
+            axis = a;
+          }
+          t1 = std::min(t1, tb);
+          miss = t0 > t1;
+        }
+        if (miss || axis < 0) continue;  // no entry face: missed, or the camera is inside
+        best = t0;
+        hit_prim = list[k];
+        hit_axis = axis;
+        hit_ground = false;
+      } else {
+        double t = 0.0;
+        Eigen::Vector3d n;
+        if (IntersectCylinder(*fp.p, origin, d, 0.0, best, &t, &n)) {
+          best = t;
+          hit_prim = list[k];
+          hit_axis = -1;
+          hit_normal = n.dot(d) > 0.0 ? Eigen::Vector3d(-n) : n;
+          hit_ground = false;
+        }
+      }
+    }
+    if (hit_ground) {
+      const double n_dot_l = origin.z() >= 0.0 ? light.z() : -light.z();
+      return GroundAlbedo(origin.x() + best * d.x(), origin.y() + best * d.y()) *
+             (0.55 + 0.45 * std::max(0.0, n_dot_l));
+    }
+    if (hit_prim < 0) return kSkyAlbedo;  // ceiling / open sky
+    const FramePrimitive& fp = prims[static_cast<size_t>(hit_prim)];
+    double albedo = fp.p->albedo;
+    double n_dot_l = 0.0;
+    if (hit_axis >= 0) {
+      // Entry face: its outward normal points against the ray along the entry axis.
+      const double d_axis = fp.R_local_camera.row(hit_axis).dot(d_camera);
+      n_dot_l = d_axis > 0.0 ? -fp.l_local[hit_axis] : fp.l_local[hit_axis];
+      if (fp.face != nullptr) {
+        const Eigen::Vector3d p_board = fp.o_board + best * (fp.R_board_camera * d_camera);
+        if (p_board.z() > kFrontFaceZ) albedo = fp.face->AlbedoAt(p_board.x(), p_board.y());
+      }
+    } else {
+      n_dot_l = hit_normal.dot(light);
+    }
+    return albedo * (0.55 + 0.45 * std::max(0.0, n_dot_l));
+  };
+
+  // Sub-pixel rays by bilinear interpolation of the table (linear extrapolation past the border).
+  auto lut_at = [&](double su, double sv, double* x, double* y) {
+    const int i0 = std::clamp(static_cast<int>(FastFloor(su)), 0, W - 2);
+    const int j0 = std::clamp(static_cast<int>(FastFloor(sv)), 0, H - 2);
+    const double fu = su - i0, fv = sv - j0;
+    const float* r0 = &ray_lut_[(static_cast<size_t>(j0) * static_cast<size_t>(W) + i0) * 2];
+    const float* r1 = r0 + static_cast<size_t>(W) * 2;
+    for (int c = 0; c < 2; ++c) {
+      const double top = r0[c] + (r0[c + 2] - r0[c]) * fu;
+      const double bottom = r1[c] + (r1[c + 2] - r1[c]) * fu;
+      (c == 0 ? *x : *y) = top + (bottom - top) * fv;
+    }
+  };
+
+  const int ss = std::max(1, imaging_.board_supersample);
+  const double gain = 255.0 * exposure;
+  ParallelRows(H, imaging_.num_threads, [&](int v0, int v1) {
+    for (int v = v0; v < v1; ++v) {
+      uint8_t* out = shaded_.ptr<uint8_t>(v);
+      const float* lut_row = &ray_lut_[static_cast<size_t>(v) * static_cast<size_t>(W) * 2];
+      const int ty = v / kTile;
+      for (int u = 0; u < W; ++u) {
+        const size_t tile = static_cast<size_t>(ty * tiles_x_ + u / kTile);
+        const int* list = tile_prims.data() + tile_prim_begin[tile];
+        const int list_size = tile_prim_begin[tile + 1] - tile_prim_begin[tile];
+        const double x = lut_row[2 * u], y = lut_row[2 * u + 1];
+        bool on_board = false;
+        for (int k = tile_board_begin[tile]; k < tile_board_begin[tile + 1] && !on_board; ++k) {
+          const Rect& r = board_rects[static_cast<size_t>(tile_boards[static_cast<size_t>(k)])];
+          on_board = x >= r.x_lo && x <= r.x_hi && y >= r.y_lo && y <= r.y_hi;
+        }
+        double value = 0.0;
+        if (!on_board || ss == 1) {
+          value = trace(x, y, list, list_size);
+        } else {
+          // Box filter over the pixel's area on an ss x ss grid, averaged in linear albedo
+          // (anti-aliasing). The grid's four corner samples go first: when they agree, no single
+          // straight edge crosses the grid (the other samples lie in the corners' convex hull),
+          // so the pixel is uniform, as inside a tag module, and the other samples are skipped.
+          auto sample = [&](int i, int j) {
+            double sx = 0.0, sy = 0.0;
+            lut_at(u + (i + 0.5) / ss - 0.5, v + (j + 0.5) / ss - 0.5, &sx, &sy);
+            return trace(sx, sy, list, list_size);
+          };
+          const double c00 = sample(0, 0), c10 = sample(ss - 1, 0);
+          const double c01 = sample(0, ss - 1), c11 = sample(ss - 1, ss - 1);
+          if (c00 == c10 && c00 == c01 && c00 == c11) {
+            value = c00;
+          } else {
+            value = c00 + c10 + c01 + c11;
+            for (int j = 0; j < ss; ++j) {
+              for (int i = 0; i < ss; ++i) {
+                const bool corner = (i == 0 || i == ss - 1) && (j == 0 || j == ss - 1);
+                if (!corner) value += sample(i, j);
+              }
+            }
+            value /= ss * ss;
+          }
+        }
+        out[u] = cv::saturate_cast<uint8_t>(gain * value);
+      }
+    }
+  });
+
+  image->create(H, W, CV_8UC1);
+  if (imaging_.blur_sigma_px > 0.0) {
+    cv::GaussianBlur(shaded_, *image, cv::Size(0, 0), imaging_.blur_sigma_px,
+                     imaging_.blur_sigma_px, cv::BORDER_REPLICATE);
+  } else {
+    shaded_.copyTo(*image);
+  }
+
+  // Sensor noise after the optics: one cv::RNG per row, seeded from the frame's noise seed and
+  // the row, so the noise does not depend on how rows are split across threads.
+  if (imaging_.noise_sigma > 0.0) {
+    ParallelRows(H, imaging_.num_threads, [&](int v0, int v1) {
+      cv::Mat noise(1, W, CV_32FC1);
+      for (int v = v0; v < v1; ++v) {
+        cv::RNG row_rng(noise_seed ^ (0x9e3779b97f4a7c15ull * static_cast<uint64_t>(v + 1)));
+        row_rng.fill(noise, cv::RNG::NORMAL, 0.0, imaging_.noise_sigma);
+        uint8_t* px = image->ptr<uint8_t>(v);
+        const float* n = noise.ptr<float>(0);
+        for (int u = 0; u < W; ++u) px[u] = cv::saturate_cast<uint8_t>(px[u] + n[u]);
+      }
+    });
+  }
+}
+
+}  // namespace calibd::sim

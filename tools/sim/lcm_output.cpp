@@ -1,0 +1,36 @@
+#include "lcm_output.hpp"
+
+#include <cstring>
+
+namespace calibd::sim {
+
+void ToCameraMessage(const cv::Mat& mono8, int64_t utime, const std::string& camera_id,
+                     calibd::camera_frame_t* msg) {
+  msg->utime = utime;
+  msg->camera_id = camera_id;
+  msg->width = mono8.cols;
+  msg->height = mono8.rows;
+  msg->stride = mono8.cols;  // rows are packed below
+  msg->encoding = calibd::camera_frame_t::ENCODING_MONO8;
+  msg->size = mono8.cols * mono8.rows;
+  msg->data.resize(static_cast<size_t>(msg->size));
+  for (int r = 0; r < mono8.rows; ++r) {
+    std::memcpy(msg->data.data() + static_cast<size_t>(r) * mono8.cols, mono8.ptr(r),
+                static_cast<size_t>(mono8.cols));
+  }
+}
+
+void ToLidarMessage(const LidarScan& scan, int64_t utime, const std::string& lidar_id,
+                    calibd::lidar_frame_t* msg) {
+  msg->utime = utime;
+  msg->lidar_id = lidar_id;
+  msg->num_points = static_cast<int32_t>(scan.size());
+  msg->x.assign(scan.x.begin(), scan.x.end());
+  msg->y.assign(scan.y.begin(), scan.y.end());
+  msg->z.assign(scan.z.begin(), scan.z.end());
+  msg->intensity.assign(scan.intensity.begin(), scan.intensity.end());
+  msg->ring.assign(scan.ring.begin(), scan.ring.end());
+  msg->time_offset_us.assign(scan.time_offset_us.begin(), scan.time_offset_us.end());
+}
+
+}  // namespace calibd::sim

@@ -1,0 +1,466 @@
+#include "lidar_sim.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <thread>
+
+namespace calibd::sim {
+
+void LidarScan::Reserve(size_t n) {
+  x.reserve(n);
+  y.reserve(n);
+  z.reserve(n);
+  intensity.reserve(n);
+  ring.reserve(n);
+  time_offset_us.reserve(n);
+  board.reserve(n);
+}
+
+void LidarScan::Clear() {
+  x.clear();
+  y.clear();
+  z.clear();
+  intensity.clear();
+  ring.clear();
+  time_offset_us.clear();
+  board.clear();
+}
+
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+// Pattern layouts. Beam index formulas (used again to find a beam's neighbours in the pattern):
+//   ot128:  i = column * 128 + ring
+//   m1:     i = (line * kM1Samples + sample) * kM1Zones + zone
+//   falcon: i = line * kFalconSamples + sample
+constexpr int kOtColumns = 1800;  // 360 deg / 0.2 deg
+constexpr int kOtRings = 128;
+// Channels of one column do not fire at once (the manual's firing-time table spreads them over
+// the block); we spread them evenly over the first 45 us of the 55.6 us column period.
+constexpr int kOtRingSpreadUs = 45;
+
+constexpr int kM1Zones = 5;
+constexpr int kM1Lines = 126;    // fast-axis sweeps per zone and frame
+constexpr int kM1Samples = 125;  // firings per sweep
+constexpr double kM1ZoneWidthDeg = 24.0;
+
+constexpr int kFalconSamples = 750;  // 120 deg / 0.16 deg
+constexpr double kFalconBandDeg = 3.0;
+constexpr double kFalconBandStepDeg = 0.075;
+constexpr double kFalconOuterStepDeg = 0.2;
+
+// Fractional part in [0, 1).
+double Frac(double v) { return v - std::floor(v); }
+
+// Frame phase of the MEMS raster: successive frames shift the raster by a low-discrepancy
+// fraction of a sample/line so that they interleave, as real MEMS patterns drift frame to frame.
+int M1PhaseKey(int frame_index) { return ((frame_index % 16) + 16) % 16; }
+
+void MakeOt128Pattern(const LidarModel& model, double period_us, std::vector<Beam>* beams) {
+  const double column_us = period_us / kOtColumns;
+  for (int col = 0; col < kOtColumns; ++col) {
+    // Hesai spins clockwise seen from above, so azimuth = atan2(y, x) decreases with time; the
+    // frame starts and ends behind the sensor (+-180 deg) so nothing in front is split.
+    const double az_deg = 180.0 - model.azimuth_resolution_deg * col;
+    const float az = static_cast<float>(az_deg * kDegToRad);
+    const int t0 = static_cast<int>(std::floor(col * column_us));
+    for (int ring = 0; ring < kOtRings; ++ring) {
+      Beam b;
+      b.azimuth_rad = az;
+      b.elevation_rad = static_cast<float>(model.ring_elevation_deg[ring] * kDegToRad);
+      b.ring = static_cast<int16_t>(ring);
+      b.time_offset_us = t0 + (ring * kOtRingSpreadUs) / kOtRings;
+      beams->push_back(b);
+    }
+  }
+}
+
+void MakeM1Pattern(const LidarModel& model, int frame_index, double period_us,
+                   std::vector<Beam>* beams) {
+  const int key = M1PhaseKey(frame_index);
+  const double phase_v = Frac(key * 0.6180339887498949);        // of a line spacing, [0, 1)
+  const double phase_h = Frac(key * 0.7548776662466927) - 0.5;  // of a sample, [-0.5, 0.5)
+  const double el_top = model.elevation_max_deg;
+  const double line_deg = (model.elevation_max_deg - model.elevation_min_deg) / kM1Lines;
+  const double half_width = 0.5 * kM1ZoneWidthDeg;
+  const double dt_us = period_us / (kM1Lines * kM1Samples);
+  for (int line = 0; line < kM1Lines; ++line) {
+    // The resonant fast axis sweeps back and forth: odd lines run right to left.
+    const double dir = (line % 2 == 0) ? 1.0 : -1.0;
+    for (int k = 0; k < kM1Samples; ++k) {
+      const double u = (k + 0.5 + phase_h) / kM1Samples;  // (0, 1): time within the sweep
+      // Sinusoidal mirror angle sampled uniformly in time: points bunch at the sweep edges.
+      const double az_local = -dir * half_width * std::cos(M_PI * u);
+      // The slow axis moves continuously; half a line spacing of it falls within one sweep.
+      const double el = el_top - line_deg * (line + 0.5 * u + 0.5 * phase_v);
+      const int t = static_cast<int>(std::floor((line * kM1Samples + k) * dt_us));
+      for (int zone = 0; zone < kM1Zones; ++zone) {
+        // All five lasers fire together, each in its own 24 deg zone, left to right.
+        const double centre = model.azimuth_min_deg + (zone + 0.5) * kM1ZoneWidthDeg;
+        Beam b;
+        b.azimuth_rad = static_cast<float>((centre + az_local) * kDegToRad);
+        b.elevation_rad = static_cast<float>(el * kDegToRad);
+        b.ring = -1;
+        b.time_offset_us = t;
+        beams->push_back(b);
+      }
+    }
+  }
+}
+
+// Galvo line elevations, top to bottom: 0.2 deg steps outside +-3 deg, 0.075 deg inside.
+std::vector<double> FalconLineElevationsDeg() {
+  std::vector<double> el;
+  const int outer = static_cast<int>(std::lround((12.4 - kFalconBandDeg) / kFalconOuterStepDeg));
+  const int band = static_cast<int>(std::lround(2.0 * kFalconBandDeg / kFalconBandStepDeg));
+  for (int i = outer; i >= 1; --i) el.push_back(kFalconBandDeg + i * kFalconOuterStepDeg);
+  for (int i = 0; i <= band; ++i) el.push_back(kFalconBandDeg - i * kFalconBandStepDeg);
+  for (int i = 1; i <= outer; ++i) el.push_back(-kFalconBandDeg - i * kFalconOuterStepDeg);
+  return el;
+}
+
+void MakeFalconPattern(const LidarModel& model, double period_us, std::vector<Beam>* beams) {
+  const std::vector<double> lines = FalconLineElevationsDeg();
+  const double step = (model.azimuth_max_deg - model.azimuth_min_deg) / kFalconSamples;
+  const double dt_us = period_us / (static_cast<double>(lines.size()) * kFalconSamples);
+  for (size_t line = 0; line < lines.size(); ++line) {
+    const float el = static_cast<float>(lines[line] * kDegToRad);
+    for (int k = 0; k < kFalconSamples; ++k) {
+      // Each polygon facet sweeps the full width at constant angular speed, always the same way.
+      Beam b;
+      b.azimuth_rad = static_cast<float>((model.azimuth_min_deg + (k + 0.5) * step) * kDegToRad);
+      b.elevation_rad = el;
+      b.ring = -1;
+      b.time_offset_us =
+          static_cast<int>(std::floor((static_cast<double>(line) * kFalconSamples + k) * dt_us));
+      beams->push_back(b);
+    }
+  }
+}
+
+// Indices of the beams next to beam i in the pattern (same line/ring, and the adjacent ones).
+int PatternNeighbours(LidarKind kind, int i, int n, int out[4]) {
+  int c = 0;
+  switch (kind) {
+    case LidarKind::kOt128: {
+      const int col = i / kOtRings, ring = i % kOtRings;
+      out[c++] = ((col + 1) % kOtColumns) * kOtRings + ring;  // the sweep wraps around
+      out[c++] = ((col + kOtColumns - 1) % kOtColumns) * kOtRings + ring;
+      if (ring > 0) out[c++] = i - 1;
+      if (ring + 1 < kOtRings) out[c++] = i + 1;
+      break;
+    }
+    case LidarKind::kM1: {
+      const int zone = i % kM1Zones, s = i / kM1Zones;
+      const int line = s / kM1Samples, k = s % kM1Samples;
+      if (k > 0) out[c++] = i - kM1Zones;
+      if (k + 1 < kM1Samples) out[c++] = i + kM1Zones;
+      // Sweeps alternate direction: the sample below/above at the same azimuth is mirrored.
+      const int mk = kM1Samples - 1 - k;
+      if (line > 0) out[c++] = ((line - 1) * kM1Samples + mk) * kM1Zones + zone;
+      if (line + 1 < kM1Lines) out[c++] = ((line + 1) * kM1Samples + mk) * kM1Zones + zone;
+      break;
+    }
+    case LidarKind::kFalcon: {
+      const int k = i % kFalconSamples;
+      if (k > 0) out[c++] = i - 1;
+      if (k + 1 < kFalconSamples) out[c++] = i + 1;
+      if (i >= kFalconSamples) out[c++] = i - kFalconSamples;
+      if (i + kFalconSamples < n) out[c++] = i + kFalconSamples;
+      break;
+    }
+  }
+  return c;
+}
+
+uint64_t SplitMix64(uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// One random stream per (seed, chunk, pass): results do not depend on which thread runs a chunk.
+std::mt19937_64 ChunkRng(uint64_t seed, size_t chunk, int pass) {
+  return std::mt19937_64(SplitMix64(seed ^ SplitMix64(chunk * 4 + static_cast<uint64_t>(pass))));
+}
+
+constexpr size_t kChunkBeams = 4096;
+// Rotation is re-slerped when the firing time moved by more than this; at 90 deg/s that is an
+// error of 0.002 deg, well below the angular jitter. Translation is interpolated per beam.
+constexpr int kRotationStepUs = 20;
+
+// The sensor pose at a firing time: lerp of the translation, slerp of the rotation.
+class PoseAt {
+ public:
+  PoseAt(const Pose& start, const Pose& end, double period_us)
+      : p0_(start.translation()),
+        p1_(end.translation()),
+        q0_(start.rotation()),
+        q1_(end.rotation()),
+        inv_period_(1.0 / period_us),
+        rotates_(q0_.angularDistance(q1_) > 1e-12),
+        R_(start.rotation()) {}
+
+  void Get(int t_us, Eigen::Vector3d* origin, Eigen::Matrix3d* R) {
+    const double s = t_us * inv_period_;
+    *origin = (1.0 - s) * p0_ + s * p1_;
+    if (rotates_ && (cached_t_ < 0 || std::abs(t_us - cached_t_) > kRotationStepUs)) {
+      R_ = q0_.slerp(s, q1_).toRotationMatrix();
+      cached_t_ = t_us;
+    }
+    *R = R_;
+  }
+
+ private:
+  Eigen::Vector3d p0_, p1_;
+  Eigen::Quaterniond q0_, q1_;
+  double inv_period_;
+  bool rotates_;
+  Eigen::Matrix3d R_;
+  int cached_t_ = -1;
+};
+
+// Unit vectors along increasing azimuth and elevation at direction d (LiDAR frame).
+void TangentBasis(const Eigen::Vector3d& d, Eigen::Vector3d* e_az, Eigen::Vector3d* e_el) {
+  const double h = std::sqrt(d.x() * d.x() + d.y() * d.y());
+  *e_az = Eigen::Vector3d(-d.y() / h, d.x() / h, 0.0);
+  *e_el = d.cross(*e_az);
+}
+
+float Intensity(const Primitive& p, const Hit& hit, const Eigen::Vector3d& dir_world) {
+  const double v = 255.0 * p.albedo * std::abs(hit.normal.dot(dir_world));
+  return static_cast<float>(std::clamp(v, 0.0, 255.0));
+}
+
+// Runs fn(chunk) for every chunk on up to two threads; chunks are split statically.
+template <typename Fn>
+void ForEachChunk(size_t num_chunks, Fn fn) {
+  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+  const size_t threads = std::min<size_t>({2, hw, num_chunks});
+  if (threads <= 1) {
+    for (size_t c = 0; c < num_chunks; ++c) fn(c);
+    return;
+  }
+  std::thread worker([&] {
+    for (size_t c = 1; c < num_chunks; c += 2) fn(c);
+  });
+  for (size_t c = 0; c < num_chunks; c += 2) fn(c);
+  worker.join();
+}
+
+}  // namespace
+
+void MakeScanPattern(const LidarModel& model, int frame_index, std::vector<Beam>* beams) {
+  beams->clear();
+  const double period_us = 1e6 / model.frame_rate_hz;
+  switch (model.kind) {
+    case LidarKind::kOt128:
+      beams->reserve(static_cast<size_t>(kOtColumns) * kOtRings);
+      MakeOt128Pattern(model, period_us, beams);
+      break;
+    case LidarKind::kM1:
+      beams->reserve(static_cast<size_t>(kM1Zones) * kM1Lines * kM1Samples);
+      MakeM1Pattern(model, frame_index, period_us, beams);
+      break;
+    case LidarKind::kFalcon:
+      beams->reserve(static_cast<size_t>(model.nominal_points_per_frame));
+      MakeFalconPattern(model, period_us, beams);
+      break;
+  }
+}
+
+LidarSimulator::LidarSimulator(const LidarModel& model, const LidarNoise& noise)
+    : model_(model), noise_(noise) {}
+
+void LidarSimulator::RebuildPatternIfNeeded(int frame_index) {
+  const int key = model_.kind == LidarKind::kM1 ? M1PhaseKey(frame_index) : 0;
+  if (key == pattern_key_) return;
+  MakeScanPattern(model_, frame_index, &beams_);
+  nominal_dir_.resize(beams_.size() * 3);
+  for (size_t i = 0; i < beams_.size(); ++i) {
+    const double az = beams_[i].azimuth_rad, el = beams_[i].elevation_rad;
+    nominal_dir_[3 * i + 0] = static_cast<float>(std::cos(el) * std::cos(az));
+    nominal_dir_[3 * i + 1] = static_cast<float>(std::cos(el) * std::sin(az));
+    nominal_dir_[3 * i + 2] = static_cast<float>(std::sin(el));
+  }
+  state_.resize(beams_.size());
+  out_.resize(beams_.size());
+  pattern_key_ = key;
+}
+
+// Pass 1: the main ray of each beam, from the pose at its firing time along its jittered
+// direction. Dropped beams are cast too, so their neighbours still see the geometry.
+void LidarSimulator::CastMainRays(const Scene& scene, const Pose& T_world_lidar_start,
+                                  const Pose& T_world_lidar_end, uint64_t seed, size_t chunk) {
+  std::mt19937_64 rng = ChunkRng(seed, chunk, 0);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  PoseAt pose(T_world_lidar_start, T_world_lidar_end, 1e6 / model_.frame_rate_hz);
+  const double jitter_rad = noise_.angular_jitter_deg * kDegToRad;
+  const size_t begin = chunk * kChunkBeams, end = std::min(beams_.size(), begin + kChunkBeams);
+  Eigen::Vector3d origin, e_az, e_el;
+  Eigen::Matrix3d R;
+  for (size_t i = begin; i < end; ++i) {
+    BeamState& st = state_[i];
+    st.dropped = uniform(rng) < noise_.dropout_probability;
+    Eigen::Vector3d d(nominal_dir_[3 * i], nominal_dir_[3 * i + 1], nominal_dir_[3 * i + 2]);
+    if (jitter_rad > 0.0) {
+      TangentBasis(d, &e_az, &e_el);
+      const double a = normal(rng), b = normal(rng);
+      d = (d + jitter_rad * (a * e_az + b * e_el)).normalized();
+    }
+    for (int k = 0; k < 3; ++k) st.dir[k] = static_cast<float>(d[k]);
+    pose.Get(beams_[i].time_offset_us, &origin, &R);
+    const Eigen::Vector3d d_world = R * d;
+    Hit hit;
+    if (scene.Cast(origin, d_world, model_.min_range_m, model_.max_range_m, &hit)) {
+      st.t = static_cast<float>(hit.t);
+      st.primitive = hit.primitive;
+      st.intensity = Intensity(scene.primitives[hit.primitive], hit, d_world);
+    } else {
+      st.t = -1.0f;
+      st.primitive = -1;
+      st.intensity = 0.0f;
+    }
+  }
+}
+
+// Pass 2: beams next to a depth edge cast sub-rays over their footprint; then range noise,
+// quantization and the point in the LiDAR frame at firing time.
+void LidarSimulator::FinishBeams(const Scene& scene, const Pose& T_world_lidar_start,
+                                 const Pose& T_world_lidar_end, uint64_t seed, size_t chunk) {
+  std::mt19937_64 rng = ChunkRng(seed, chunk, 1);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  PoseAt pose(T_world_lidar_start, T_world_lidar_end, 1e6 / model_.frame_rate_hz);
+  const double footprint_rad = 0.5e-3 * noise_.beam_divergence_mrad;  // half-angle
+  const double gap = noise_.mixed_point_min_gap_m;
+  const int n = static_cast<int>(beams_.size());
+  const size_t begin = chunk * kChunkBeams, end = std::min(beams_.size(), begin + kChunkBeams);
+  Eigen::Vector3d origin, e_az, e_el;
+  Eigen::Matrix3d R;
+  for (size_t i = begin; i < end; ++i) {
+    const BeamState& st = state_[i];
+    BeamOut& o = out_[i];
+    o.valid = false;
+    if (st.dropped) continue;
+
+    // Only silhouettes matter: a footprint can straddle two depths only where the neighbour
+    // hit another primitive far behind or in front, or nothing (primitives are convex, the
+    // ground is a plane, so a single primitive never hides part of itself).
+    bool edge = false;
+    if (footprint_rad > 0.0) {
+      int nb[4];
+      const int c = PatternNeighbours(model_.kind, static_cast<int>(i), n, nb);
+      for (int k = 0; k < c && !edge; ++k) {
+        const BeamState& sn = state_[nb[k]];
+        if ((st.primitive < 0) != (sn.primitive < 0))
+          edge = true;
+        else if (st.primitive >= 0 && st.primitive != sn.primitive && std::abs(st.t - sn.t) > gap)
+          edge = true;
+      }
+    }
+
+    double range = st.t;
+    float intensity = st.intensity;
+    int primitive = st.primitive;
+    if (edge) {
+      // Footprint: the main ray and four rays on its rim (paper-free model of a beam of
+      // divergence beam_divergence_mrad); each hit is one share of the returned energy.
+      const Eigen::Vector3d d(st.dir[0], st.dir[1], st.dir[2]);
+      TangentBasis(d, &e_az, &e_el);
+      pose.Get(beams_[i].time_offset_us, &origin, &R);
+      double t[5];
+      float inten[5];
+      int prim[5];
+      int hits = 0;
+      if (st.primitive >= 0) {
+        t[hits] = st.t;
+        inten[hits] = st.intensity;
+        prim[hits++] = st.primitive;
+      }
+      const Eigen::Vector3d offsets[4] = {footprint_rad * e_az, -footprint_rad * e_az,
+                                          footprint_rad * e_el, -footprint_rad * e_el};
+      for (const Eigen::Vector3d& off : offsets) {
+        const Eigen::Vector3d d_world = R * (d + off).normalized();
+        Hit hit;
+        if (!scene.Cast(origin, d_world, model_.min_range_m, model_.max_range_m, &hit)) continue;
+        t[hits] = hit.t;
+        inten[hits] = Intensity(scene.primitives[hit.primitive], hit, d_world);
+        prim[hits++] = hit.primitive;
+      }
+      if (hits == 0) continue;
+      int nearest = 0;
+      double far = t[0];
+      for (int k = 1; k < hits; ++k) {
+        if (t[k] < t[nearest]) nearest = k;
+        far = std::max(far, t[k]);
+      }
+      const double near = t[nearest];
+      if (far - near > gap && noise_.mixed_point_probability > 0.0 &&
+          uniform(rng) < noise_.mixed_point_probability) {
+        // Mixed ("ghost") return: the range the sensor's pulse detector reports when the pulse
+        // comes back from two depths, between them in proportion to the energy from each.
+        const double mid = 0.5 * (near + far);
+        int n_far = 0;
+        float sum_intensity = 0.0f;
+        for (int k = 0; k < hits; ++k) {
+          if (t[k] > mid) ++n_far;
+          sum_intensity += inten[k];
+        }
+        range = near + (far - near) * n_far / hits;
+        intensity = sum_intensity / static_cast<float>(hits);
+        primitive = -1;
+      } else if (far - near > gap || st.primitive < 0) {
+        range = near;
+        intensity = inten[nearest];
+        primitive = prim[nearest];
+      }
+    } else if (st.primitive < 0) {
+      continue;
+    }
+
+    if (noise_.range_sigma_m > 0.0) range += noise_.range_sigma_m * normal(rng);
+    if (model_.range_quantization_m > 0.0)
+      range = std::round(range / model_.range_quantization_m) * model_.range_quantization_m;
+    if (range <= 0.0) continue;
+    // The sensor reports its nominal (encoder/mirror) direction; the jitter moved the true beam.
+    o.x = static_cast<float>(range * nominal_dir_[3 * i]);
+    o.y = static_cast<float>(range * nominal_dir_[3 * i + 1]);
+    o.z = static_cast<float>(range * nominal_dir_[3 * i + 2]);
+    o.intensity = intensity;
+    o.board = static_cast<int16_t>(primitive >= 0 ? scene.primitives[primitive].board_index : -1);
+    o.valid = true;
+  }
+}
+
+void LidarSimulator::Scan(const Scene& scene, const Pose& T_world_lidar_start,
+                          const Pose& T_world_lidar_end, int frame_index, uint64_t seed,
+                          LidarScan* out) {
+  RebuildPatternIfNeeded(frame_index);
+  out->Clear();
+  out->Reserve(beams_.size());
+  const size_t num_chunks = (beams_.size() + kChunkBeams - 1) / kChunkBeams;
+  ForEachChunk(num_chunks, [&](size_t c) {
+    CastMainRays(scene, T_world_lidar_start, T_world_lidar_end, seed, c);
+  });
+  ForEachChunk(num_chunks, [&](size_t c) {
+    FinishBeams(scene, T_world_lidar_start, T_world_lidar_end, seed, c);
+  });
+  for (size_t i = 0; i < beams_.size(); ++i) {
+    const BeamOut& o = out_[i];
+    if (!o.valid) continue;
+    out->x.push_back(o.x);
+    out->y.push_back(o.y);
+    out->z.push_back(o.z);
+    out->intensity.push_back(o.intensity);
+    out->ring.push_back(beams_[i].ring);
+    out->time_offset_us.push_back(beams_[i].time_offset_us);
+    out->board.push_back(o.board);
+  }
+}
+
+}  // namespace calibd::sim

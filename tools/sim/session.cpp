@@ -1,0 +1,168 @@
+#include "session.hpp"
+
+#include <cmath>
+#include <random>
+
+namespace calibd::sim {
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+Pose MountPose(const Eigen::Matrix<double, 6, 1>& m) {
+  return PoseFromXyzRpy(m.head<3>(), m.tail<3>() * kDeg);
+}
+
+// Optical frame (x right, y down, z forward) in the camera body frame (x forward, y left, z up).
+Eigen::Matrix3d R_body_optical() {
+  Eigen::Matrix3d R;
+  R.col(0) = -Eigen::Vector3d::UnitY();
+  R.col(1) = -Eigen::Vector3d::UnitZ();
+  R.col(2) = Eigen::Vector3d::UnitX();
+  return R;
+}
+
+// SplitMix64: decorrelated per-frame seeds from (session seed, frame, stream).
+uint64_t Mix(uint64_t seed, uint64_t k, uint64_t stream) {
+  uint64_t z = seed + 0x9e3779b97f4a7c15ULL * (k * 4 + stream + 1);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+}  // namespace
+
+bool SessionOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!workshop.IsValid(error) || !trajectory.IsValid(error)) return false;
+  LidarKind kind;
+  if (!LidarKindFromName(lidar_model, &kind, error)) return false;
+  std::string why;
+  if (!camera.IsValid(&why)) return fail("camera intrinsics: " + why);
+  if (!(std::abs(prior_rot_deg) <= 10.0)) return fail("--prior-rot-deg must be within +-10 deg");
+  if (!(std::abs(prior_trans_m) <= 0.5)) return fail("--prior-trans-m must be within +-0.5 m");
+  if (!(lidar_noise.range_sigma_m >= 0.0 && lidar_noise.range_sigma_m <= 0.5))
+    return fail("--range-noise must be in [0, 0.5] m");
+  if (!(lidar_noise.dropout_probability >= 0.0 && lidar_noise.dropout_probability < 1.0))
+    return fail("--dropout must be in [0, 1)");
+  if (!(imaging.noise_sigma >= 0.0 && imaging.blur_sigma_px >= 0.0))
+    return fail("--image-noise and --blur must be >= 0");
+  if (camera_id.empty() || lidar_id.empty())
+    return fail("--camera-id and --lidar-id must not be empty");
+  return true;
+}
+
+bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
+  if (!options.IsValid(error)) return false;
+  options_ = options;
+  if (!BuildWorkshop(options.workshop, options.seed, &workshop_, error)) return false;
+  LidarKind kind;
+  LidarKindFromName(options.lidar_model, &kind, nullptr);
+  lidar_.emplace(MakeLidarModel(kind), options.lidar_noise);
+  if (!camera_ || !(camera_->model().intrinsics().fx == options.camera.fx &&
+                    camera_->model().intrinsics().width == options.camera.width)) {
+    camera_.emplace(options.camera, options.imaging);
+  }
+
+  T_vehicle_lidar_ = MountPose(options.lidar_mount);
+  T_vehicle_camera_ = MountPose(options.camera_mount);
+  T_vehicle_camera_.linear() = T_vehicle_camera_.linear() * R_body_optical();
+  T_camera_lidar_ = T_vehicle_camera_.inverse() * T_vehicle_lidar_;
+
+  std::mt19937_64 rng(Mix(options.seed, 0, 3));
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Eigen::Vector3d axis = options.prior_rot_axis;
+  if (axis.norm() < 1e-9) axis = Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
+  Eigen::Vector3d dir(n01(rng), n01(rng), n01(rng));
+  Pose dT = Pose::Identity();
+  dT.linear() = RotationFromAxisAngle(axis, options.prior_rot_deg * kDeg);
+  dT.translation() = dir.normalized() * options.prior_trans_m;
+  prior_T_camera_lidar_ = T_camera_lidar_ * dT;
+
+  // Phase: mean firing time of the beams looking along the camera's optical axis.
+  const Eigen::Vector3d axis_lidar =
+      T_camera_lidar_.linear().transpose() * Eigen::Vector3d::UnitZ();
+  const double cam_az = std::atan2(axis_lidar.y(), axis_lidar.x());
+  std::vector<Beam> beams;
+  MakeScanPattern(lidar_->model(), 0, &beams);
+  double sum = 0.0;
+  int count = 0;
+  for (const Beam& b : beams) {
+    if (std::abs(std::remainder(b.azimuth_rad - cam_az, 2.0 * M_PI)) < 2.0 * kDeg) {
+      sum += b.time_offset_us;
+      ++count;
+    }
+  }
+  const double period_us = 1e6 / lidar_->model().frame_rate_hz;
+  camera_phase_us_ = count > 0 ? static_cast<int64_t>(std::llround(sum / count))
+                               : static_cast<int64_t>(period_us / 2);
+  return true;
+}
+
+void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, FrameTruth* truth) {
+  const auto& traj = options_.trajectory;
+  const double lidar_x = T_vehicle_lidar_.translation().x();
+  const int64_t frame_period_us = static_cast<int64_t>(std::llround(1e6 / traj.rate_hz));
+  const int64_t camera_utime = options_.start_utime + k * frame_period_us;
+  const int64_t lidar_utime = camera_utime - camera_phase_us_;
+  const double sweep_s = 1.0 / lidar_->model().frame_rate_hz;
+  auto seconds = [&](int64_t utime) {
+    return static_cast<double>(utime - options_.start_utime) * 1e-6;
+  };
+
+  const Pose T_world_vehicle_cam = VehiclePoseAt(traj, lidar_x, seconds(camera_utime));
+  const Pose T_world_camera = T_world_vehicle_cam * T_vehicle_camera_;
+  const Pose T_world_lidar_start =
+      VehiclePoseAt(traj, lidar_x, seconds(lidar_utime)) * T_vehicle_lidar_;
+  const Pose T_world_lidar_end =
+      VehiclePoseAt(traj, lidar_x, seconds(lidar_utime) + sweep_s) * T_vehicle_lidar_;
+
+  if (image) {
+    camera_->Render(workshop_.scene, workshop_.faces, T_world_camera, Mix(options_.seed, k, 1),
+                    image);
+  }
+  lidar_->Scan(workshop_.scene, T_world_lidar_start, T_world_lidar_end, k, Mix(options_.seed, k, 2),
+               scan);
+
+  truth->index = k;
+  truth->camera_utime = camera_utime;
+  truth->lidar_utime = lidar_utime;
+  truth->T_world_vehicle = T_world_vehicle_cam;
+  truth->boards.resize(workshop_.scene.boards.size());
+  for (size_t b = 0; b < workshop_.scene.boards.size(); ++b) {
+    BoardTruth& bt = truth->boards[b];
+    const Pose& T_world_board = workshop_.scene.boards[b].T_world_board;
+    bt.board_id = workshop_.geometries[b].board_id;
+    bt.T_camera_board = T_world_camera.inverse() * T_world_board;
+    bt.T_lidar_board = T_world_lidar_start.inverse() * T_world_board;
+    // The tag is usable when it faces the camera and all corners land 2 px inside the image.
+    const Eigen::Vector3d to_camera = -bt.T_camera_board.translation();
+    bool in_image = bt.T_camera_board.linear().col(2).dot(to_camera) > 0.0;
+    for (const auto& c : workshop_.geometries[b].TagCornersInBoard()) {
+      Eigen::Vector2d uv;
+      in_image = in_image && camera_->model().Project(bt.T_camera_board * c, &uv, -2.0);
+    }
+    bt.tag_in_image = in_image;
+    bt.lidar_point_indices.clear();
+  }
+  for (size_t i = 0; i < scan->size(); ++i) {
+    const int b = scan->board[i];
+    if (b >= 0) truth->boards[b].lidar_point_indices.push_back(static_cast<int>(i));
+  }
+}
+
+CalibConfig SessionSimulator::UserConfig() const {
+  CalibConfig c;
+  c.camera_id = options_.camera_id;
+  c.camera = options_.camera;
+  c.lidar_id = options_.lidar_id;
+  c.lidar_model = options_.lidar_model;
+  c.boards = workshop_.geometries;
+  c.prior_T_camera_lidar = prior_T_camera_lidar_;
+  return c;
+}
+
+}  // namespace calibd::sim

@@ -1,0 +1,47 @@
+#pragma once
+/// \file
+/// The workshop: flat ground, walls, clutter (poles, crates, a parked car, people, a door-like
+/// panel) and N square calibration boards on stands. World frame W: z up; the boards stand near the
+/// line x = 0 facing -x, where the vehicle drives back and forth.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "calibd/core/board.hpp"
+#include "scene.hpp"
+#include "tag_texture.hpp"
+
+namespace calibd::sim {
+
+struct WorkshopOptions {
+  int num_boards = 3;
+  double board_width_m = 0.6;
+  double board_height_m = 0.6;
+  double board_thickness_m = 0.01;
+  std::string tag_family = "tag36h11";
+  double tag_size_m = 0.48;  ///< side of the tag's black square
+  std::vector<int> tag_ids;  ///< one per board; empty: 0, 1, 2, ...
+  /// Board layout: "spread" (default: boards side by side, varied heights, yaw and tilt), "line"
+  /// (side by side, all facing straight at the vehicle: a degenerate case for calibration tests) or
+  /// "stack" (boards one above the other).
+  std::string layout = "spread";
+  double board_spacing_m = 2.2;  ///< lateral distance between neighbouring boards
+  bool clutter = true;           ///< poles, crates, car, people, door panel
+  bool walls = true;
+
+  bool IsValid(std::string* error) const;
+};
+
+struct Workshop {
+  Scene scene;
+  std::vector<BoardFace> faces;           ///< faces[i] textures scene.boards[i]
+  std::vector<BoardGeometry> geometries;  ///< geometries[i] of scene.boards[i]
+};
+
+/// Builds the workshop. Clutter placement depends on `seed`. False with `error` on bad options
+/// (unknown tag family, tag id out of range).
+bool BuildWorkshop(const WorkshopOptions& options, uint64_t seed, Workshop* out,
+                   std::string* error);
+
+}  // namespace calibd::sim
