@@ -4,7 +4,7 @@ PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 
-.PHONY: all deps configure build test demo format clean
+.PHONY: all deps configure build test demo docs-picture format clean
 
 all: build
 
@@ -22,6 +22,13 @@ test: build
 
 demo: build
 	@bash tools/demo.sh $(BUILD)
+
+# Regenerates the README picture: the default workshop seen from 8 m, LiDAR points projected.
+docs-picture: build
+	@mkdir -p docs /tmp/calibd-docs
+	@$(BUILD)/tools/sim/calibd-sim --quiet --seed 1 --trajectory static --static-distance 8 --frames 1 \
+	  --overlay-frame 0 --overlay-scale 0.4 --overlay-png docs/sim_frame.png --out /tmp/calibd-docs/picture.lcmlog
+	@rm -rf /tmp/calibd-docs
 
 format:
 	@find core drivers agent tools tests lcm_types \( -name '*.cpp' -o -name '*.hpp' \) -print0 2>/dev/null | xargs -0 clang-format -i

@@ -24,63 +24,17 @@
 #include "calibd/core/geometry.hpp"
 #include "camera_render.hpp"
 #include "scene.hpp"
+#include "tag_detector.hpp"
 #include "tag_texture.hpp"
 
 namespace calibd::sim {
 namespace {
 
+using calibd::testing::Detection;
+using calibd::testing::TagDetector;
+
 constexpr double kDegToRad = M_PI / 180.0;
 constexpr double kBoardThickness = 0.02;  // m
-
-// ---- AprilTag in RAII (the C objects never escape this block) ----
-struct FamilyDeleter {
-  void (*destroy)(apriltag_family_t*) = tag36h11_destroy;
-  void operator()(apriltag_family_t* f) const { destroy(f); }
-};
-struct DetectorDeleter {
-  void operator()(apriltag_detector_t* d) const { apriltag_detector_destroy(d); }
-};
-struct DetectionsDeleter {
-  void operator()(zarray_t* z) const { apriltag_detections_destroy(z); }
-};
-
-struct Detection {
-  int id = -1;
-  std::array<Eigen::Vector2d, 4> corners;  ///< OpenCV pixel convention, AprilTag's order
-};
-
-class TagDetector {
- public:
-  explicit TagDetector(apriltag_family_t* (*create)() = tag36h11_create,
-                       void (*destroy)(apriltag_family_t*) = tag36h11_destroy)
-      : family_(create(), FamilyDeleter{destroy}), detector_(apriltag_detector_create()) {
-    apriltag_detector_add_family(detector_.get(), family_.get());
-    detector_->quad_decimate = 1.0f;
-    detector_->refine_edges = true;
-    detector_->nthreads = 2;
-  }
-
-  std::vector<Detection> Detect(const cv::Mat& mono8) const {
-    image_u8_t im{mono8.cols, mono8.rows, static_cast<int32_t>(mono8.step[0]), mono8.data};
-    std::unique_ptr<zarray_t, DetectionsDeleter> dets(
-        apriltag_detector_detect(detector_.get(), &im));
-    std::vector<Detection> out;
-    for (int i = 0; i < zarray_size(dets.get()); ++i) {
-      apriltag_detection_t* d = nullptr;
-      zarray_get(dets.get(), i, &d);
-      Detection det;
-      det.id = d->id;
-      // AprilTag reports pixel centres at i + 0.5 (shared/FACTS.md); our convention is OpenCV's.
-      for (int k = 0; k < 4; ++k) det.corners[k] = {d->p[k][0] - 0.5, d->p[k][1] - 0.5};
-      out.push_back(det);
-    }
-    return out;
-  }
-
- private:
-  std::unique_ptr<apriltag_family_t, FamilyDeleter> family_;  // outlives the detector
-  std::unique_ptr<apriltag_detector_t, DetectorDeleter> detector_;
-};
 
 // ---- Scene helpers ----
 

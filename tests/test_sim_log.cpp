@@ -7,6 +7,8 @@
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "calibd/camera_frame_t.hpp"
 #include "calibd/channels.hpp"
@@ -167,6 +169,32 @@ TEST(SimSessionTest, SameSeedSameBytesOtherSeedOtherBytes) {
   EXPECT_GT(a.size(), 1000000u);
   EXPECT_TRUE(a == b) << "same seed must give the same log, byte for byte";
   EXPECT_FALSE(a == c) << "another seed must give another log";
+}
+
+TEST(SimSessionTest, JpegFramesDecodeToTheRawImage) {
+  testing::TempDir dir;
+  std::string error;
+  SimSummary summary;
+  SessionOptions o = SmallSession("m1", "static");
+  o.trajectory.duration_s = 0.1;
+  SimOutputs out;
+  out.log_path = dir.file("raw.lcmlog");
+  ASSERT_TRUE(RunSimulation(o, out, &summary, nullptr, &error)) << error;
+  o.image_encoding = "jpeg";
+  out.log_path = dir.file("jpeg.lcmlog");
+  ASSERT_TRUE(RunSimulation(o, out, &summary, nullptr, &error)) << error;
+  const Received raw = ReadBack(dir.file("raw.lcmlog"));
+  const Received jpeg = ReadBack(dir.file("jpeg.lcmlog"));
+  ASSERT_EQ(raw.cameras.size(), 1u);
+  ASSERT_EQ(jpeg.cameras.size(), 1u);
+  const auto& j = jpeg.cameras[0];
+  EXPECT_EQ(j.encoding, int8_t{calibd::camera_frame_t::ENCODING_JPEG});
+  EXPECT_LT(j.size, raw.cameras[0].size / 3);
+  const cv::Mat decoded = cv::imdecode(j.data, cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(decoded.cols, 960);
+  ASSERT_EQ(decoded.rows, 480);
+  const cv::Mat raw_img(480, 960, CV_8UC1, const_cast<uint8_t*>(raw.cameras[0].data.data()));
+  EXPECT_LT(cv::norm(decoded, raw_img, cv::NORM_L1) / (960.0 * 480.0), 3.0);
 }
 
 }  // namespace

@@ -32,6 +32,7 @@ Output:
   --config-out FILE        calibration config YAML (intrinsics, boards, LiDAR model, perturbed prior)
   --overlay-png FILE       picture of one frame with LiDAR points projected (true extrinsic)
   --overlay-frame N        frame for --overlay-png (default 0)
+  --overlay-scale S        size of that picture relative to the image (default 0.5)
   --quiet                  no progress or summary
 Session:
   --seed N                 random seed; same seed, same output (default 1)
@@ -66,6 +67,8 @@ Camera:
   --blur PX                optical blur sigma (default 0.7)
   --image-noise DN         sensor noise sigma, grey levels (default 2)
   --exposure MIN,MAX       per-frame exposure gain range (default 0.8,1.2)
+  --image-encoding ENC     mono8 (raw, 7.4 MB a frame) | jpeg (about 10x smaller) (default mono8)
+  --jpeg-quality Q         JPEG quality 1-100 (default 95)
 Extrinsic (vehicle frame: x forward, y left, z up; angles in degrees):
   --lidar-mount X,Y,Z,ROLL,PITCH,YAW    (default 1.2,0,1.95,0,0,0)
   --camera-mount X,Y,Z,ROLL,PITCH,YAW   forward-looking body angles (default 1.6,0.05,1.45,0.5,2,-0.8)
@@ -165,6 +168,7 @@ int main(int argc, char** argv) {
       {"--config-out", text(&out.config_path)},
       {"--overlay-png", text(&out.overlay_path)},
       {"--overlay-frame", integer(&out.overlay_frame, 0, 1e6)},
+      {"--overlay-scale", number(&out.overlay_scale, 0.05, 1.0)},
       {"--seed", integer(&o.seed, 0, 9.0e15)},
       {"--lidar", text(&o.lidar_model)},
       {"--trajectory", text(&o.trajectory.mode)},
@@ -221,6 +225,8 @@ int main(int argc, char** argv) {
                             o.imaging.exposure_min = n[0];
                             o.imaging.exposure_max = n[1];
                           })},
+      {"--image-encoding", text(&o.image_encoding)},
+      {"--jpeg-quality", integer(&o.jpeg_quality, 1, 100)},
       {"--lidar-mount", list(6, 6,
                              [&](auto& n) {
                                for (int i = 0; i < 6; ++i) o.lidar_mount[i] = n[i];

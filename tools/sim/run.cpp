@@ -63,6 +63,8 @@ bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, Sim
       static_cast<int64_t>(std::llround(1e6 / session.lidar_model().frame_rate_hz));
   const int info_every = std::max(
       1, static_cast<int>(std::lround(options.trajectory.rate_hz / channels::kSensorInfo.rate_hz)));
+  const int8_t encoding = options.image_encoding == "jpeg" ? calibd::camera_frame_t::ENCODING_JPEG
+                                                           : calibd::camera_frame_t::ENCODING_MONO8;
   summary->frames.clear();
   const auto t0 = std::chrono::steady_clock::now();
 
@@ -81,7 +83,11 @@ bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, Sim
                             error))
         return false;
     }
-    ToCameraMessage(image, frame_truth.camera_utime, options.camera_id, &camera_msg);
+    if (!ToCameraMessage(image, frame_truth.camera_utime, options.camera_id, encoding,
+                         options.jpeg_quality, &camera_msg)) {
+      if (error) *error = "JPEG encoding of frame " + std::to_string(k) + " failed";
+      return false;
+    }
     if (!log.WriteMessage(cam_channel, frame_truth.camera_utime, camera_msg, error)) return false;
     ToLidarMessage(scan, frame_truth.lidar_utime, options.lidar_id, &lidar_msg);
     if (!log.WriteMessage(lidar_channel, frame_truth.lidar_utime + sweep_us, lidar_msg, error))

@@ -50,6 +50,9 @@ bool SessionOptions::IsValid(std::string* error) const {
     return fail("--dropout must be in [0, 1)");
   if (!(imaging.noise_sigma >= 0.0 && imaging.blur_sigma_px >= 0.0))
     return fail("--image-noise and --blur must be >= 0");
+  if (image_encoding != "mono8" && image_encoding != "jpeg")
+    return fail("--image-encoding must be mono8 or jpeg (got '" + image_encoding + "')");
+  if (jpeg_quality < 1 || jpeg_quality > 100) return fail("--jpeg-quality must be in [1, 100]");
   if (camera_id.empty() || lidar_id.empty())
     return fail("--camera-id and --lidar-id must not be empty");
   return true;

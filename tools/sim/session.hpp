@@ -27,6 +27,8 @@ struct SessionOptions {
   LidarNoise lidar_noise;
   CameraIntrinsics camera;
   CameraImaging imaging;
+  std::string image_encoding = "mono8";  ///< "mono8" (raw) or "jpeg" in the log
+  int jpeg_quality = 95;
   /// Mounts in the vehicle frame (x forward, y left, z up): x, y, z (m) and roll, pitch, yaw (deg).
   /// The camera's angles rotate a forward-looking body frame; the optical frame (x right, y down,
   /// z forward) follows from it. The true T_camera_lidar = T_vehicle_camera^-1 T_vehicle_lidar.
