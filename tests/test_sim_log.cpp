@@ -16,6 +16,7 @@
 #include "calibd/lidar_frame_t.hpp"
 #include "calibd/sensor_info_t.hpp"
 #include "run.hpp"
+#include "small_camera.hpp"
 #include "temp_dir.hpp"
 #include "truth_json.hpp"
 
@@ -72,12 +73,7 @@ SessionOptions SmallSession(const std::string& lidar, const std::string& mode) {
   o.lidar_model = lidar;
   o.trajectory.mode = mode;
   o.trajectory.duration_s = 0.5;  // 5 frame pairs
-  // A smaller camera keeps the test quick; the image path is the same as at full size.
-  o.camera.width = 960;
-  o.camera.height = 480;
-  o.camera.fx = o.camera.fy = 831.0;
-  o.camera.cx = 479.5;
-  o.camera.cy = 239.5;
+  o.camera = testing::SmallCamera();
   return o;
 }
 

@@ -8,6 +8,7 @@
 
 #include "calibd/drivers/config_file.hpp"
 #include "session.hpp"
+#include "small_camera.hpp"
 #include "temp_dir.hpp"
 
 namespace calibd::sim {
@@ -35,11 +36,7 @@ TEST(TrajectoryTest, DriveGoesFromNearToFarAndBack) {
 }
 
 SessionOptions SmallCamera(SessionOptions o) {
-  o.camera.width = 960;
-  o.camera.height = 480;
-  o.camera.fx = o.camera.fy = 831.0;
-  o.camera.cx = 479.5;
-  o.camera.cy = 239.5;
+  o.camera = testing::SmallCamera();
   return o;
 }
 

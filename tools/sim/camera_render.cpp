@@ -257,20 +257,8 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
       has_ground = true;
       continue;
     }
-    Eigen::Vector3d lo, hi;
-    if (p.shape == Primitive::Shape::kBox) {
-      lo = -p.half_extents;
-      hi = p.half_extents;
-    } else {
-      lo = Eigen::Vector3d(-p.radius, -p.radius, 0.0);
-      hi = Eigen::Vector3d(p.radius, p.radius, p.height);
-    }
-    std::array<Eigen::Vector3d, 8> corners;
-    for (int c = 0; c < 8; ++c) {
-      const Eigen::Vector3d corner_local((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(),
-                                         (c & 4) ? hi.z() : lo.z());
-      corners[c] = R_camera_world * (p.T_world_local * corner_local - origin);
-    }
+    std::array<Eigen::Vector3d, 8> corners = LocalBoxCorners(p);
+    for (Eigen::Vector3d& c : corners) c = R_camera_world * (p.T_world_local * c - origin);
     Rect rect;
     if (!NormalisedRect(corners, &rect)) continue;  // entirely behind the camera
     FramePrimitive fp;

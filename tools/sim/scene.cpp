@@ -15,20 +15,9 @@ Aabb ComputeBounds(const Primitive& p) {
     b.hi = Eigen::Vector3d(kInf, kInf, 1e-9);
     return b;
   }
-  // Corners of the local box (a cylinder's bounding box in its local frame) mapped to W.
-  Eigen::Vector3d lo_l, hi_l;
-  if (p.shape == Primitive::Shape::kBox) {
-    lo_l = -p.half_extents;
-    hi_l = p.half_extents;
-  } else {
-    lo_l = Eigen::Vector3d(-p.radius, -p.radius, 0.0);
-    hi_l = Eigen::Vector3d(p.radius, p.radius, p.height);
-  }
   b.lo = Eigen::Vector3d::Constant(kInf);
   b.hi = Eigen::Vector3d::Constant(-kInf);
-  for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3d corner((c & 1) ? hi_l.x() : lo_l.x(), (c & 2) ? hi_l.y() : lo_l.y(),
-                                 (c & 4) ? hi_l.z() : lo_l.z());
+  for (const Eigen::Vector3d& corner : LocalBoxCorners(p)) {
     const Eigen::Vector3d w = p.T_world_local * corner;
     b.lo = b.lo.cwiseMin(w);
     b.hi = b.hi.cwiseMax(w);
@@ -63,6 +52,23 @@ bool SlabEnter(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Eigen
   return true;
 }
 }  // namespace
+
+std::array<Eigen::Vector3d, 8> LocalBoxCorners(const Primitive& p) {
+  Eigen::Vector3d lo, hi;
+  if (p.shape == Primitive::Shape::kBox) {
+    lo = -p.half_extents;
+    hi = p.half_extents;
+  } else {  // cylinder: base centre at the origin, axis along local z
+    lo = Eigen::Vector3d(-p.radius, -p.radius, 0.0);
+    hi = Eigen::Vector3d(p.radius, p.radius, p.height);
+  }
+  std::array<Eigen::Vector3d, 8> corners;
+  for (int c = 0; c < 8; ++c) {
+    corners[c] = Eigen::Vector3d((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(),
+                                 (c & 4) ? hi.z() : lo.z());
+  }
+  return corners;
+}
 
 bool IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min, double t_max,
                      double* t, Eigen::Vector3d* normal) {

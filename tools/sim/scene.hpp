@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <vector>
 
 #include "calibd/core/geometry.hpp"
@@ -62,6 +63,10 @@ class Scene {
  private:
   std::vector<Aabb> bounds_;
 };
+
+/// The 8 corners of a box or cylinder's local bounding box, in its local frame (corner c takes hi
+/// on axis k where bit k of c is set). Not defined for the ground plane.
+std::array<Eigen::Vector3d, 8> LocalBoxCorners(const Primitive& p);
 
 /// Ray-primitive intersections, exposed for tests. Return the entry distance t in (t_min, t_max)
 /// and the outward normal in W; false when there is none.
