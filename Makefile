@@ -1,10 +1,12 @@
 # Thin wrapper over CMake presets. `make demo` and `make test` install missing Debian packages,
-# configure, build and run. PRESET=debug|release|asan (default release).
+# configure, build and run. `make test` runs the suite twice: optimised (release) and under
+# AddressSanitizer + UndefinedBehaviorSanitizer (asan). `make check PRESET=debug|release|asan` runs
+# one build's suite. PRESET defaults to release.
 PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 
-.PHONY: all deps configure build test demo docs-picture format clean
+.PHONY: all deps configure build test check demo docs-picture format clean
 
 all: build
 
@@ -17,8 +19,12 @@ configure: deps
 build: configure
 	@cmake --build --preset $(PRESET) -j $(JOBS)
 
-test: build
+check: build
 	@ctest --preset $(PRESET) -j $(JOBS)
+
+test: deps
+	@$(MAKE) --no-print-directory check PRESET=release
+	@$(MAKE) --no-print-directory check PRESET=asan
 
 demo: build
 	@bash tools/demo.sh $(BUILD)
