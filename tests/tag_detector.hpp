@@ -52,7 +52,8 @@ class TagDetector {
       zarray_get(dets.get(), i, &d);
       Detection det;
       det.id = d->id;
-      // AprilTag reports pixel centres at i + 0.5 (shared/FACTS.md); our convention is OpenCV's.
+      // AprilTag reports pixel centres at i + 0.5 (docs/conventions.md#apriltag-pixels); our
+      // convention is OpenCV's.
       for (int k = 0; k < 4; ++k) det.corners[k] = {d->p[k][0] - 0.5, d->p[k][1] - 0.5};
       out.push_back(det);
     }

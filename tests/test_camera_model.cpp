@@ -1,4 +1,4 @@
-// CameraModel: projection, undistortion and the fold-over gate (shared/FACTS.md).
+// CameraModel: projection, undistortion and the fold-over gate (docs/conventions.md#fold-over).
 
 #include <gtest/gtest.h>
 
@@ -53,7 +53,7 @@ TEST(CameraModel, DistortToPixelMatchesOpenCvProjectPoints) {
 
 TEST(CameraModel, FoldOverGateRejectsFarOffAxisPointsThatDistortIntoTheImage) {
   // With the default k3 < 0 the radial map turns back and crosses zero near 70 degrees off-axis
-  // (shared/FACTS.md): a 360-degree LiDAR point there distorts *into* the image.
+  // (docs/conventions.md#fold-over): a 360-degree LiDAR point there distorts *into* the image.
   const CameraIntrinsics c;
   ASSERT_LT(c.k3, 0.0);
   const CameraModel model(c);

@@ -162,8 +162,9 @@ class CameraRenderTest : public ::testing::Test {
 
     auto detections = (detector ? *detector : detector_).Detect(image);
     if (family == "tag16h5" || family == "tag25h9") {
-      // Small families fire on textured floors, even with a configured id (shared/FACTS.md): keep
-      // the configured id where the tag is predicted, as a detector on predicted regions would.
+      // Small families fire on textured floors, even with a configured id
+      // (docs/conventions.md#small-families): keep the configured id where the tag is predicted, as
+      // a detector on predicted regions would.
       const Eigen::Vector2d centre = (expected[0] + expected[1] + expected[2] + expected[3]) / 4;
       detections.erase(
           std::remove_if(detections.begin(), detections.end(),

@@ -64,7 +64,7 @@ bool CameraModel::Project(const Eigen::Vector3d& p_camera, Eigen::Vector2d* uv,
                           double margin_px) const {
   if (!(p_camera.z() > 1e-9)) return false;
   const Eigen::Vector2d xy = p_camera.head<2>() / p_camera.z();
-  if (!(xy.norm() <= max_radius_)) return false;  // fold-over gate (shared/FACTS.md)
+  if (!(xy.norm() <= max_radius_)) return false;  // fold-over gate (docs/conventions.md#fold-over)
   *uv = DistortToPixel(xy);
   const auto& c = intrinsics_;
   return uv->x() >= -0.5 - margin_px && uv->x() <= c.width - 0.5 + margin_px &&

@@ -82,7 +82,7 @@ bool BoardFace::Build(const BoardGeometry& g, std::string* error) {
   }
 
   // Same layout as apriltag_to_image() (apriltag.c), decoded here so that no image_u8 (which
-  // lives in libapriltag-utils, shared/FACTS.md) is needed. Everything starts black.
+  // lives in libapriltag-utils) is needed. Everything starts black.
   const int total = fam->total_width;
   const int at_border = fam->width_at_border;
   std::vector<uint8_t> grid_bits(static_cast<size_t>(total) * static_cast<size_t>(total), 0);

@@ -23,7 +23,7 @@ struct BoardGeometry {
   bool IsValid(std::string* error) const;
 
   /// The 4 tag corners in B in AprilTag's detection order: bottom-left, bottom-right, top-right,
-  /// top-left (counter-clockwise facing the tag, shared/FACTS.md), z = 0.
+  /// top-left (counter-clockwise facing the tag, docs/conventions.md#apriltag-order), z = 0.
   std::array<Eigen::Vector3d, 4> TagCornersInBoard() const;
 
   /// The 4 board vertices in B, same order as the tag corners.

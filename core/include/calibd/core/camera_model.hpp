@@ -2,7 +2,8 @@
 /// \file
 /// Pinhole camera with radial-tangential (Brown-Conrady, OpenCV's k1,k2,p1,p2,k3) distortion.
 /// Pixel convention: OpenCV's, pixel centres at integer coordinates (AprilTag reports +0.5, see
-/// shared/FACTS.md; convert at the detector boundary). Camera frame: x right, y down, z forward.
+/// docs/conventions.md#apriltag-pixels; convert at the detector boundary). Camera frame: x right, y
+/// down, z forward.
 
 #include <Eigen/Core>
 #include <string>
@@ -21,9 +22,9 @@ struct CameraIntrinsics {
 };
 
 /// Projection and back-projection through the distortion model, with the fold-over gate of
-/// shared/FACTS.md: a point whose undistorted radius lies beyond where the radial mapping stops
-/// increasing (or far outside the image) is rejected, so points behind or beside the camera never
-/// land in the image.
+/// docs/conventions.md#fold-over: a point whose undistorted radius lies beyond where the radial
+/// mapping stops increasing (or far outside the image) is rejected, so points behind or beside the
+/// camera never land in the image.
 class CameraModel {
  public:
   explicit CameraModel(const CameraIntrinsics& intrinsics);

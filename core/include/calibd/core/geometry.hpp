@@ -15,7 +15,8 @@ using Pose = Eigen::Isometry3d;
 Eigen::Matrix3d RotationFromRpy(double roll, double pitch, double yaw);
 
 /// Inverse of RotationFromRpy, radians, pitch in [-pi/2, pi/2]. Ill-conditioned near pitch = +-90
-/// deg (shared/FACTS.md): compare rotations with RotationAngle, never with Euler differences.
+/// deg (docs/conventions.md#euler): compare rotations with RotationAngle, never with Euler
+/// differences.
 Eigen::Vector3d RpyFromRotation(const Eigen::Matrix3d& R);
 
 /// Pose from translation (m) and roll/pitch/yaw (radians).
