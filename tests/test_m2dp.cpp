@@ -98,6 +98,50 @@ TEST(M2dpTest, PcaAxesAreARightHandedRotationSortedByVariance) {
   EXPECT_LT(pca.planarity(), 0.25);                   // the lip leaves the plane
 }
 
+TEST(M2dpTest, InPlaneRectangleIsTheBoardWhateverItsTurnInItsPlane) {
+  // A 0.6 x 0.4 grid turned 30 deg in its plane and stood upright 10 m ahead: the PCA extents of
+  // a square follow any direction, the smallest rectangle its sides.
+  for (double w : {0.6, 0.4}) {
+    std::vector<Eigen::Vector3f> points;
+    const double turn = 30.0 * M_PI / 180.0;
+    for (double u = -0.3; u <= 0.3 + 1e-9; u += 0.02)
+      for (double v = -w / 2; v <= w / 2 + 1e-9; v += 0.02)
+        points.emplace_back(10.0f, static_cast<float>(std::cos(turn) * u - std::sin(turn) * v),
+                            static_cast<float>(std::sin(turn) * u + std::cos(turn) * v));
+    ClusterPca pca;
+    ComputeClusterPca(points.data(), static_cast<int>(points.size()), &pca);
+    const Eigen::Vector2d rect =
+        InPlaneRectangle(pca, points.data(), static_cast<int>(points.size()));
+    EXPECT_NEAR(rect(0), 0.6, 0.01) << w;
+    EXPECT_NEAR(rect(1), w, 0.01) << w;
+  }
+}
+
+TEST(M2dpTest, AWeightCountsLikeThatManyCopiesOfAPoint) {
+  std::mt19937 rng(7);
+  const std::vector<Eigen::Vector3f> cluster = AsymmetricCluster(&rng);
+  std::vector<Eigen::Vector3f> copies = cluster;
+  std::vector<float> weights(cluster.size(), 1.0f);
+  for (size_t i = 0; i < cluster.size(); i += 3) {  // every third point twice
+    copies.push_back(cluster[i]);
+    weights[i] = 2.0f;
+  }
+  const int n = static_cast<int>(cluster.size()), m = static_cast<int>(copies.size());
+  ClusterPca weighted, copied;
+  ComputeClusterPca(cluster.data(), n, &weighted, weights.data());
+  ComputeClusterPca(copies.data(), m, &copied);
+  EXPECT_LT((weighted.centroid - copied.centroid).norm(), 1e-9);
+  EXPECT_TRUE(weighted.axes.isApprox(copied.axes, 1e-9));
+  std::vector<Eigen::Vector3f> a(n), b(m);
+  AlignToPrincipalAxes(weighted, cluster.data(), n, a.data());
+  AlignToPrincipalAxes(copied, copies.data(), m, b.data());
+  M2dp m2dp;
+  std::vector<float> da(m2dp.size()), db(m2dp.size());
+  ASSERT_TRUE(m2dp.Compute(a.data(), n, da.data(), weights.data()));
+  ASSERT_TRUE(m2dp.Compute(b.data(), m, db.data()));
+  EXPECT_NEAR(PearsonCorrelation(da.data(), db.data(), m2dp.size()), 1.0, 1e-5);
+}
+
 TEST(M2dpTest, PearsonCorrelationOfKnownVectors) {
   const float a[4] = {1, 2, 3, 4}, b[4] = {2, 4, 6, 8}, c[4] = {4, 3, 2, 1}, k[4] = {1, 1, 1, 1};
   EXPECT_NEAR(PearsonCorrelation(a, b, 4), 1.0, 1e-12);

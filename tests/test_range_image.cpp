@@ -1,4 +1,5 @@
-// RangeImage (paper §III-C-1): ring and ringless cells, nearest point kept, invalid points.
+// RangeImage (paper §III-C-1): ring and ringless cells, nearest point kept and nearby ones
+// chained, invalid points.
 
 #include "calibd/core/range_image.hpp"
 
@@ -86,6 +87,39 @@ TEST(RangeImageTest, RinglessLidarBinsAtItsResolutionAndKeepsTheNearestPoint) {
   ASSERT_TRUE(image.CellOf(10.1 * kDeg, 2.15 * kDeg, &row, &col));
   EXPECT_EQ(row, 73);
   EXPECT_EQ(col, 350);
+}
+
+TEST(RangeImageTest, FurtherPointsOfACellWithinTheToleranceAreChainedToIt) {
+  const LidarModel model = MakeLidarModel(LidarKind::kM1);
+  RangeImage image;
+  image.Configure(model, 1.0, 60.0, 1000, 0.1);
+  Cloud c;
+  c.Add(20.05, 10.1, 2.15);   // bin (73, 350), within 0.1 m of the nearest: chained
+  c.Add(20.0, 10.15, 2.18);   // the nearest: kept
+  c.Add(21.0, 10.12, 2.12);   // 1 m behind (the wall past a board's edge): dropped
+  c.Add(20.08, 10.18, 2.11);  // chained
+  c.Add(20.0, 10.5, 2.15);    // the next bin: its own cell
+  RangeImageStats stats;
+  image.Build(c.View(false), &stats);
+  const RangeImageCell& cell = image.cell(73, 350);
+  EXPECT_EQ(cell.index, 1);
+  EXPECT_EQ(cell.num_points, 3);
+  EXPECT_EQ(stats.chained_points, 2);
+  EXPECT_EQ(stats.dropped_points, 1);
+  std::vector<int> chain;
+  for (int32_t i = cell.next_point; i >= 0; i = image.next_point()[i]) chain.push_back(i);
+  ASSERT_EQ(chain.size(), 2u);
+  EXPECT_TRUE((chain[0] == 0 && chain[1] == 3) || (chain[0] == 3 && chain[1] == 0));
+  EXPECT_EQ(image.cell(73, 352).num_points, 1);
+  EXPECT_EQ(image.cell(73, 352).next_point, -1);
+
+  // A second Build starts the chains afresh.
+  Cloud d;
+  d.Add(20.0, 10.15, 2.18);
+  image.Build(d.View(false), &stats);
+  EXPECT_EQ(image.cell(73, 350).num_points, 1);
+  EXPECT_EQ(image.cell(73, 350).next_point, -1);
+  EXPECT_EQ(stats.chained_points, 0);
 }
 
 TEST(RangeImageTest, SkipsNanInfAndOutOfRangePointsAndHandlesAnEmptyCloud) {

@@ -93,7 +93,7 @@ M2dp::M2dp(const M2dpConfig& config) : config_(config) {
   scratch_.setZero(cols_);
 }
 
-bool M2dp::Compute(const Eigen::Vector3f* aligned, int n, float* descriptor) {
+bool M2dp::Compute(const Eigen::Vector3f* aligned, int n, float* descriptor, const float* weights) {
   A_.setZero();
   std::fill(descriptor, descriptor + size(), 0.0f);
   float r2_max = 0.0f;
@@ -112,7 +112,7 @@ bool M2dp::Compute(const Eigen::Vector3f* aligned, int n, float* descriptor) {
       const int ring = std::min(l - 1, static_cast<int>(rel * static_cast<float>(l)));
       int sector = static_cast<int>((FastAtan2(py, px) + static_cast<float>(M_PI)) * sector_scale);
       sector = std::min(t - 1, std::max(0, sector));
-      A_(plane, ring * t + sector) += 1.0f;
+      A_(plane, ring * t + sector) += weights ? weights[k] : 1.0f;
     }
   }
   float sigma = 0.0f;

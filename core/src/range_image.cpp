@@ -28,7 +28,8 @@ float FastAtan2(float y, float x) {
 }
 
 void RangeImage::Configure(const LidarModel& model, double min_range_m, double max_range_m,
-                           size_t max_points) {
+                           size_t max_points, double cell_range_tolerance_m) {
+  cell_tolerance_ = static_cast<float>(cell_range_tolerance_m);
   has_rings_ = model.has_rings && !model.ring_elevation_deg.empty();
   min_range_ = static_cast<float>(min_range_m);
   max_range_ = static_cast<float>(max_range_m);
@@ -80,6 +81,7 @@ void RangeImage::Configure(const LidarModel& model, double min_range_m, double m
   }
   cells_.assign(static_cast<size_t>(rows_) * cols_, RangeImageCell{});
   point_cell_.assign(max_points, -1);
+  next_point_.assign(max_points, -1);
 }
 
 int RangeImage::RowOfElevation(float elevation_rad) const {
@@ -152,15 +154,32 @@ void RangeImage::Build(const PointCloudView& cloud, RangeImageStats* stats) {
     const int index = CellIndex(row, col);
     RangeImageCell& c = cells_[index];
     point_cell_[i] = index;
-    if (c.index >= 0) {
-      ++stats->dropped_points;
-      if (c.range <= range) continue;  // keep the nearest point of the bin
-    }
+    if (c.index >= 0 && c.range <= range) continue;  // keep the nearest point of the bin
     c.x = x;
     c.y = y;
     c.z = z;
     c.range = range;
     c.index = static_cast<int32_t>(i);
+    c.num_points = 1;
+  }
+  // Second pass, now that each cell's nearest point is known: chain the cell's other points that
+  // lie within the tolerance of it, drop the rest.
+  for (size_t i = 0; i < n; ++i) {
+    next_point_[i] = -1;
+    const int index = point_cell_[i];
+    if (index < 0) continue;
+    RangeImageCell& c = cells_[index];
+    if (c.index == static_cast<int32_t>(i)) continue;
+    const float x = cloud.x[i], y = cloud.y[i], z = cloud.z[i];
+    const float range = std::sqrt(x * x + y * y + z * z);
+    if (range - c.range > cell_tolerance_ || !(cell_tolerance_ > 0.0f)) {
+      ++stats->dropped_points;
+      continue;
+    }
+    next_point_[i] = c.next_point;
+    c.next_point = static_cast<int32_t>(i);
+    ++c.num_points;
+    ++stats->chained_points;
   }
 }
 

@@ -28,6 +28,7 @@ void RangeSegmenter::Configure(const RangeImage& image, const SegmentationConfig
   row_count_.assign(image.rows(), 0);
   row_range_.assign(image.rows(), 0.0f);
   touched_rows_.assign(image.rows(), 0);
+  row_thin_.assign(image.rows(), 0);
 }
 
 void RangeSegmenter::LabelGround(const RangeImage& image) {
@@ -53,8 +54,10 @@ void RangeSegmenter::LabelGround(const RangeImage& image) {
       const RangeImageCell& a = image.cell(prev);
       const RangeImageCell& b = image.cell(idx);
       // Inclination of the segment a-b (Bogoslavskyi §III-B): |dz| against the change of
-      // horizontal distance along the column.
-      const float dxy = std::fabs(Horizontal(b) - Horizontal(a));
+      // horizontal distance along the column. Going up a column the ground recedes, so the
+      // upper point must be the farther one: the lowest row of a board seen against the floor
+      // far behind it is nearer and not ground (it made a flat pair with that floor at 7 m).
+      const float dxy = Horizontal(b) - Horizontal(a);
       const bool flat = std::fabs(b.z - a.z) <= tan_ground * dxy;
       const bool may_start = prev_ground || first_pair ||
                              (!std::isnan(last_ground_z) && a.z <= last_ground_z + max_step);
@@ -159,24 +162,36 @@ void RangeSegmenter::PruneAndReport(const RangeImage& image, int begin, int end,
     row_range_[row] += image.cell(idx).range;
     ++row_count_[row];
   }
+  // A row is thin when it and the rows next to it span less than min_row_width_m together: a
+  // post is thin over many rows, while the edge rows of a board, and the sparse bin rows that a
+  // MEMS raster crossing the bins at a slant leaves between full ones, have wide neighbours.
   bool any_pruned = false;
+  const int rows = image.rows();
   for (int k = 0; k < num_touched; ++k) {
     const int row = touched_rows_[k];
-    const double mean_range = row_range_[row] / static_cast<double>(row_count_[row]);
-    const double width =
-        (row_max_[row] - row_min_[row] + 1) * image.azimuth_step_rad() * mean_range;
-    if (width < config_.min_row_width_m) {
-      row_count_[row] = -1;  // marks the row as pruned until the reset below
-      any_pruned = true;
+    int lo = row_min_[row], hi = row_max_[row], count = 0;
+    double range_sum = 0.0;
+    for (int r = std::max(0, row - 1); r <= std::min(rows - 1, row + 1); ++r) {
+      if (row_count_[r] == 0) continue;
+      lo = std::min(lo, row_min_[r]);
+      hi = std::max(hi, row_max_[r]);
+      range_sum += row_range_[r];
+      count += row_count_[r];
     }
+    const double width = (hi - lo + 1) * image.azimuth_step_rad() * (range_sum / count);
+    row_thin_[row] = width < config_.min_row_width_m;
+    any_pruned = any_pruned || row_thin_[row];
   }
   if (any_pruned) {
     for (int i = begin; i < end; ++i) {
       const int idx = queue_[i];
-      if (row_count_[image.RowOf(idx)] < 0) labels_[idx] = kLabelPruned;
+      if (row_thin_[image.RowOf(idx)]) labels_[idx] = kLabelPruned;
     }
   }
-  for (int k = 0; k < num_touched; ++k) row_count_[touched_rows_[k]] = 0;
+  for (int k = 0; k < num_touched; ++k) {
+    row_count_[touched_rows_[k]] = 0;
+    row_thin_[touched_rows_[k]] = 0;
+  }
   if (!any_pruned) {
     Report(begin, end, label);
     return;

@@ -20,12 +20,22 @@ struct ClusterPca {
   double planarity() const;
 };
 
-/// PCA of `n` points. Sign rule for the axes (the eigenvectors are defined up to sign): the first
-/// two axes point towards the side with the positive third moment sum((p - c) . e)^3, i.e.
-/// towards the cluster's longer tail, and the third is their cross product so that the alignment
-/// is a proper rotation. For a rigid motion of the cluster the rule picks the moved axes, so the
-/// aligned points do not change (up to ties of symmetric clusters).
-void ComputeClusterPca(const Eigen::Vector3f* points, int n, ClusterPca* pca);
+/// PCA of `n` points, each weighted by weights[i] (nullptr: all 1) in the centroid, the covariance
+/// and the sign rule: a weight is the share of the surface a sample stands for, so that a scan
+/// pattern's dense and sparse parts count alike. Sign rule for the axes (the eigenvectors are
+/// defined up to sign): the first two axes point towards the side with the positive third moment
+/// sum((p - c) . e)^3, i.e. towards the cluster's longer tail, and the third is their cross product
+/// so that the alignment is a proper rotation. For a rigid motion of the cluster the rule picks the
+/// moved axes, so the aligned points do not change (up to ties of symmetric clusters).
+void ComputeClusterPca(const Eigen::Vector3f* points, int n, ClusterPca* pca,
+                       const float* weights = nullptr);
+
+/// Sides (long, short) of the smallest-area rectangle around the cluster's points projected onto
+/// its principal plane (the first two axes), searched over `num_angles` orientations in [0, 90)
+/// degrees: the size of a board whatever its turn in its own plane, where the PCA extents of a
+/// square run along any direction (its two in-plane variances are equal) and reach its diagonal.
+Eigen::Vector2d InPlaneRectangle(const ClusterPca& pca, const Eigen::Vector3f* points, int n,
+                                 int num_angles = 18);
 
 /// Writes axes^T (p - centroid) of each point: the cluster in its principal frame.
 void AlignToPrincipalAxes(const ClusterPca& pca, const Eigen::Vector3f* points, int n,

@@ -52,7 +52,9 @@ class M2dp {
   /// Descriptor of `n` points already centred and aligned to their principal axes
   /// (AlignToPrincipalAxes). Writes size() floats. Allocates nothing. Returns false when the
   /// cluster is degenerate (fewer than 2 distinct points); the descriptor is then zero.
-  bool Compute(const Eigen::Vector3f* aligned, int n, float* descriptor);
+  /// Each point adds weights[i] to its bins (nullptr: 1 each; see ComputeClusterPca).
+  bool Compute(const Eigen::Vector3f* aligned, int n, float* descriptor,
+               const float* weights = nullptr);
 
   /// The count matrix of the last Compute() (for tests).
   const Eigen::MatrixXf& counts() const { return A_; }

@@ -4,11 +4,11 @@
 /// Stachniss 2016, "Fast range image-based segmentation of sparse 3D laser scans").
 ///
 /// - Ground (Bogoslavskyi §III-B, simplified): each column is walked upwards from its lowest
-///   point. A pair of consecutive points whose connecting segment is inclined less than
-///   `ground_angle_deg` from the horizontal is ground when it starts at the column's lowest point
-///   or continues a ground run, or resumes ground behind an obstacle at most `ground_max_step_m`
-///   above the last ground point of the column. Flat surfaces well above the ground (crate tops)
-///   are not ground.
+///   point. A pair of consecutive points whose connecting segment recedes from the sensor and is
+///   inclined less than `ground_angle_deg` from the horizontal is ground when it starts at the
+///   column's lowest point or continues a ground run, or resumes ground behind an obstacle at most
+///   `ground_max_step_m` above the last ground point of the column. Flat surfaces well above the
+///   ground (crate tops) are not ground.
 /// - Segmentation (Bogoslavskyi §III-C): 4-neighbour breadth-first search over non-ground cells.
 ///   Two neighbours belong to one object when beta = atan2(d2 sin psi, d1 - d2 cos psi) exceeds
 ///   `segmentation_angle_deg` (d1 >= d2 their ranges, psi the angle between their beams). psi is
@@ -18,8 +18,9 @@
 ///   and the empty bins of MEMS patterns do not split objects. Columns wrap for 360-degree
 ///   sensors.
 /// - Thin-part pruning (ours): a board touches its stand, and the angle criterion cannot separate
-///   two touching surfaces. Rows of a cluster narrower than `min_row_width_m` (a post, a cable)
-///   are removed and the rest is segmented again, so the board comes out on its own.
+///   two touching surfaces. Rows of a cluster that span less than `min_row_width_m` together with
+///   the rows next to them (a post, a cable) are removed and the rest is segmented again, so the
+///   board comes out on its own (with at most one row of the post).
 ///
 /// All buffers are allocated by Configure(); Run() allocates nothing.
 
@@ -95,6 +96,7 @@ class RangeSegmenter {
   std::vector<int> row_min_, row_max_, row_count_;
   std::vector<float> row_range_;
   std::vector<int> touched_rows_;
+  std::vector<char> row_thin_;
 };
 
 }  // namespace calibd
