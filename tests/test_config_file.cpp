@@ -75,7 +75,32 @@ INSTANTIATE_TEST_SUITE_P(
                       BadCase{"distortion: [", "distortion: [1, ", "camera.distortion"},
                       BadCase{"    - [0, 0, 0, 1]", "    - [0, 0, 1, 1]",
                               "prior.T_camera_lidar[3]"},
-                      BadCase{"lidar:\n  id: roof\n", "lidar:\n", "lidar.id"}));
+                      BadCase{"lidar:\n  id: roof\n", "lidar:\n", "lidar.id"},
+                      BadCase{"model: radtan", "model: fisheye", "camera.model"},
+                      BadCase{"pattern: apriltag", "pattern: dots", "boards[0].pattern"}));
+
+TEST(ConfigFileTest, FisheyeCameraAndCheckerboardRoundTrip) {
+  CalibConfig c = Example();
+  c.camera.model = DistortionModel::kKannalaBrandt;
+  c.camera.k1 = 0.1;
+  c.camera.k2 = -0.02;
+  c.camera.p1 = c.camera.p2 = 0.0;
+  c.camera.k3 = 0.003;
+  c.camera.k4 = -0.0004;
+  c.boards.resize(1);
+  c.boards[0].pattern = BoardGeometry::PatternKind::kCheckerboard;
+  c.boards[0].checker_inner_rows = 4;
+  c.boards[0].checker_inner_cols = 6;
+  c.boards[0].checker_square_size_m = 0.08;
+  CalibConfig back;
+  std::string error;
+  ASSERT_TRUE(ParseConfigYaml(ConfigToYaml(c), &back, &error)) << error;
+  EXPECT_EQ(back.camera.model, DistortionModel::kKannalaBrandt);
+  EXPECT_DOUBLE_EQ(back.camera.k4, -0.0004);
+  EXPECT_EQ(back.boards[0].pattern, BoardGeometry::PatternKind::kCheckerboard);
+  EXPECT_EQ(back.boards[0].checker_inner_cols, 6);
+  EXPECT_DOUBLE_EQ(back.boards[0].checker_square_size_m, 0.08);
+}
 
 TEST(ConfigFileTest, MissingFileNamesThePath) {
   CalibConfig c;

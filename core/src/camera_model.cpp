@@ -16,8 +16,15 @@ bool CameraIntrinsics::IsValid(std::string* error) const {
   else if (!(cx >= 0.0 && cx < width && cy >= 0.0 && cy < height))
     why << "cx/cy must lie inside the image";
   else if (!std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(p1) || !std::isfinite(p2) ||
-           !std::isfinite(k3))
+           !std::isfinite(k3) || !std::isfinite(k4))
     why << "distortion coefficients must be finite";
+  else if (model != DistortionModel::kRadTan && model != DistortionModel::kKannalaBrandt)
+    why << "model: unknown distortion model";
+  // A coefficient the model does not use is most likely a config that mixes the two models.
+  else if (model == DistortionModel::kRadTan && k4 != 0.0)
+    why << "k4 is used only by the Kannala-Brandt model and must be 0 for radial-tangential";
+  else if (model == DistortionModel::kKannalaBrandt && (p1 != 0.0 || p2 != 0.0))
+    why << "p1/p2 must be 0 for the Kannala-Brandt model (it has no tangential terms)";
   if (why.tellp() == 0) return true;
   if (error) *error = why.str();
   return false;
@@ -25,23 +32,47 @@ bool CameraIntrinsics::IsValid(std::string* error) const {
 
 namespace {
 
+constexpr double kPi = 3.14159265358979323846;
+
 // Derivative of the radial map d(r) = r (1 + k1 r^2 + k2 r^4 + k3 r^6).
 double RadialSlope(const CameraIntrinsics& c, double r) {
   const double r2 = r * r;
   return 1.0 + r2 * (3.0 * c.k1 + r2 * (5.0 * c.k2 + r2 * 7.0 * c.k3));
 }
 
+// Kannala-Brandt theta_d(theta) = theta (1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8) and its derivative.
+double KbThetaD(const CameraIntrinsics& c, double theta) {
+  const double t2 = theta * theta;
+  return theta * (1.0 + t2 * (c.k1 + t2 * (c.k2 + t2 * (c.k3 + t2 * c.k4))));
+}
+double KbSlope(const CameraIntrinsics& c, double theta) {
+  const double t2 = theta * theta;
+  return 1.0 + t2 * (3.0 * c.k1 + t2 * (5.0 * c.k2 + t2 * (7.0 * c.k3 + t2 * 9.0 * c.k4)));
+}
+
 }  // namespace
 
 CameraModel::CameraModel(const CameraIntrinsics& intrinsics) : intrinsics_(intrinsics) {
   const auto& c = intrinsics_;
+  const double step = 1e-3;
+  if (c.model == DistortionModel::kKannalaBrandt) {
+    // Walk theta outward until theta_d stops increasing (fold-over, docs/conventions.md#fold-over)
+    // or we reach 90 deg off-axis: z > 0 is required of every projected point.
+    const double limit = kPi / 2.0 - step;
+    double theta = step;
+    for (; theta < limit; theta += step) {
+      if (KbSlope(c, theta) <= 0.05) break;
+    }
+    max_theta_ = std::min(theta - step, limit);
+    max_radius_ = std::tan(max_theta_);
+    return;
+  }
   // Radius that covers the image corners, from the undistorted corner radius with a margin.
   const double corner_x = std::max(c.cx, c.width - 1 - c.cx) / c.fx;
   const double corner_y = std::max(c.cy, c.height - 1 - c.cy) / c.fy;
   const double corner_r = std::hypot(corner_x, corner_y);
   // Walk outward until the radial map stops increasing (fold-over) or we pass twice the corner
   // radius.
-  const double step = 1e-3;
   double r = step;
   double limit = 2.0 * corner_r + 0.5;
   for (; r < limit; r += step) {
@@ -54,6 +85,12 @@ Eigen::Vector2d CameraModel::DistortToPixel(const Eigen::Vector2d& xy) const {
   const auto& c = intrinsics_;
   const double x = xy.x(), y = xy.y();
   const double r2 = x * x + y * y;
+  if (c.model == DistortionModel::kKannalaBrandt) {
+    // cv::fisheye: x_d = (theta_d / r) x with theta = atan(r); the ratio tends to 1 on the axis.
+    const double r = std::sqrt(r2);
+    const double scale = r > 1e-12 ? KbThetaD(c, std::atan(r)) / r : 1.0;
+    return {c.fx * x * scale + c.cx, c.fy * y * scale + c.cy};
+  }
   const double radial = 1.0 + r2 * (c.k1 + r2 * (c.k2 + r2 * c.k3));
   const double xd = x * radial + 2.0 * c.p1 * x * y + c.p2 * (r2 + 2.0 * x * x);
   const double yd = y * radial + c.p1 * (r2 + 2.0 * y * y) + 2.0 * c.p2 * x * y;
@@ -74,6 +111,27 @@ bool CameraModel::Project(const Eigen::Vector3d& p_camera, Eigen::Vector2d* uv,
 bool CameraModel::Unproject(const Eigen::Vector2d& uv, Eigen::Vector2d* xy_normalized) const {
   const auto& c = intrinsics_;
   const Eigen::Vector2d target((uv.x() - c.cx) / c.fx, (uv.y() - c.cy) / c.fy);
+  if (c.model == DistortionModel::kKannalaBrandt) {
+    // The model is radial only: solve theta_d(theta) = |target| for theta by Newton (monotonic
+    // below max_theta_), then scale the direction to radius tan(theta).
+    const double theta_d = target.norm();
+    if (theta_d < 1e-15) {
+      *xy_normalized = Eigen::Vector2d::Zero();
+      return true;
+    }
+    if (!(theta_d <= KbThetaD(c, max_theta_))) return false;
+    double theta = std::min(theta_d, max_theta_);
+    for (int it = 0; it < 30; ++it) {
+      const double f = KbThetaD(c, theta) - theta_d;
+      if (std::abs(f) * c.fx < 1e-9) {
+        const double r = std::tan(theta);
+        *xy_normalized = target * (r / theta_d);
+        return theta <= max_theta_ + 1e-12;
+      }
+      theta = std::clamp(theta - f / KbSlope(c, theta), 0.0, max_theta_);
+    }
+    return false;
+  }
   Eigen::Vector2d xy = target;  // start from the distorted normalised point
   for (int it = 0; it < 30; ++it) {
     const Eigen::Vector2d pred = DistortToPixel(xy);

@@ -52,7 +52,8 @@ void CheckKnown(const YAML::Node& map, std::initializer_list<const char*> known,
 void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
   CheckKnown(root, {"camera", "lidar", "boards", "prior"}, "");
   const YAML::Node cam = Child(root, "camera", "camera");
-  CheckKnown(cam, {"id", "width", "height", "fx", "fy", "cx", "cy", "distortion"}, "camera");
+  CheckKnown(cam, {"id", "width", "height", "fx", "fy", "cx", "cy", "model", "distortion"},
+             "camera");
   c->camera_id = Get<std::string>(cam, "id", "camera.id");
   c->camera.width = Get<int>(cam, "width", "camera.width");
   c->camera.height = Get<int>(cam, "height", "camera.height");
@@ -60,13 +61,28 @@ void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
   c->camera.fy = Get<double>(cam, "fy", "camera.fy");
   c->camera.cx = Get<double>(cam, "cx", "camera.cx");
   c->camera.cy = Get<double>(cam, "cy", "camera.cy");
+  const auto model = GetOr<std::string>(cam, "model", "camera.model", "radtan");
   const auto dist = Get<std::vector<double>>(cam, "distortion", "camera.distortion");
-  if (dist.size() != 5) throw KeyError{"camera.distortion", "must list k1, k2, p1, p2, k3"};
-  c->camera.k1 = dist[0];
-  c->camera.k2 = dist[1];
-  c->camera.p1 = dist[2];
-  c->camera.p2 = dist[3];
-  c->camera.k3 = dist[4];
+  c->camera.k1 = c->camera.k2 = c->camera.p1 = c->camera.p2 = c->camera.k3 = c->camera.k4 = 0.0;
+  if (model == "radtan") {
+    c->camera.model = DistortionModel::kRadTan;
+    if (dist.size() != 5) throw KeyError{"camera.distortion", "radtan needs [k1, k2, p1, p2, k3]"};
+    c->camera.k1 = dist[0];
+    c->camera.k2 = dist[1];
+    c->camera.p1 = dist[2];
+    c->camera.p2 = dist[3];
+    c->camera.k3 = dist[4];
+  } else if (model == "kannala_brandt") {
+    c->camera.model = DistortionModel::kKannalaBrandt;
+    if (dist.size() != 4)
+      throw KeyError{"camera.distortion", "kannala_brandt needs [k1, k2, k3, k4]"};
+    c->camera.k1 = dist[0];
+    c->camera.k2 = dist[1];
+    c->camera.k3 = dist[2];
+    c->camera.k4 = dist[3];
+  } else {
+    throw KeyError{"camera.model", "must be radtan or kannala_brandt (got '" + model + "')"};
+  }
 
   const YAML::Node lidar = Child(root, "lidar", "lidar");
   CheckKnown(lidar, {"id", "model"}, "lidar");
@@ -79,16 +95,30 @@ void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
   for (size_t i = 0; i < boards.size(); ++i) {
     const std::string key = "boards[" + std::to_string(i) + "]";
     const YAML::Node b = boards[i];
-    CheckKnown(b,
-               {"id", "width_m", "height_m", "tag_family", "tag_id", "tag_size_m", "tag_offset_m"},
-               key);
+    CheckKnown(
+        b,
+        {"id", "width_m", "height_m", "pattern", "tag_family", "tag_id", "tag_size_m",
+         "tag_offset_m", "checker_inner_rows", "checker_inner_cols", "checker_square_size_m"},
+        key);
     BoardGeometry g;
     g.board_id = Get<int>(b, "id", key + ".id");
     g.width_m = Get<double>(b, "width_m", key + ".width_m");
     g.height_m = GetOr<double>(b, "height_m", key + ".height_m", g.width_m);
-    g.tag_family = GetOr<std::string>(b, "tag_family", key + ".tag_family", g.tag_family);
-    g.tag_id = GetOr<int>(b, "tag_id", key + ".tag_id", g.board_id);
-    g.tag_size_m = Get<double>(b, "tag_size_m", key + ".tag_size_m");
+    const auto pattern = GetOr<std::string>(b, "pattern", key + ".pattern", "apriltag");
+    if (pattern == "apriltag") {
+      g.pattern = BoardGeometry::PatternKind::kAprilTag;
+      g.tag_family = GetOr<std::string>(b, "tag_family", key + ".tag_family", g.tag_family);
+      g.tag_id = GetOr<int>(b, "tag_id", key + ".tag_id", g.board_id);
+      g.tag_size_m = Get<double>(b, "tag_size_m", key + ".tag_size_m");
+    } else if (pattern == "checkerboard") {
+      g.pattern = BoardGeometry::PatternKind::kCheckerboard;
+      g.checker_inner_rows = Get<int>(b, "checker_inner_rows", key + ".checker_inner_rows");
+      g.checker_inner_cols = Get<int>(b, "checker_inner_cols", key + ".checker_inner_cols");
+      g.checker_square_size_m =
+          Get<double>(b, "checker_square_size_m", key + ".checker_square_size_m");
+    } else {
+      throw KeyError{key + ".pattern", "must be apriltag or checkerboard (got '" + pattern + "')"};
+    }
     const auto off =
         GetOr<std::vector<double>>(b, "tag_offset_m", key + ".tag_offset_m", {0.0, 0.0});
     if (off.size() != 2) throw KeyError{key + ".tag_offset_m", "must be [x, y]"};
@@ -162,17 +192,30 @@ std::string ConfigToYaml(const CalibConfig& c) {
   o << "# calibd calibration config: sensors, intrinsics, boards and the prior extrinsic.\n";
   o << "camera:\n  id: " << c.camera_id << "\n  width: " << k.width << "\n  height: " << k.height
     << "\n  fx: " << Num(k.fx) << "\n  fy: " << Num(k.fy) << "\n  cx: " << Num(k.cx)
-    << "\n  cy: " << Num(k.cy) << "\n  distortion: [" << Num(k.k1) << ", " << Num(k.k2) << ", "
-    << Num(k.p1) << ", " << Num(k.p2) << ", " << Num(k.k3)
-    << "]  # k1, k2, p1, p2, k3 (OpenCV radial-tangential)\n";
+    << "\n  cy: " << Num(k.cy);
+  if (k.model == DistortionModel::kKannalaBrandt) {
+    o << "\n  model: kannala_brandt\n  distortion: [" << Num(k.k1) << ", " << Num(k.k2) << ", "
+      << Num(k.k3) << ", " << Num(k.k4) << "]  # k1, k2, k3, k4 (OpenCV fisheye)\n";
+  } else {
+    o << "\n  model: radtan\n  distortion: [" << Num(k.k1) << ", " << Num(k.k2) << ", " << Num(k.p1)
+      << ", " << Num(k.p2) << ", " << Num(k.k3)
+      << "]  # k1, k2, p1, p2, k3 (OpenCV radial-tangential)\n";
+  }
   o << "lidar:\n  id: " << c.lidar_id << "\n  model: " << c.lidar_model << "\n";
   o << "boards:\n";
   for (const auto& b : c.boards) {
     o << "  - id: " << b.board_id << "\n    width_m: " << Num(b.width_m)
-      << "\n    height_m: " << Num(b.height_m) << "\n    tag_family: " << b.tag_family
-      << "\n    tag_id: " << b.tag_id << "\n    tag_size_m: " << Num(b.tag_size_m)
-      << "\n    tag_offset_m: [" << Num(b.tag_offset_m.x()) << ", " << Num(b.tag_offset_m.y())
-      << "]\n";
+      << "\n    height_m: " << Num(b.height_m);
+    if (b.pattern == BoardGeometry::PatternKind::kCheckerboard) {
+      o << "\n    pattern: checkerboard\n    checker_inner_rows: " << b.checker_inner_rows
+        << "\n    checker_inner_cols: " << b.checker_inner_cols
+        << "\n    checker_square_size_m: " << Num(b.checker_square_size_m);
+    } else {
+      o << "\n    pattern: apriltag\n    tag_family: " << b.tag_family
+        << "\n    tag_id: " << b.tag_id << "\n    tag_size_m: " << Num(b.tag_size_m);
+    }
+    o << "\n    tag_offset_m: [" << Num(b.tag_offset_m.x()) << ", " << Num(b.tag_offset_m.y())
+      << "]  # pattern centre on the board\n";
   }
   o << "prior:\n  # maps LiDAR points into the camera frame (camera: x right, y down, z forward)\n";
   o << "  T_camera_lidar:\n";

@@ -1,6 +1,7 @@
 #pragma once
 /// \file
-/// Pinhole camera with radial-tangential (Brown-Conrady, OpenCV's k1,k2,p1,p2,k3) distortion.
+/// Pinhole camera with one of two distortion models: radial-tangential (Brown-Conrady, OpenCV's
+/// k1,k2,p1,p2,k3) or Kannala-Brandt equidistant fisheye (OpenCV's cv::fisheye k1..k4).
 /// Pixel convention: OpenCV's, pixel centres at integer coordinates (AprilTag reports +0.5, see
 /// docs/conventions.md#apriltag-pixels; convert at the detector boundary). Camera frame: x right, y
 /// down, z forward.
@@ -10,12 +11,26 @@
 
 namespace calibd {
 
+/// Which lens distortion model CameraIntrinsics describes.
+enum class DistortionModel {
+  /// Radial-tangential (OpenCV's default model): uses k1, k2, p1, p2, k3; k4 must be 0.
+  kRadTan,
+  /// Kannala-Brandt equidistant fisheye (OpenCV's cv::fisheye): theta_d = theta (1 + k1 theta^2 +
+  /// k2 theta^4 + k3 theta^6 + k4 theta^8) with theta the angle off the optical axis; uses k1..k4,
+  /// p1 and p2 must be 0 (no tangential terms).
+  kKannalaBrandt,
+};
+
 struct CameraIntrinsics {
   int width = 3840;                 ///< pixels
   int height = 1920;                ///< pixels
   double fx = 3325.0, fy = 3325.0;  ///< focal lengths, pixels (60 deg horizontal FOV at 3840 px)
   double cx = 1919.5, cy = 959.5;   ///< principal point, pixels
-  double k1 = -0.08, k2 = 0.03, p1 = 0.0005, p2 = -0.0003, k3 = -0.005;  ///< OpenCV order
+  DistortionModel model = DistortionModel::kRadTan;  ///< which coefficients below apply
+  /// kRadTan: OpenCV order (k1, k2, p1, p2, k3). kKannalaBrandt: cv::fisheye's D = (k1, k2, k3, k4)
+  /// with p1 = p2 = 0.
+  double k1 = -0.08, k2 = 0.03, p1 = 0.0005, p2 = -0.0003, k3 = -0.005;
+  double k4 = 0.0;  ///< kKannalaBrandt only (must be 0 for kRadTan)
 
   /// True when the values describe a usable camera; otherwise `error` names the bad field.
   bool IsValid(std::string* error) const;
@@ -24,7 +39,9 @@ struct CameraIntrinsics {
 /// Projection and back-projection through the distortion model, with the fold-over gate of
 /// docs/conventions.md#fold-over: a point whose undistorted radius lies beyond where the radial
 /// mapping stops increasing (or far outside the image) is rejected, so points behind or beside the
-/// camera never land in the image.
+/// camera never land in the image. Kannala-Brandt: the gate is at the angle off-axis where
+/// theta_d(theta) stops increasing, and below 90 deg (points with z <= 0 are always rejected, so a
+/// lens with more than 180 deg field of view is clamped to 180 deg).
 class CameraModel {
  public:
   explicit CameraModel(const CameraIntrinsics& intrinsics);
@@ -38,8 +55,9 @@ class CameraModel {
   /// camera, beyond the valid undistorted radius, or outside the image (with `margin_px`).
   bool Project(const Eigen::Vector3d& p_camera, Eigen::Vector2d* uv, double margin_px = 0.0) const;
 
-  /// Undistorts a pixel into normalised coordinates (x/z, y/z) by Gauss-Newton on the forward
-  /// model. Returns false if it did not converge to 1e-9 px (only far outside the valid region).
+  /// Undistorts a pixel into normalised coordinates (x/z, y/z): Gauss-Newton on the forward model
+  /// (kRadTan), Newton on theta (kKannalaBrandt). Returns false if it did not converge to 1e-9 px
+  /// or the result lies beyond the gate.
   bool Unproject(const Eigen::Vector2d& uv, Eigen::Vector2d* xy_normalized) const;
 
   /// Largest undistorted radius (normalised units) the gate accepts.
@@ -48,6 +66,7 @@ class CameraModel {
  private:
   CameraIntrinsics intrinsics_;
   double max_radius_ = 0.0;
+  double max_theta_ = 0.0;  ///< kKannalaBrandt: largest angle off-axis the gate accepts, radians
 };
 
 }  // namespace calibd

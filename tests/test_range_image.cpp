@@ -1,0 +1,128 @@
+// RangeImage (paper §III-C-1): ring and ringless cells, nearest point kept, invalid points.
+
+#include "calibd/core/range_image.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace calibd {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+struct Cloud {
+  std::vector<float> x, y, z;
+  std::vector<int16_t> ring;
+  void Add(double range, double az_deg, double el_deg, int r = -1) {
+    x.push_back(static_cast<float>(range * std::cos(el_deg * kDeg) * std::cos(az_deg * kDeg)));
+    y.push_back(static_cast<float>(range * std::cos(el_deg * kDeg) * std::sin(az_deg * kDeg)));
+    z.push_back(static_cast<float>(range * std::sin(el_deg * kDeg)));
+    ring.push_back(static_cast<int16_t>(r));
+  }
+  PointCloudView View(bool with_rings) const {
+    PointCloudView v;
+    v.x = x.data();
+    v.y = y.data();
+    v.z = z.data();
+    v.ring = with_rings ? ring.data() : nullptr;
+    v.size = x.size();
+    return v;
+  }
+};
+
+TEST(RangeImageTest, RingLidarRowsFollowElevationAndColumnsTheFiringAngles) {
+  const LidarModel model = MakeLidarModel(LidarKind::kOt128);
+  RangeImage image;
+  image.Configure(model, 1.0, 60.0, 1000);
+  ASSERT_EQ(image.rows(), 128);
+  ASSERT_EQ(image.cols(), 1800);
+  EXPECT_TRUE(image.wraps());
+  Cloud c;
+  c.Add(10.0, 0.0, model.ring_elevation_deg[0], 0);       // top ring, straight ahead
+  c.Add(12.0, 90.0, model.ring_elevation_deg[127], 127);  // bottom ring, to the left
+  c.Add(8.0, -179.95, model.ring_elevation_deg[41], 41);  // just past the seam
+  RangeImageStats stats;
+  image.Build(c.View(true), &stats);
+  EXPECT_EQ(stats.invalid_points, 0);
+  EXPECT_EQ(image.cell(127, 900).index, 0);  // (0 + 180.1) / 0.2 = 900.5
+  EXPECT_NEAR(image.cell(127, 900).range, 10.0, 1e-4);
+  EXPECT_EQ(image.cell(0, 1350).index, 1);  // (90 + 180.1) / 0.2 = 1350.5
+  // Ring 41 is at 0.000 deg: its row counts the rings below it (86 are lower).
+  EXPECT_EQ(image.cell(86, 0).index, 2);
+
+  // Without ring numbers the row comes from the elevation: same cells.
+  RangeImage no_rings;
+  no_rings.Configure(model, 1.0, 60.0, 1000);
+  no_rings.Build(c.View(false), &stats);
+  EXPECT_EQ(no_rings.cell(127, 900).index, 0);
+  EXPECT_EQ(no_rings.cell(0, 1350).index, 1);
+  EXPECT_EQ(no_rings.cell(86, 0).index, 2);
+}
+
+TEST(RangeImageTest, RinglessLidarBinsAtItsResolutionAndKeepsTheNearestPoint) {
+  const LidarModel model = MakeLidarModel(LidarKind::kM1);
+  RangeImage image;
+  image.Configure(model, 1.0, 60.0, 1000);
+  ASSERT_EQ(image.cols(), 600);  // 120 deg / 0.2 deg
+  ASSERT_EQ(image.rows(), 125);  // 25 deg / 0.2 deg
+  EXPECT_FALSE(image.wraps());
+  Cloud c;
+  c.Add(20.0, 10.1, 2.15);  // bin (floor(14.65 / 0.2), floor(70.1 / 0.2)) = (73, 350)
+  c.Add(7.0, 10.15, 2.18);  // same bin, nearer: kept
+  c.Add(9.0, 10.12, 2.12);  // same bin, farther than the kept one: dropped
+  c.Add(10.0, 150.0, 0.0);  // behind the sensor: outside the field of view
+  RangeImageStats stats;
+  image.Build(c.View(false), &stats);
+  EXPECT_EQ(image.cell(73, 350).index, 1);
+  EXPECT_NEAR(image.cell(73, 350).range, 7.0, 1e-4);
+  EXPECT_EQ(stats.dropped_points, 2);
+  EXPECT_EQ(stats.outside_points, 1);
+  EXPECT_EQ(image.point_cell()[0], image.CellIndex(73, 350));
+  EXPECT_EQ(image.point_cell()[3], -1);
+  int row = 0, col = 0;
+  ASSERT_TRUE(image.CellOf(10.1 * kDeg, 2.15 * kDeg, &row, &col));
+  EXPECT_EQ(row, 73);
+  EXPECT_EQ(col, 350);
+}
+
+TEST(RangeImageTest, SkipsNanInfAndOutOfRangePointsAndHandlesAnEmptyCloud) {
+  const LidarModel model = MakeLidarModel(LidarKind::kFalcon);
+  RangeImage image;
+  image.Configure(model, 1.0, 60.0, 3);
+  Cloud c;
+  c.Add(10.0, 0.0, 0.0);
+  c.x[0] = std::numeric_limits<float>::quiet_NaN();
+  c.Add(10.0, 0.0, 0.0);
+  c.y[1] = std::numeric_limits<float>::infinity();
+  c.Add(0.5, 0.0, 0.0);    // nearer than min_range
+  c.Add(100.0, 0.0, 0.0);  // beyond the point capacity of 3
+  RangeImageStats stats;
+  image.Build(c.View(false), &stats);
+  EXPECT_EQ(stats.invalid_points, 3);
+  EXPECT_EQ(stats.overflow_points, 1);
+  for (int i = 0; i < image.rows() * image.cols(); ++i) ASSERT_LT(image.cell(i).index, 0);
+
+  image.Build(PointCloudView{}, &stats);
+  EXPECT_EQ(stats.invalid_points, 0);
+  EXPECT_EQ(stats.overflow_points, 0);
+}
+
+TEST(RangeImageTest, FastAtan2IsWithinTwoMicroradiansOfStdAtan2) {
+  double worst = 0.0;
+  for (int i = 0; i < 3600; ++i) {
+    const double a = i * 0.1 * kDeg - M_PI;
+    for (double r : {0.01, 1.0, 150.0}) {
+      const float x = static_cast<float>(r * std::cos(a)), y = static_cast<float>(r * std::sin(a));
+      double e = std::fabs(FastAtan2(y, x) - std::atan2(y, x));
+      e = std::min(e, 2.0 * M_PI - e);  // +-pi are the same direction
+      worst = std::max(worst, e);
+    }
+  }
+  EXPECT_LT(worst, 2e-5);
+}
+
+}  // namespace
+}  // namespace calibd
