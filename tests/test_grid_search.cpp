@@ -1,0 +1,132 @@
+// Coarse grid search (paper Alg. 1): the fast region count agrees with brute force, the search
+// recovers a rotated prior from real detections of simulated frames, and bad input gives an
+// explicit status.
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "calibd/core/camera_detector.hpp"
+#include "calibd/core/direct_optimizer.hpp"
+#include "calibd/core/grid_search.hpp"
+#include "calibd/core/lidar_detector.hpp"
+#include "calibd/core/session_observations.hpp"
+#include "session.hpp"
+
+namespace calibd {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// Detections of the first `frames` frame pairs of a simulated drive (6 m onwards).
+struct Recorded {
+  sim::SessionSimulator session;
+  SessionObservations obs;
+  RangeImage projection;
+};
+
+std::unique_ptr<Recorded> Record(const std::string& lidar, int frames) {
+  auto r = std::make_unique<Recorded>();
+  sim::SessionOptions o;
+  o.lidar_model = lidar;
+  o.trajectory.duration_s = 20.0;
+  std::string error;
+  EXPECT_TRUE(r->session.Init(o, &error)) << error;
+  const auto& boards = r->session.workshop().geometries;
+  CameraDetector camera(CameraDetectorConfig{}, o.camera, boards);
+  LidarDetector lidar_detector(LidarDetectorConfig{}, r->session.lidar_model(), boards);
+  EXPECT_TRUE(camera.ok() && lidar_detector.ok());
+  r->projection.Configure(r->session.lidar_model(), 0.5, 100.0, 1);
+  r->obs.Reserve(frames, 8, 4096);
+  cv::Mat image;
+  sim::LidarScan scan;
+  sim::FrameTruth truth;
+  CameraDetections cd;
+  LidarDetections ld;
+  for (int k = 0; k < frames; ++k) {
+    // Every 5th frame of the drive: 6 m to about 20 m.
+    r->session.SimulateFrame(5 * k, &image, &scan, &truth);
+    camera.Detect(ImageView{image.data, image.cols, image.rows, static_cast<int>(image.step[0])},
+                  &cd);
+    const PointCloudView cloud{scan.x.data(), scan.y.data(), scan.z.data(),
+                               r->session.lidar_model().has_rings ? scan.ring.data() : nullptr,
+                               scan.size()};
+    lidar_detector.Detect(cloud, &ld);
+    EXPECT_TRUE(r->obs.AddFrame(cd, ld, boards));
+  }
+  return r;
+}
+
+TEST(GridSearchTest, FastCountEqualsBruteForce) {
+  auto r = Record("ot128", 6);
+  GridSearch search(GridSearchConfig{}, r->projection, r->session.workshop().geometries);
+  ObservationSet unused;
+  search.Run(r->obs, r->session.prior_T_camera_lidar(), nullptr);  // prepares the integral images
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-9.0, 9.0);
+  int nonzero = 0;
+  for (int i = 0; i < 40; ++i) {
+    const Pose T = PerturbExtrinsic(r->session.T_camera_lidar(),
+                                    Eigen::Vector3d(u(rng), u(rng), u(rng)) * kDeg);
+    const long brute = search.CountBruteForce(r->obs, T);
+    EXPECT_EQ(search.CountForTest(r->obs, T), brute) << "candidate " << i;
+    nonzero += brute > 0 ? 1 : 0;
+  }
+  EXPECT_GT(nonzero, 5);  // the oracle was exercised on candidates that see boards
+}
+
+class GridSearchRecoveryTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(GridSearchRecoveryTest, RecoversRandomPriorRotationsThenDirectRefines) {
+  auto r = Record(GetParam(), 10);
+  const Pose truth = r->session.T_camera_lidar();
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-8.0, 8.0);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Pose prior = PerturbExtrinsic(truth, Eigen::Vector3d(u(rng), u(rng), u(rng)) * kDeg);
+    GridSearch search(GridSearchConfig{}, r->projection, r->session.workshop().geometries);
+    ObservationSet corr;
+    corr.observations.reserve(200);
+    corr.points.reserve(200 * 4096);
+    const GridSearchResult g = search.Run(r->obs, prior, &corr);
+    ASSERT_EQ(g.status, GridSearchResult::Status::kOk) << g.reason;
+    const double grid_err = RotationAngle(g.T_camera_lidar.linear(), truth.linear()) / kDeg;
+    const DirectResult d =
+        OptimizeDirect(r->session.workshop().geometries, corr, g.T_camera_lidar, {});
+    ASSERT_TRUE(d.usable) << d.reason;
+    const double err = RotationAngle(d.T_camera_lidar.linear(), truth.linear()) / kDeg;
+    std::printf(
+        "%s trial %d: prior %.2f deg -> grid %.2f deg (%ld/%ld points, %d candidates, "
+        "%.1f ms) -> direct %.4f deg, %.4f m\n",
+        GetParam().c_str(), trial, RotationAngle(prior.linear(), truth.linear()) / kDeg, grid_err,
+        g.best_count, g.total_points, g.candidates, g.search_ms, err,
+        (d.T_camera_lidar.translation() - truth.translation()).norm());
+    EXPECT_LT(grid_err, 1.0);  // the grid's job: within the optimiser's basin
+    EXPECT_GE(g.best_count, g.prior_count);
+    // 30 observations of a moving vehicle, no motion compensation yet: the direct solve lands
+    // about 0.25 deg (ot128) to 0.56 deg (falcon, whose sweep is slow top to bottom) from the
+    // truth; at a 10x slower drive falcon gives 0.25 deg. The accuracy targets (0.05 deg, 1.5 cm
+    // over 200 frame pairs) belong to the engine's benchmark, not to this test.
+    EXPECT_LT(err, 1.0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Lidars, GridSearchRecoveryTest, ::testing::Values("ot128", "falcon"));
+
+TEST(GridSearchTest, EmptyInputAndNoCandidateAreExplicit) {
+  auto r = Record("ot128", 2);
+  GridSearch search(GridSearchConfig{}, r->projection, r->session.workshop().geometries);
+  SessionObservations empty;
+  empty.Reserve(1, 1, 1);
+  EXPECT_EQ(search.Run(empty, r->session.T_camera_lidar(), nullptr).status,
+            GridSearchResult::Status::kNoInput);
+  // A prior turned 60 deg away: no candidate within +-9 deg sees the boards.
+  const Pose wrong =
+      PerturbExtrinsic(r->session.T_camera_lidar(), Eigen::Vector3d(0, 0, 60 * kDeg));
+  const GridSearchResult g = search.Run(r->obs, wrong, nullptr);
+  EXPECT_EQ(g.status, GridSearchResult::Status::kNoCandidate);
+  EXPECT_NE(g.reason.find("fewer than"), std::string::npos) << g.reason;
+}
+
+}  // namespace
+}  // namespace calibd
