@@ -26,7 +26,8 @@ bool DirectOptimizerConfig::IsValid(std::string* error) const {
 }
 
 DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
-                            const Pose& T_init, const DirectOptimizerConfig& config) {
+                            const Pose& T_init, const DirectOptimizerConfig& config,
+                            const std::vector<char>* use, bool solve) {
   const auto t0 = std::chrono::steady_clock::now();
   DirectResult result;
   result.T_camera_lidar = T_init;
@@ -45,7 +46,9 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
   problem.AddParameterBlock(params, 7, new PoseManifold);
 
   std::vector<const BoardBoxCost*> costs;
-  for (const auto& o : set.observations) {
+  for (size_t k = 0; k < set.observations.size(); ++k) {
+    const BoardObservation& o = set.observations[k];
+    if (use != nullptr && (k >= use->size() || !(*use)[k])) continue;
     if (o.board_index < 0 || o.board_index >= static_cast<int>(boards.size()) || o.num_points <= 0)
       continue;
     const BoardGeometry& g = boards[o.board_index];
@@ -72,15 +75,18 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
   options.parameter_tolerance = 1e-12;
   options.num_threads = config.threads;
   options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-
-  result.iterations = static_cast<int>(summary.iterations.size());
-  result.initial_cost = summary.initial_cost;
-  result.final_cost = summary.final_cost;
-  result.T_camera_lidar = PoseFromParameters(params);
-  result.usable = summary.IsSolutionUsable() && summary.termination_type == ceres::CONVERGENCE;
-  if (!result.usable) result.reason = "solver: " + summary.message;
+  if (solve) {
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    result.iterations = static_cast<int>(summary.iterations.size());
+    result.initial_cost = summary.initial_cost;
+    result.final_cost = summary.final_cost;
+    result.T_camera_lidar = PoseFromParameters(params);
+    result.usable = summary.IsSolutionUsable() && summary.termination_type == ceres::CONVERGENCE;
+    if (!result.usable) result.reason = "solver: " + summary.message;
+  } else {
+    result.usable = true;
+  }
 
   // Residual statistics without the robust loss, and J^T J in the tangent space.
   double sum_sq = 0.0;

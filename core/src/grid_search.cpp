@@ -245,6 +245,7 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
         if (k < 0 || used[k]) continue;
         used[k] = true;
         BoardObservation o;
+        o.frame = s.camera[b].frame;
         o.board_index = s.camera[b].board_index;
         o.T_camera_board = s.camera[b].T_camera_board;
         o.corners_px = s.camera[b].corners_px;

@@ -13,6 +13,7 @@ namespace calibd {
 
 /// One board seen by both sensors in one frame pair.
 struct BoardObservation {
+  int frame = -1;                             ///< frame pair it came from
   int board_index = -1;                       ///< index into the configured boards
   Pose T_camera_board = Pose::Identity();     ///< from the camera detection (PnP)
   std::array<Eigen::Vector2d, 4> corners_px;  ///< detected tag corners (AprilTag order)

@@ -42,8 +42,10 @@ struct DirectResult {
 };
 
 /// Minimises paper Eq. 4 starting from `T_camera_lidar_init`. `boards[o.board_index]` gives each
-/// observation's board size.
+/// observation's board size. `use` (optional, one entry per observation) selects a subset.
+/// With `solve` false it only evaluates residuals and information at the initial pose.
 DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
-                            const Pose& T_camera_lidar_init, const DirectOptimizerConfig& config);
+                            const Pose& T_camera_lidar_init, const DirectOptimizerConfig& config,
+                            const std::vector<char>* use = nullptr, bool solve = true);
 
 }  // namespace calibd
