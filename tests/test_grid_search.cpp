@@ -82,6 +82,7 @@ TEST_P(GridSearchRecoveryTest, RecoversRandomPriorRotationsThenDirectRefines) {
   const Pose truth = r->session.T_camera_lidar();
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-8.0, 8.0);
+  std::vector<Pose> refined;
   for (int trial = 0; trial < 5; ++trial) {
     const Pose prior = PerturbExtrinsic(truth, Eigen::Vector3d(u(rng), u(rng), u(rng)) * kDeg);
     GridSearch search(GridSearchConfig{}, r->projection, r->session.workshop().geometries);
@@ -101,7 +102,10 @@ TEST_P(GridSearchRecoveryTest, RecoversRandomPriorRotationsThenDirectRefines) {
         GetParam().c_str(), trial, RotationAngle(prior.linear(), truth.linear()) / kDeg, grid_err,
         g.best_count, g.total_points, g.candidates, g.search_ms, err,
         (d.T_camera_lidar.translation() - truth.translation()).norm());
-    EXPECT_LT(grid_err, 1.0);  // the grid's job: within the optimiser's basin
+    // The grid's job is to land in the optimiser's basin: its point count saturates within about
+    // +-0.5 deg of the truth (the regions are a board-sized cube), so it is coarse by design.
+    EXPECT_LT(grid_err, 1.5);
+    refined.push_back(d.T_camera_lidar);
     EXPECT_GE(g.best_count, g.prior_count);
     // 30 observations of a moving vehicle, no motion compensation yet: the direct solve lands
     // about 0.25 deg (ot128) to 0.56 deg (falcon, whose sweep is slow top to bottom) from the
@@ -109,6 +113,9 @@ TEST_P(GridSearchRecoveryTest, RecoversRandomPriorRotationsThenDirectRefines) {
     // over 200 frame pairs) belong to the engine's benchmark, not to this test.
     EXPECT_LT(err, 1.0);
   }
+  // From every prior the optimisation reaches the same solution: the grid always found the basin.
+  for (const Pose& T : refined)
+    EXPECT_LT(RotationAngle(T.linear(), refined.front().linear()) / kDeg, 0.01);
 }
 
 INSTANTIATE_TEST_SUITE_P(Lidars, GridSearchRecoveryTest, ::testing::Values("ot128", "falcon"));

@@ -11,9 +11,12 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
+// FastAtan2 (about 1e-5 rad) is far below a range-image cell (>= 1.3e-3 rad) and several times
+// cheaper than std::atan2: this runs 8 times per region and candidate.
 bool CellOfPoint(const RangeImage& img, const Eigen::Vector3d& p, int* row, int* col) {
-  const double horizontal = std::hypot(p.x(), p.y());
-  return img.CellOf(std::atan2(p.y(), p.x()), std::atan2(p.z(), horizontal), row, col);
+  const float horizontal = static_cast<float>(std::sqrt(p.x() * p.x() + p.y() * p.y()));
+  return img.CellOf(FastAtan2(static_cast<float>(p.y()), static_cast<float>(p.x())),
+                    FastAtan2(static_cast<float>(p.z()), horizontal), row, col);
 }
 
 }  // namespace
@@ -29,6 +32,7 @@ bool GridSearchConfig::IsValid(std::string* error) const {
   if (refine && !(refine_step_deg > 0.0 && refine_range_deg / refine_step_deg <= 40.0))
     return fail("grid.refine_step_deg must be > 0 and refine_range/refine_step <= 40");
   if (min_points < 1) return fail("grid.min_points must be >= 1");
+  if (max_scoring_frames < 0) return fail("grid.max_scoring_frames must be >= 0");
   if (!(min_point_fraction >= 0.0 && min_point_fraction <= 1.0))
     return fail("grid.min_point_fraction must be in [0, 1]");
   return true;
@@ -124,12 +128,13 @@ long GridSearch::ClusterCount(const ClusterGrid& g, const Roi& roi) const {
 }
 
 long GridSearch::CountFast(const SessionObservations& s, const Pose& T_camera_lidar,
-                           std::vector<int>* best_cluster) const {
+                           std::vector<int>* best_cluster, int frame_stride) const {
   const Pose T_lidar_camera = T_camera_lidar.inverse();
   long total = 0;
   for (size_t b = 0; b < s.camera.size(); ++b) {
     const auto& cam = s.camera[b];
     if (best_cluster) (*best_cluster)[b] = -1;
+    if (cam.frame % frame_stride != 0) continue;
     if (cam.board_index < 0 || cam.board_index >= static_cast<int>(boards_.size())) continue;
     const BoardGeometry& g = boards_[cam.board_index];
     Roi roi;
@@ -192,6 +197,10 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
   Prepare(s);
   for (const auto& c : s.lidar) result.total_points += c.num_points;
   result.prior_count = CountFast(s, T_prior, nullptr);
+  const int stride = config_.max_scoring_frames > 0
+                         ? std::max(1, (s.num_frames + config_.max_scoring_frames - 1) /
+                                           config_.max_scoring_frames)
+                         : 1;
 
   // One pass over a cube of perturbations centred on `centre`; candidates in a fixed order, a tie
   // keeps the one closest to the centre (then the earlier one): deterministic, biased to the prior.
@@ -207,7 +216,7 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
         for (int k = -n; k <= n; ++k) {
           const Eigen::Vector3d d = Eigen::Vector3d(i, j, k) * step_deg * kDeg;
           const Eigen::Vector3d rpy = centre + d;
-          const long count = CountFast(s, PerturbExtrinsic(T_prior, rpy), nullptr);
+          const long count = CountFast(s, PerturbExtrinsic(T_prior, rpy), nullptr, stride);
           ++result.candidates;
           if (count > pass_count || (count == pass_count && d.norm() < pass_norm)) {
             pass_count = count;
@@ -223,6 +232,8 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
   pass(Eigen::Vector3d::Zero(), config_.range_deg, config_.step_deg);
   if (config_.refine) pass(best_rpy, config_.refine_range_deg, config_.refine_step_deg);
 
+  // Report the winner's count over every frame (the gate below compares with all points).
+  best_count = CountFast(s, PerturbExtrinsic(T_prior, best_rpy), nullptr);
   result.best_count = best_count;
   result.perturbation_rpy_deg = best_rpy / kDeg;
   const long needed = std::max<long>(

@@ -22,12 +22,16 @@ struct GridSearchConfig {
   double range_deg = 9.0;  ///< perturbations in [-range, +range] on roll, pitch and yaw (paper: 9)
   double step_deg = 1.5;   ///< paper: 1.5
   bool refine = true;      ///< second pass around the best candidate
-  double refine_range_deg = 1.5;
-  double refine_step_deg = 0.25;
+  double refine_range_deg = 1.0;
+  double refine_step_deg = 0.5;  ///< enough to land in the optimiser's basin (about 1 deg wide)
   /// The best candidate must put at least this many LiDAR board points in the regions, and at
   /// least min_point_fraction of all clustered points; otherwise the result is kNoCandidate.
   int min_points = 30;
   double min_point_fraction = 0.2;
+  /// Candidates are scored on at most this many frame pairs, evenly spaced over the session (the
+  /// coarse alignment needs a spread of views, not every frame); correspondences for every frame
+  /// are then taken with the winner. 0 scores every frame.
+  int max_scoring_frames = 24;
 
   bool IsValid(std::string* error) const;
 };
@@ -79,7 +83,7 @@ class GridSearch {
   };
   bool RegionOf(const Eigen::Vector3d& centre_lidar, double side, Roi* roi) const;
   long CountFast(const SessionObservations& session, const Pose& T_camera_lidar,
-                 std::vector<int>* best_cluster) const;
+                 std::vector<int>* best_cluster, int frame_stride = 1) const;
   long ClusterCount(const ClusterGrid& g, const Roi& roi) const;
   void Prepare(const SessionObservations& session);
 
