@@ -11,55 +11,23 @@
 #include "calibd/core/grid_search.hpp"
 #include "calibd/core/lidar_detector.hpp"
 #include "calibd/core/session_observations.hpp"
-#include "session.hpp"
+#include "recorded_session.hpp"
 
 namespace calibd {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-// Detections of the first `frames` frame pairs of a simulated drive (6 m onwards).
-struct Recorded {
-  sim::SessionSimulator session;
-  SessionObservations obs;
-  RangeImage projection;
-};
-
-std::unique_ptr<Recorded> Record(const std::string& lidar, int frames) {
-  auto r = std::make_unique<Recorded>();
+// Every 5th frame of the default drive (6 m onwards), `frames` of them, with real detections.
+std::unique_ptr<testing::RecordedSession> Record(const std::string& lidar, int frames) {
   sim::SessionOptions o;
   o.lidar_model = lidar;
-  o.trajectory.duration_s = 20.0;
-  std::string error;
-  EXPECT_TRUE(r->session.Init(o, &error)) << error;
-  const auto& boards = r->session.workshop().geometries;
-  CameraDetector camera(CameraDetectorConfig{}, o.camera, boards);
-  LidarDetector lidar_detector(LidarDetectorConfig{}, r->session.lidar_model(), boards);
-  EXPECT_TRUE(camera.ok() && lidar_detector.ok());
-  r->projection.Configure(r->session.lidar_model(), 0.5, 100.0, 1);
-  r->obs.Reserve(frames, 8, 4096);
-  cv::Mat image;
-  sim::LidarScan scan;
-  sim::FrameTruth truth;
-  CameraDetections cd;
-  LidarDetections ld;
-  for (int k = 0; k < frames; ++k) {
-    // Every 5th frame of the drive: 6 m to about 20 m.
-    r->session.SimulateFrame(5 * k, &image, &scan, &truth);
-    camera.Detect(ImageView{image.data, image.cols, image.rows, static_cast<int>(image.step[0])},
-                  &cd);
-    const PointCloudView cloud{scan.x.data(), scan.y.data(), scan.z.data(),
-                               r->session.lidar_model().has_rings ? scan.ring.data() : nullptr,
-                               scan.size()};
-    lidar_detector.Detect(cloud, &ld);
-    EXPECT_TRUE(r->obs.AddFrame(cd, ld, boards));
-  }
-  return r;
+  return testing::Record(o, frames, 5);
 }
 
 TEST(GridSearchTest, FastCountEqualsBruteForce) {
   auto r = Record("ot128", 6);
-  GridSearch search(GridSearchConfig{}, r->projection, r->session.workshop().geometries);
+  GridSearch search(GridSearchConfig{}, r->projection, r->config.boards);
   ObservationSet unused;
   search.Run(r->obs, r->session.prior_T_camera_lidar(), nullptr);  // prepares the integral images
   std::mt19937_64 rng(3);
@@ -85,15 +53,14 @@ TEST_P(GridSearchRecoveryTest, RecoversRandomPriorRotationsThenDirectRefines) {
   std::vector<Pose> refined;
   for (int trial = 0; trial < 5; ++trial) {
     const Pose prior = PerturbExtrinsic(truth, Eigen::Vector3d(u(rng), u(rng), u(rng)) * kDeg);
-    GridSearch search(GridSearchConfig{}, r->projection, r->session.workshop().geometries);
+    GridSearch search(GridSearchConfig{}, r->projection, r->config.boards);
     ObservationSet corr;
     corr.observations.reserve(200);
     corr.points.reserve(200 * 4096);
     const GridSearchResult g = search.Run(r->obs, prior, &corr);
     ASSERT_EQ(g.status, GridSearchResult::Status::kOk) << g.reason;
     const double grid_err = RotationAngle(g.T_camera_lidar.linear(), truth.linear()) / kDeg;
-    const DirectResult d =
-        OptimizeDirect(r->session.workshop().geometries, corr, g.T_camera_lidar, {});
+    const DirectResult d = OptimizeDirect(r->config.boards, corr, g.T_camera_lidar, {});
     ASSERT_TRUE(d.usable) << d.reason;
     const double err = RotationAngle(d.T_camera_lidar.linear(), truth.linear()) / kDeg;
     std::printf(
@@ -122,7 +89,7 @@ INSTANTIATE_TEST_SUITE_P(Lidars, GridSearchRecoveryTest, ::testing::Values("ot12
 
 TEST(GridSearchTest, EmptyInputAndNoCandidateAreExplicit) {
   auto r = Record("ot128", 2);
-  GridSearch search(GridSearchConfig{}, r->projection, r->session.workshop().geometries);
+  GridSearch search(GridSearchConfig{}, r->projection, r->config.boards);
   SessionObservations empty;
   empty.Reserve(1, 1, 1);
   EXPECT_EQ(search.Run(empty, r->session.T_camera_lidar(), nullptr).status,

@@ -175,6 +175,16 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   q.information = direct.information;
   q.min_information_eigenvalue = direct.min_information_eigenvalue;
   FormalSigmas(direct.information, direct.residual_rms_m, &q);
+  {
+    Eigen::Matrix<double, 6, 1> scale;
+    scale << 1.0, 1.0, 1.0, 10.0, 10.0, 10.0;  // rad -> m at a 10 m lever arm
+    const Eigen::Matrix<double, 6, 6> S = scale.cwiseInverse().asDiagonal() *
+                                          direct.plane_information *
+                                          scale.cwiseInverse().asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(S);
+    const double top = es.eigenvalues()(5);
+    q.plane_conditioning = top > 0.0 ? std::max(0.0, es.eigenvalues()(0)) / top : 0.0;
+  }
   ReprojectionFigures(config, corr, out.T_camera_lidar, engine.direct, &q);
   if (engine.stability_runs > 0) {
     // Re-solve on random halves (deterministic seed) from the full solution.
@@ -195,6 +205,11 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   }
   out.quality_ms = Ms(t_q);
 
+  if (q.plane_conditioning < v.min_plane_conditioning)
+    return Reject(out, "poor_observability",
+                  "the board planes leave a direction unconstrained (conditioning " +
+                      Fmt(q.plane_conditioning, 6) + " below " + Fmt(v.min_plane_conditioning, 6) +
+                      "): boards too few or all parallel");
   if (q.rotation_sigma_deg > v.max_rotation_sigma_deg ||
       q.translation_sigma_m > v.max_translation_sigma_m)
     return Reject(out, "poor_observability",

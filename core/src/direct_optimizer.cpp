@@ -101,6 +101,8 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
     for (int k = jacobian.rows[row]; k < jacobian.rows[row + 1]; ++k)
       j[jacobian.cols[k]] = jacobian.values[k];
     result.information.noalias() += j.transpose() * j;
+    // Every residual block holds (x, y, z) triples, so row % 3 == 2 is a board-plane row.
+    if (row % 3 == 2) result.plane_information.noalias() += j.transpose() * j;
   }
   result.min_information_eigenvalue =
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(result.information)

@@ -38,9 +38,13 @@ struct VerdictConfig {
   double max_translation_m = 0.15;
   int min_frames = 10;                   ///< frame pairs with at least one correspondence
   int min_boards = 20;                   ///< board correspondences
-  double max_rotation_sigma_deg = 0.05;  ///< formal standard deviation gates (observability)
+  double max_rotation_sigma_deg = 0.05;  ///< formal standard deviation gates (precision)
   double max_translation_sigma_m = 0.01;
-  double max_rotation_spread_deg = 0.15;  ///< half-data re-solve gates (stability)
+  /// Degeneracy gate: smallest / largest eigenvalue of the board-plane information, rotations
+  /// scaled by a 10 m lever arm. One board, or parallel boards, drive it towards 0.
+  double min_plane_conditioning =
+      1e-5;  // measured: 3 spread boards 9e-5, one board 1e-6, parallel 2e-8
+  double max_rotation_spread_deg = 0.25;  ///< half-data re-solve gates (stability)
   double max_translation_spread_m = 0.03;
   double max_reprojection_mean_px = 4.0;
   double max_residual_rms_m = 0.05;
@@ -63,7 +67,8 @@ struct QualityFigures {
   double image_coverage = 0.0;  ///< fraction of a 4x4 grid of image cells holding a board centre
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
   double min_information_eigenvalue = 0.0;
-  double rotation_sigma_deg = 0.0, translation_sigma_m = 0.0;    ///< formal, from J^T J
+  double rotation_sigma_deg = 0.0, translation_sigma_m = 0.0;  ///< formal, from J^T J
+  double plane_conditioning = 0.0;  ///< see VerdictConfig::min_plane_conditioning
   double rotation_spread_deg = 0.0, translation_spread_m = 0.0;  ///< half-data re-solves
 };
 

@@ -38,6 +38,11 @@ struct DirectResult {
   /// J^T J at the solution in the tangent space [dt, dtheta] (left perturbation): observability.
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
   double min_information_eigenvalue = 0.0;
+  /// The same from the board-plane rows alone (each point's distance to its board plane, the z
+  /// term of Eq. 3). Edges constrain in-plane directions only through the few points at a
+  /// board's border, which beam width and mixed points make unreliable, so observability is
+  /// judged on this one: one board, or parallel boards, leave it rank-deficient.
+  Eigen::Matrix<double, 6, 6> plane_information = Eigen::Matrix<double, 6, 6>::Zero();
   double solve_ms = 0.0;
 };
 
