@@ -3,12 +3,6 @@
 #include <apriltag/apriltag.h>
 #include <apriltag/common/image_types.h>
 #include <apriltag/common/zarray.h>
-#include <apriltag/tag16h5.h>
-#include <apriltag/tag25h9.h>
-#include <apriltag/tag36h10.h>
-#include <apriltag/tag36h11.h>
-#include <apriltag/tagCircle21h7.h>
-#include <apriltag/tagStandard41h12.h>
 
 #include <algorithm>
 #include <cmath>
@@ -19,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "apriltag_families.hpp"
 #include "calibd/core/camera_pnp.hpp"
 
 namespace calibd {
@@ -61,28 +56,6 @@ namespace {
 
 using Corners = std::array<Eigen::Vector2d, 4>;
 
-// ---- AprilTag families by name (one per detector) ----
-struct FamilyEntry {
-  const char* name;
-  apriltag_family_t* (*create)();
-  void (*destroy)(apriltag_family_t*);
-};
-constexpr FamilyEntry kFamilies[] = {
-    {"tag36h11", tag36h11_create, tag36h11_destroy},
-    {"tag36h10", tag36h10_create, tag36h10_destroy},
-    {"tag25h9", tag25h9_create, tag25h9_destroy},
-    {"tag16h5", tag16h5_create, tag16h5_destroy},
-    {"tagStandard41h12", tagStandard41h12_create, tagStandard41h12_destroy},
-    {"tagCircle21h7", tagCircle21h7_create, tagCircle21h7_destroy},
-};
-
-const FamilyEntry* FindFamily(const std::string& name) {
-  for (const auto& f : kFamilies) {
-    if (name == f.name) return &f;
-  }
-  return nullptr;
-}
-
 // ---- Geometry helpers ----
 
 double MaxSidePx(const Corners& c) {
@@ -121,7 +94,7 @@ struct CameraDetector::Impl {
   // AprilTag objects, created once and reused (STYLE.md: it allocates per call, so at least the
   // detector, its worker pool and the family's quick-decode table are not rebuilt per frame). The
   // family must outlive the detector: the detector is destroyed first.
-  const FamilyEntry* family_entry = nullptr;
+  const internal::AprilTagFamilyEntry* family_entry = nullptr;
   apriltag_family_t* family = nullptr;
   std::unique_ptr<apriltag_detector_t, DetectorDeleter> td;
   std::vector<int> tag_boards;  // indices into boards of the AprilTag boards
@@ -166,7 +139,7 @@ struct CameraDetector::Impl {
         checker_board = static_cast<int>(i);
         continue;
       }
-      const FamilyEntry* f = FindFamily(g.tag_family);
+      const internal::AprilTagFamilyEntry* f = internal::FindAprilTagFamily(g.tag_family);
       if (!f) {
         return Fail("boards: board " + std::to_string(g.board_id) + ": unknown tag_family '" +
                     g.tag_family + "'");

@@ -108,6 +108,46 @@ bool CameraModel::Project(const Eigen::Vector3d& p_camera, Eigen::Vector2d* uv,
          uv->y() >= -0.5 - margin_px && uv->y() <= c.height - 0.5 + margin_px;
 }
 
+// Jacobian of the distorted normalised point w.r.t. the undistorted one for the radial-tangential
+// model (DistortToPixel differentiated), in normalised units.
+Eigen::Matrix2d CameraModel::RadTanJacobian(const Eigen::Vector2d& xy) const {
+  const auto& c = intrinsics_;
+  const double x = xy.x(), y = xy.y();
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (c.k1 + r2 * (c.k2 + r2 * c.k3));
+  const double d_radial = c.k1 + r2 * (2.0 * c.k2 + r2 * 3.0 * c.k3);  // d radial / d r2
+  Eigen::Matrix2d J;
+  J(0, 0) = radial + 2.0 * x * x * d_radial + 2.0 * c.p1 * y + 6.0 * c.p2 * x;
+  J(0, 1) = 2.0 * x * y * d_radial + 2.0 * c.p1 * x + 2.0 * c.p2 * y;
+  J(1, 0) = J(0, 1);
+  J(1, 1) = radial + 2.0 * y * y * d_radial + 6.0 * c.p1 * y + 2.0 * c.p2 * x;
+  return J;
+}
+
+// Newton on the forward radial-tangential model from `xy`, to 1e-9 px.
+bool CameraModel::RadTanNewton(const Eigen::Vector2d& uv, Eigen::Vector2d xy,
+                               Eigen::Vector2d* xy_normalized) const {
+  const auto& c = intrinsics_;
+  for (int it = 0; it < 30; ++it) {
+    const Eigen::Vector2d pred = DistortToPixel(xy);
+    const Eigen::Vector2d err((pred.x() - uv.x()) / c.fx, (pred.y() - uv.y()) / c.fy);
+    if (err.norm() * c.fx < 1e-9) {
+      *xy_normalized = xy;
+      return xy.norm() <= max_radius_;
+    }
+    xy -= RadTanJacobian(xy).inverse() * err;
+    if (!xy.allFinite()) return false;
+  }
+  return false;
+}
+
+bool CameraModel::Unproject(const Eigen::Vector2d& uv, const Eigen::Vector2d& start,
+                            Eigen::Vector2d* xy_normalized) const {
+  if (intrinsics_.model == DistortionModel::kRadTan && RadTanNewton(uv, start, xy_normalized))
+    return true;
+  return Unproject(uv, xy_normalized);
+}
+
 bool CameraModel::Unproject(const Eigen::Vector2d& uv, Eigen::Vector2d* xy_normalized) const {
   const auto& c = intrinsics_;
   const Eigen::Vector2d target((uv.x() - c.cx) / c.fx, (uv.y() - c.cy) / c.fy);
@@ -132,28 +172,7 @@ bool CameraModel::Unproject(const Eigen::Vector2d& uv, Eigen::Vector2d* xy_norma
     }
     return false;
   }
-  Eigen::Vector2d xy = target;  // start from the distorted normalised point
-  for (int it = 0; it < 30; ++it) {
-    const Eigen::Vector2d pred = DistortToPixel(xy);
-    const Eigen::Vector2d err((pred.x() - uv.x()) / c.fx, (pred.y() - uv.y()) / c.fy);
-    if (err.norm() * c.fx < 1e-9) {
-      *xy_normalized = xy;
-      return xy.norm() <= max_radius_;
-    }
-    // Numerical 2x2 Jacobian of the normalised forward map.
-    const double h = 1e-7;
-    Eigen::Matrix2d J;
-    for (int k = 0; k < 2; ++k) {
-      Eigen::Vector2d xh = xy;
-      xh[k] += h;
-      const Eigen::Vector2d ph = DistortToPixel(xh);
-      J(0, k) = (ph.x() - pred.x()) / (c.fx * h);
-      J(1, k) = (ph.y() - pred.y()) / (c.fy * h);
-    }
-    xy -= J.inverse() * err;
-    if (!xy.allFinite()) return false;
-  }
-  return false;
+  return RadTanNewton(uv, target, xy_normalized);
 }
 
 }  // namespace calibd

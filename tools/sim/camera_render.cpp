@@ -39,39 +39,6 @@ void ParallelRows(int rows, int threads, const Body& body) {
   for (auto& t : pool) t.join();
 }
 
-// Jacobian of the distorted pixel w.r.t. normalised (x, y) for the OpenCV radial-tangential
-// model of camera_model.hpp (same formula as CameraModel::DistortToPixel, differentiated).
-Eigen::Matrix2d DistortionJacobian(const CameraIntrinsics& c, const Eigen::Vector2d& xy) {
-  const double x = xy.x(), y = xy.y();
-  const double r2 = x * x + y * y;
-  const double radial = 1.0 + r2 * (c.k1 + r2 * (c.k2 + r2 * c.k3));
-  const double d_radial = c.k1 + r2 * (2.0 * c.k2 + r2 * 3.0 * c.k3);  // d radial / d r2
-  Eigen::Matrix2d J;
-  J(0, 0) = radial + 2.0 * x * x * d_radial + 2.0 * c.p1 * y + 6.0 * c.p2 * x;
-  J(0, 1) = 2.0 * x * y * d_radial + 2.0 * c.p1 * x + 2.0 * c.p2 * y;
-  J(1, 0) = 2.0 * x * y * d_radial + 2.0 * c.p1 * x + 2.0 * c.p2 * y;
-  J(1, 1) = radial + 2.0 * y * y * d_radial + 6.0 * c.p1 * y + 2.0 * c.p2 * x;
-  J.row(0) *= c.fx;
-  J.row(1) *= c.fy;
-  return J;
-}
-
-// Newton on the forward model from a warm start (the neighbouring pixel's solution): two or three
-// steps instead of CameraModel::Unproject's cold start and numerical Jacobian.
-bool UndistortFrom(const CameraModel& model, const Eigen::Vector2d& uv, Eigen::Vector2d xy,
-                   Eigen::Vector2d* out) {
-  for (int it = 0; it < 20; ++it) {
-    const Eigen::Vector2d residual = model.DistortToPixel(xy) - uv;
-    if (residual.norm() < 1e-8) {
-      *out = xy;
-      return xy.norm() <= model.max_undistorted_radius();
-    }
-    xy -= DistortionJacobian(model.intrinsics(), xy).inverse() * residual;
-    if (!xy.allFinite()) return false;
-  }
-  return false;
-}
-
 // floor() without a libm call (the baseline x86-64 target has no SSE4.1 round instruction);
 // valid for |v| < 2^62, far beyond any coordinate here.
 int64_t FastFloor(double v) {
@@ -180,8 +147,7 @@ CameraRenderer::CameraRenderer(const CameraIntrinsics& intrinsics, const CameraI
         const Eigen::Vector2d uv(u, v);
         Eigen::Vector2d xy;
         // Warm start from the left neighbour in the same row only, so that rows are independent.
-        bool ok = have_prev && UndistortFrom(model_, uv, prev, &xy);
-        if (!ok) ok = model_.Unproject(uv, &xy);
+        const bool ok = have_prev ? model_.Unproject(uv, prev, &xy) : model_.Unproject(uv, &xy);
         have_prev = ok;
         if (!ok) continue;
         prev = xy;

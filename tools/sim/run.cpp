@@ -107,8 +107,10 @@ bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, Sim
 
     if (!outputs.overlay_path.empty() && k == outputs.overlay_frame) {
       cv::Mat bgr;
-      DrawLidarOverlay(image, scan, session.T_camera_lidar(), session.camera_model(),
-                       outputs.overlay_scale, &bgr);
+      viz::DrawLidarOverlay(
+          ImageView{image.data, image.cols, image.rows, static_cast<int>(image.step[0])},
+          PointCloudView{scan.x.data(), scan.y.data(), scan.z.data(), nullptr, scan.size()},
+          session.T_camera_lidar(), session.camera_model(), outputs.overlay_scale, &bgr);
       if (!cv::imwrite(outputs.overlay_path, bgr)) {
         if (error) *error = "cannot write overlay picture '" + outputs.overlay_path + "'";
         return false;

@@ -59,11 +59,18 @@ class CameraModel {
   /// (kRadTan), Newton on theta (kKannalaBrandt). Returns false if it did not converge to 1e-9 px
   /// or the result lies beyond the gate.
   bool Unproject(const Eigen::Vector2d& uv, Eigen::Vector2d* xy_normalized) const;
+  /// The same, starting Newton from `start` (e.g. a neighbouring pixel's solution: two or three
+  /// steps instead of a cold start). Falls back to the cold start if that does not converge.
+  bool Unproject(const Eigen::Vector2d& uv, const Eigen::Vector2d& start,
+                 Eigen::Vector2d* xy_normalized) const;
 
   /// Largest undistorted radius (normalised units) the gate accepts.
   double max_undistorted_radius() const { return max_radius_; }
 
  private:
+  Eigen::Matrix2d RadTanJacobian(const Eigen::Vector2d& xy) const;
+  bool RadTanNewton(const Eigen::Vector2d& uv, Eigen::Vector2d xy,
+                    Eigen::Vector2d* xy_normalized) const;
   CameraIntrinsics intrinsics_;
   double max_radius_ = 0.0;
   double max_theta_ = 0.0;  ///< kKannalaBrandt: largest angle off-axis the gate accepts, radians

@@ -4,20 +4,24 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
-namespace calibd::sim {
+namespace calibd::viz {
 
-int DrawLidarOverlay(const cv::Mat& mono8, const LidarScan& scan, const Pose& T_camera_lidar,
-                     const CameraModel& camera, double scale, cv::Mat* bgr) {
+int DrawLidarOverlay(const ImageView& image, const PointCloudView& cloud,
+                     const Pose& T_camera_lidar, const CameraModel& camera, double scale,
+                     cv::Mat* bgr) {
+  const cv::Mat grey(image.height, image.width, CV_8UC1, const_cast<uint8_t*>(image.data),
+                     static_cast<size_t>(image.stride));
   cv::Mat small;
-  cv::resize(mono8, small, cv::Size(), scale, scale, cv::INTER_AREA);
+  cv::resize(grey, small, cv::Size(), scale, scale, cv::INTER_AREA);
   cv::cvtColor(small, *bgr, cv::COLOR_GRAY2BGR);
   // Colour by distance on a log scale, 3 m (red) to 60 m (blue), via OpenCV's JET map.
   cv::Mat lut_in(1, 256, CV_8UC1), lut;
   for (int i = 0; i < 256; ++i) lut_in.at<uint8_t>(0, i) = static_cast<uint8_t>(255 - i);
   cv::applyColorMap(lut_in, lut, cv::COLORMAP_JET);
   int drawn = 0;
-  for (size_t i = 0; i < scan.size(); ++i) {
-    const Eigen::Vector3d p_lidar(scan.x[i], scan.y[i], scan.z[i]);
+  for (size_t i = 0; i < cloud.size; ++i) {
+    const Eigen::Vector3d p_lidar(cloud.x[i], cloud.y[i], cloud.z[i]);
+    if (!p_lidar.allFinite()) continue;
     const Eigen::Vector3d p_camera = T_camera_lidar * p_lidar;
     Eigen::Vector2d uv;
     if (!camera.Project(p_camera, &uv)) continue;
@@ -32,4 +36,13 @@ int DrawLidarOverlay(const cv::Mat& mono8, const LidarScan& scan, const Pose& T_
   return drawn;
 }
 
-}  // namespace calibd::sim
+void DrawMarkers(const std::vector<Eigen::Vector2d>& pixels, double scale, const cv::Scalar& colour,
+                 cv::Mat* bgr) {
+  for (const auto& p : pixels) {
+    const cv::Point pt(static_cast<int>(std::lround(p.x() * scale)),
+                       static_cast<int>(std::lround(p.y() * scale)));
+    cv::circle(*bgr, pt, 5, colour, 2, cv::LINE_AA);
+  }
+}
+
+}  // namespace calibd::viz

@@ -1,0 +1,28 @@
+#pragma once
+/// \file
+/// Per-board pose fit in the LiDAR frame (paper Eq. 2-3, after Huang & Grizzle 2020): T_lidar_board
+/// minimising the box cost of one cluster's points, from an initial guess (T_camera_board and the
+/// coarse extrinsic). The indirect method and the paper's Table I metric build on it.
+
+#include <Eigen/Core>
+#include <string>
+
+#include "calibd/core/geometry.hpp"
+
+namespace calibd {
+
+struct BoardFitResult {
+  bool usable = false;
+  std::string reason;
+  Pose T_lidar_board = Pose::Identity();
+  double residual_rms_m = 0.0;
+  int iterations = 0;
+};
+
+/// Fits the board of half sizes (half_width, half_height), box half-thickness `alpha`, to `points`
+/// (LiDAR frame). `huber_m` as in DirectOptimizerConfig.
+BoardFitResult FitBoardPose(const Eigen::Vector3f* points, int num_points, double half_width,
+                            double half_height, double alpha, double huber_m,
+                            const Pose& T_lidar_board_init, int max_iterations = 50);
+
+}  // namespace calibd

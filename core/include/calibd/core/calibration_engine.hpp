@@ -1,0 +1,96 @@
+#pragma once
+/// \file
+/// The session-level calibration: coarse grid search (paper §III-D), direct optimisation (§III-E,
+/// or the indirect baseline), quality figures, and the verdict against the prior calibration.
+///
+/// Verdicts: `verified` (the new estimate agrees with the prior within the verification
+/// tolerance: the prior is kept), `updated` (a plausible change and every quality gate passes),
+/// `rejected` (with one reason code below). Reason codes:
+/// - `no_camera_boards`: no board detected by the camera in any frame pair.
+/// - `no_lidar_boards`: no board cluster detected by the LiDAR in any frame pair.
+/// - `no_grid_candidate`: no extrinsic within the search range aligns the detections.
+/// - `too_few_frames`, `too_few_boards`: fewer frame pairs / board correspondences than required.
+/// - `solver_failed`: the optimiser did not converge to a usable solution.
+/// - `poor_observability`: the boards constrain some direction too weakly (one board, parallel
+///   boards...): the formal standard deviation of rotation or translation is above its gate.
+/// - `unstable_solution`: re-solving on halves of the data moves the result beyond its gate.
+/// - `high_reprojection_error`: LiDAR-fitted tag corners miss the camera corners (paper Table I).
+/// - `high_residual`: LiDAR board points sit far from their boards under the solution.
+/// - `delta_beyond_tolerance`: the change from the prior exceeds the mechanical tolerance.
+
+#include <string>
+#include <vector>
+
+#include "calibd/core/camera_model.hpp"
+#include "calibd/core/config.hpp"
+#include "calibd/core/direct_optimizer.hpp"
+#include "calibd/core/grid_search.hpp"
+#include "calibd/core/indirect_optimizer.hpp"
+#include "calibd/core/range_image.hpp"
+#include "calibd/core/session_observations.hpp"
+
+namespace calibd {
+
+struct VerdictConfig {
+  double verify_rotation_deg = 0.15;  ///< below both: `verified`, the prior is kept
+  double verify_translation_m = 0.015;
+  double max_rotation_deg = 10.0;  ///< mechanical tolerance: beyond it, `rejected`
+  double max_translation_m = 0.15;
+  int min_frames = 10;                   ///< frame pairs with at least one correspondence
+  int min_boards = 20;                   ///< board correspondences
+  double max_rotation_sigma_deg = 0.05;  ///< formal standard deviation gates (precision)
+  double max_translation_sigma_m = 0.01;
+  /// Degeneracy gate: smallest / largest eigenvalue of the board-plane information, rotations
+  /// scaled by a 10 m lever arm. One board, or parallel boards, drive it towards 0.
+  double min_plane_conditioning =
+      1e-5;  // measured: 3 spread boards 9e-5, one board 1e-6, parallel 2e-8
+  double max_rotation_spread_deg = 0.25;  ///< half-data re-solve gates (stability)
+  double max_translation_spread_m = 0.03;
+  double max_reprojection_mean_px = 4.0;
+  double max_residual_rms_m = 0.05;
+};
+
+struct EngineConfig {
+  enum class Method { kDirect, kIndirect } method = Method::kDirect;
+  GridSearchConfig grid;
+  DirectOptimizerConfig direct;
+  IndirectOptimizerConfig indirect;
+  VerdictConfig verdict;
+  int stability_runs = 4;  ///< re-solves on random halves of the correspondences (0: skip)
+};
+
+struct QualityFigures {
+  double reprojection_mean_px = 0.0, reprojection_p95_px = 0.0;  ///< paper Table I metric
+  double residual_rms_m = 0.0;
+  int frames_used = 0, boards_used = 0;
+  double min_distance_m = 0.0, max_distance_m = 0.0;  ///< camera-to-board distances used
+  double image_coverage = 0.0;  ///< fraction of a 4x4 grid of image cells holding a board centre
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  double min_information_eigenvalue = 0.0;
+  double rotation_sigma_deg = 0.0, translation_sigma_m = 0.0;  ///< formal, from J^T J
+  double plane_conditioning = 0.0;  ///< see VerdictConfig::min_plane_conditioning
+  double rotation_spread_deg = 0.0, translation_spread_m = 0.0;  ///< half-data re-solves
+};
+
+struct CalibrationOutcome {
+  enum class Verdict { kVerified, kUpdated, kRejected } verdict = Verdict::kRejected;
+  std::string reason;  ///< reason code (documented above), empty unless rejected
+  std::string detail;  ///< human-readable explanation with the figures involved
+  Pose prior_T_camera_lidar = Pose::Identity();
+  Pose T_camera_lidar = Pose::Identity();  ///< the estimate (even when rejected, for diagnosis)
+  double delta_rotation_deg = 0.0, delta_translation_m = 0.0;
+  QualityFigures quality;
+  GridSearchResult grid;
+  double optimise_ms = 0.0, quality_ms = 0.0;
+};
+
+const char* VerdictName(CalibrationOutcome::Verdict v);
+
+/// Runs the whole session-level calibration. `projection` is a RangeImage configured for the
+/// config's LiDAR model (the grid search projects into it). `correspondences` (optional) receives
+/// the camera-LiDAR board pairs the grid search found (for pictures and reports).
+CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& session,
+                             const RangeImage& projection, const EngineConfig& engine,
+                             ObservationSet* correspondences = nullptr);
+
+}  // namespace calibd

@@ -1,0 +1,98 @@
+#pragma once
+/// \file
+/// Coarse grid search (paper §III-D, Alg. 1): roll/pitch/yaw perturbations of the prior extrinsic,
+/// each scored by the number of LiDAR board points inside a range-image region of interest around
+/// every camera-detected board centre mapped into the LiDAR frame. The best candidate also yields
+/// the camera-LiDAR board correspondences for the optimisation.
+///
+/// Beyond the paper: a second, finer pass around the best coarse candidate, and an explicit
+/// "no candidate" result when even the best one sees too few points (instead of a silent guess).
+
+#include <string>
+#include <vector>
+
+#include "calibd/core/board.hpp"
+#include "calibd/core/board_observation.hpp"
+#include "calibd/core/range_image.hpp"
+#include "calibd/core/session_observations.hpp"
+
+namespace calibd {
+
+struct GridSearchConfig {
+  double range_deg = 9.0;  ///< perturbations in [-range, +range] on roll, pitch and yaw (paper: 9)
+  double step_deg = 1.5;   ///< paper: 1.5
+  bool refine = true;      ///< second pass around the best candidate
+  double refine_range_deg = 1.0;
+  double refine_step_deg = 0.5;  ///< enough to land in the optimiser's basin (about 1 deg wide)
+  /// The best candidate must put at least this many LiDAR board points in the regions, and at
+  /// least min_point_fraction of all clustered points; otherwise the result is kNoCandidate.
+  int min_points = 30;
+  double min_point_fraction = 0.2;
+  /// Candidates are scored on at most this many frame pairs, evenly spaced over the session (the
+  /// coarse alignment needs a spread of views, not every frame); correspondences for every frame
+  /// are then taken with the winner. 0 scores every frame.
+  int max_scoring_frames = 24;
+
+  bool IsValid(std::string* error) const;
+};
+
+struct GridSearchResult {
+  enum class Status { kOk, kNoCandidate, kNoInput } status = Status::kNoInput;
+  std::string reason;
+  Pose T_camera_lidar = Pose::Identity();
+  Eigen::Vector3d perturbation_rpy_deg = Eigen::Vector3d::Zero();  ///< of the best, LiDAR axes
+  long best_count = 0;    ///< points in the regions for the best candidate
+  long prior_count = 0;   ///< the same for the unperturbed prior
+  long total_points = 0;  ///< all clustered LiDAR points of the session
+  int candidates = 0;     ///< candidates scored (both passes)
+  double search_ms = 0.0;
+};
+
+/// Perturbed extrinsic of a candidate: R = R_prior * R(roll, pitch, yaw) with the angles about
+/// the LiDAR's own axes (x forward: well conditioned, unlike T_camera_lidar's own Euler angles
+/// near pitch = -90 deg, docs/conventions.md#euler); the LiDAR origin keeps its camera position.
+Pose PerturbExtrinsic(const Pose& T_camera_lidar, const Eigen::Vector3d& rpy_rad);
+
+class GridSearch {
+ public:
+  /// `projection` must be configured for the session's LiDAR model (its CellOf is used).
+  GridSearch(const GridSearchConfig& config, const RangeImage& projection,
+             const std::vector<BoardGeometry>& boards);
+
+  /// Runs both passes over `session`. When the result is kOk and `correspondences` is non-null,
+  /// it receives one observation per camera board matched to the LiDAR cluster with the most
+  /// points in its region (each cluster used once).
+  GridSearchResult Run(const SessionObservations& session, const Pose& T_camera_lidar_prior,
+                       ObservationSet* correspondences);
+
+  /// Points of `session` inside the regions for one extrinsic, by brute force over every point
+  /// (an oracle for tests; Run uses per-cluster integral images).
+  long CountBruteForce(const SessionObservations& session, const Pose& T_camera_lidar) const;
+  /// The fast count Run uses, over the integral images of the last Run's session (for tests).
+  long CountForTest(const SessionObservations& session, const Pose& T_camera_lidar) const {
+    return CountFast(session, T_camera_lidar, nullptr);
+  }
+
+ private:
+  struct Roi {
+    int row_lo, row_hi, col_lo, col_hi;
+  };
+  struct ClusterGrid {  // integral image of a cluster's points over its cell bounding box
+    int frame, row0, col0, rows, cols;
+    size_t offset;  // into integral_
+  };
+  bool RegionOf(const Eigen::Vector3d& centre_lidar, double side, Roi* roi) const;
+  long CountFast(const SessionObservations& session, const Pose& T_camera_lidar,
+                 std::vector<int>* best_cluster, int frame_stride = 1) const;
+  long ClusterCount(const ClusterGrid& g, const Roi& roi) const;
+  void Prepare(const SessionObservations& session);
+
+  GridSearchConfig config_;
+  const RangeImage& projection_;
+  std::vector<BoardGeometry> boards_;
+  std::vector<ClusterGrid> grids_;        // one per session cluster
+  std::vector<int32_t> integral_;         // all clusters' integral images
+  std::vector<int> frame_first_cluster_;  // per frame: first index into grids_ (size frames + 1)
+};
+
+}  // namespace calibd

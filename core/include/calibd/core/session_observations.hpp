@@ -1,0 +1,57 @@
+#pragma once
+/// \file
+/// The compact record of a calibration session that the engine works on: per frame pair, the
+/// camera's board detections and the LiDAR's board clusters (points kept in one pool). Capacity is
+/// reserved once from the config; adding beyond it is refused, never grown.
+
+#include <Eigen/Core>
+#include <array>
+#include <vector>
+
+#include "calibd/core/board.hpp"
+#include "calibd/core/camera_detector.hpp"
+#include "calibd/core/geometry.hpp"
+#include "calibd/core/lidar_detector.hpp"
+
+namespace calibd {
+
+struct SessionObservations {
+  struct CameraBoard {
+    int frame = 0;
+    int board_index = -1;  ///< index into the configured boards
+    Pose T_camera_board = Pose::Identity();
+    std::array<Eigen::Vector2d, 4> corners_px;  ///< AprilTag order, OpenCV pixel convention
+  };
+  struct LidarCluster {
+    int frame = 0;
+    int first_point = 0;  ///< into points
+    int num_points = 0;
+  };
+
+  std::vector<CameraBoard> camera;      ///< in frame order
+  std::vector<LidarCluster> lidar;      ///< in frame order
+  std::vector<Eigen::Vector3f> points;  ///< LiDAR frame, m
+  int num_frames = 0;
+
+  /// Reserves room for `max_frames` frame pairs of up to `max_boards` boards and clusters each,
+  /// with up to `max_points_per_cluster` points each.
+  void Reserve(int max_frames, int max_boards, int max_points_per_cluster);
+  void Clear();
+
+  /// Starts a new frame pair; false when the frame capacity is used up.
+  bool BeginFrame();
+  /// Adds to the current frame; false (nothing added) when a capacity would be exceeded.
+  bool AddCameraBoard(const CameraBoard& board);
+  bool AddLidarCluster(const Eigen::Vector3f* cluster_points, int count);
+
+  /// Records one frame pair from the detectors' outputs (camera boards mapped from board_id to
+  /// their index in `boards`). False when a capacity ran out: what fitted is kept, the rest
+  /// dropped.
+  bool AddFrame(const CameraDetections& camera_detections, const LidarDetections& lidar_detections,
+                const std::vector<BoardGeometry>& boards);
+
+ private:
+  int max_frames_ = 0;
+};
+
+}  // namespace calibd

@@ -1,0 +1,249 @@
+#include "calibd/core/calibration_engine.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "calibd/core/board_fit.hpp"
+
+namespace calibd {
+
+namespace {
+
+constexpr double kRad2Deg = 180.0 / M_PI;
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+CalibrationOutcome Reject(CalibrationOutcome out, const char* reason, const std::string& detail) {
+  out.verdict = CalibrationOutcome::Verdict::kRejected;
+  out.reason = reason;
+  out.detail = detail;
+  return out;
+}
+
+std::string Fmt(double v, int precision = 3) {
+  std::ostringstream o;
+  o.setf(std::ios::fixed);
+  o.precision(precision);
+  o << v;
+  return o.str();
+}
+
+// Paper Table I metric: fit each board in the LiDAR frame on its own (Eq. 2-3), map its tag corners
+// into the image with the estimate, and compare with the camera's corners.
+void ReprojectionFigures(const CalibConfig& config, const ObservationSet& set, const Pose& T_cl,
+                         const DirectOptimizerConfig& direct, QualityFigures* q) {
+  const CameraModel camera(config.camera);
+  const Pose T_lc = T_cl.inverse();
+  std::vector<double> errors;
+  for (const auto& o : set.observations) {
+    const BoardGeometry& g = config.boards[o.board_index];
+    const BoardFitResult fit =
+        FitBoardPose(set.points.data() + o.first_point, o.num_points, g.width_m / 2.0,
+                     g.height_m / 2.0, direct.alpha_m, direct.huber_m, T_lc * o.T_camera_board);
+    if (!fit.usable) continue;
+    const auto corners = g.TagCornersInBoard();
+    for (int c = 0; c < 4; ++c) {
+      Eigen::Vector2d uv;
+      if (camera.Project(T_cl * fit.T_lidar_board * corners[c], &uv, 1e6))
+        errors.push_back((uv - o.corners_px[c]).norm());
+    }
+  }
+  if (errors.empty()) return;
+  double sum = 0.0;
+  for (double e : errors) sum += e;
+  q->reprojection_mean_px = sum / static_cast<double>(errors.size());
+  std::sort(errors.begin(), errors.end());
+  q->reprojection_p95_px = errors[std::min(errors.size() - 1, errors.size() * 95 / 100)];
+}
+
+void CoverageFigures(const CalibConfig& config, const ObservationSet& set, QualityFigures* q) {
+  const CameraModel camera(config.camera);
+  std::set<int> frames, cells;
+  q->min_distance_m = 1e9;
+  q->max_distance_m = 0.0;
+  for (const auto& o : set.observations) {
+    frames.insert(o.frame);
+    const double d = o.T_camera_board.translation().norm();
+    q->min_distance_m = std::min(q->min_distance_m, d);
+    q->max_distance_m = std::max(q->max_distance_m, d);
+    Eigen::Vector2d uv;
+    if (camera.Project(o.T_camera_board.translation(), &uv, 1e6)) {
+      const int cx = std::clamp(static_cast<int>(4.0 * uv.x() / config.camera.width), 0, 3);
+      const int cy = std::clamp(static_cast<int>(4.0 * uv.y() / config.camera.height), 0, 3);
+      cells.insert(cy * 4 + cx);
+    }
+  }
+  if (set.observations.empty()) q->min_distance_m = 0.0;
+  q->frames_used = static_cast<int>(frames.size());
+  q->boards_used = static_cast<int>(set.observations.size());
+  q->image_coverage = static_cast<double>(cells.size()) / 16.0;
+}
+
+// Formal standard deviations: covariance = sigma^2 (J^T J)^-1 with sigma the residual RMS, in the
+// tangent [dt, dtheta]; the worst direction of each block.
+void FormalSigmas(const Eigen::Matrix<double, 6, 6>& info, double residual_rms, QualityFigures* q) {
+  const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(info);
+  if (!lu.isInvertible()) {
+    q->rotation_sigma_deg = q->translation_sigma_m = std::numeric_limits<double>::infinity();
+    return;
+  }
+  const Eigen::Matrix<double, 6, 6> cov = lu.inverse() * residual_rms * residual_rms;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> et(cov.topLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> er(cov.bottomRightCorner<3, 3>());
+  q->translation_sigma_m = std::sqrt(std::max(0.0, et.eigenvalues()(2)));
+  q->rotation_sigma_deg = std::sqrt(std::max(0.0, er.eigenvalues()(2))) * kRad2Deg;
+}
+
+}  // namespace
+
+const char* VerdictName(CalibrationOutcome::Verdict v) {
+  switch (v) {
+    case CalibrationOutcome::Verdict::kVerified:
+      return "verified";
+    case CalibrationOutcome::Verdict::kUpdated:
+      return "updated";
+    case CalibrationOutcome::Verdict::kRejected:
+      return "rejected";
+  }
+  return "rejected";
+}
+
+CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& session,
+                             const RangeImage& projection, const EngineConfig& engine,
+                             ObservationSet* correspondences) {
+  CalibrationOutcome out;
+  out.prior_T_camera_lidar = config.prior_T_camera_lidar;
+  out.T_camera_lidar = config.prior_T_camera_lidar;
+  const VerdictConfig& v = engine.verdict;
+  if (session.camera.empty())
+    return Reject(out, "no_camera_boards", "the camera saw no configured board in any frame pair");
+  if (session.lidar.empty())
+    return Reject(out, "no_lidar_boards", "the LiDAR found no board cluster in any frame pair");
+
+  GridSearch grid(engine.grid, projection, config.boards);
+  ObservationSet local;
+  ObservationSet& corr = correspondences ? *correspondences : local;
+  corr.observations.clear();
+  corr.points.clear();
+  corr.observations.reserve(session.camera.size());
+  corr.points.reserve(session.points.size());
+  out.grid = grid.Run(session, config.prior_T_camera_lidar, &corr);
+  if (out.grid.status != GridSearchResult::Status::kOk)
+    return Reject(out, "no_grid_candidate", out.grid.reason);
+  out.T_camera_lidar = out.grid.T_camera_lidar;
+  CoverageFigures(config, corr, &out.quality);
+  QualityFigures& q = out.quality;
+  if (q.frames_used < v.min_frames)
+    return Reject(out, "too_few_frames",
+                  std::to_string(q.frames_used) + " frame pairs with a correspondence, " +
+                      std::to_string(v.min_frames) + " needed");
+  if (q.boards_used < v.min_boards)
+    return Reject(out, "too_few_boards",
+                  std::to_string(q.boards_used) + " board correspondences, " +
+                      std::to_string(v.min_boards) + " needed");
+
+  const auto t_opt = Clock::now();
+  DirectResult direct;
+  if (engine.method == EngineConfig::Method::kIndirect) {
+    const IndirectResult ind = OptimizeIndirect(config.boards, corr, CameraModel(config.camera),
+                                                out.grid.T_camera_lidar, engine.indirect);
+    if (!ind.usable) return Reject(out, "solver_failed", "indirect method: " + ind.reason);
+    direct = OptimizeDirect(config.boards, corr, ind.T_camera_lidar, engine.direct, nullptr, false);
+    direct.T_camera_lidar = ind.T_camera_lidar;
+  } else {
+    direct = OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct);
+    if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
+  }
+  out.optimise_ms = Ms(t_opt);
+  out.T_camera_lidar = direct.T_camera_lidar;
+  out.delta_rotation_deg =
+      RotationAngle(config.prior_T_camera_lidar.linear(), out.T_camera_lidar.linear()) * kRad2Deg;
+  out.delta_translation_m =
+      (config.prior_T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm();
+
+  const auto t_q = Clock::now();
+  q.residual_rms_m = direct.residual_rms_m;
+  q.information = direct.information;
+  q.min_information_eigenvalue = direct.min_information_eigenvalue;
+  FormalSigmas(direct.information, direct.residual_rms_m, &q);
+  {
+    Eigen::Matrix<double, 6, 1> scale;
+    scale << 1.0, 1.0, 1.0, 10.0, 10.0, 10.0;  // rad -> m at a 10 m lever arm
+    const Eigen::Matrix<double, 6, 6> S = scale.cwiseInverse().asDiagonal() *
+                                          direct.plane_information *
+                                          scale.cwiseInverse().asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(S);
+    const double top = es.eigenvalues()(5);
+    q.plane_conditioning = top > 0.0 ? std::max(0.0, es.eigenvalues()(0)) / top : 0.0;
+  }
+  ReprojectionFigures(config, corr, out.T_camera_lidar, engine.direct, &q);
+  if (engine.stability_runs > 0) {
+    // Re-solve on random halves (deterministic seed) from the full solution.
+    std::mt19937_64 rng(12345);
+    std::vector<char> use(corr.observations.size());
+    for (int run = 0; run < engine.stability_runs; ++run) {
+      for (auto& u : use) u = static_cast<char>(rng() & 1u);
+      const DirectResult half =
+          OptimizeDirect(config.boards, corr, out.T_camera_lidar, engine.direct, &use);
+      if (!half.usable) continue;
+      q.rotation_spread_deg = std::max(
+          q.rotation_spread_deg,
+          RotationAngle(half.T_camera_lidar.linear(), out.T_camera_lidar.linear()) * kRad2Deg);
+      q.translation_spread_m =
+          std::max(q.translation_spread_m,
+                   (half.T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm());
+    }
+  }
+  out.quality_ms = Ms(t_q);
+
+  if (q.plane_conditioning < v.min_plane_conditioning)
+    return Reject(out, "poor_observability",
+                  "the board planes leave a direction unconstrained (conditioning " +
+                      Fmt(q.plane_conditioning, 6) + " below " + Fmt(v.min_plane_conditioning, 6) +
+                      "): boards too few or all parallel");
+  if (q.rotation_sigma_deg > v.max_rotation_sigma_deg ||
+      q.translation_sigma_m > v.max_translation_sigma_m)
+    return Reject(out, "poor_observability",
+                  "formal sigma " + Fmt(q.rotation_sigma_deg, 4) + " deg / " +
+                      Fmt(q.translation_sigma_m, 4) + " m above " +
+                      Fmt(v.max_rotation_sigma_deg, 4) + " deg / " +
+                      Fmt(v.max_translation_sigma_m, 4) + " m: boards too few or too alike");
+  if (q.rotation_spread_deg > v.max_rotation_spread_deg ||
+      q.translation_spread_m > v.max_translation_spread_m)
+    return Reject(out, "unstable_solution",
+                  "half-data re-solves move it by " + Fmt(q.rotation_spread_deg) + " deg / " +
+                      Fmt(q.translation_spread_m) + " m");
+  if (q.reprojection_mean_px > v.max_reprojection_mean_px)
+    return Reject(out, "high_reprojection_error",
+                  "mean " + Fmt(q.reprojection_mean_px, 2) + " px above " +
+                      Fmt(v.max_reprojection_mean_px, 2) + " px");
+  if (q.residual_rms_m > v.max_residual_rms_m)
+    return Reject(out, "high_residual",
+                  "point-to-board RMS " + Fmt(q.residual_rms_m, 4) + " m above " +
+                      Fmt(v.max_residual_rms_m, 4) + " m");
+  if (out.delta_rotation_deg > v.max_rotation_deg || out.delta_translation_m > v.max_translation_m)
+    return Reject(out, "delta_beyond_tolerance",
+                  "change from the prior " + Fmt(out.delta_rotation_deg) + " deg / " +
+                      Fmt(out.delta_translation_m) + " m exceeds " + Fmt(v.max_rotation_deg) +
+                      " deg / " + Fmt(v.max_translation_m) + " m");
+  out.verdict = out.delta_rotation_deg <= v.verify_rotation_deg &&
+                        out.delta_translation_m <= v.verify_translation_m
+                    ? CalibrationOutcome::Verdict::kVerified
+                    : CalibrationOutcome::Verdict::kUpdated;
+  out.detail = out.verdict == CalibrationOutcome::Verdict::kVerified
+                   ? "the prior calibration is confirmed"
+                   : "the extrinsic changed by " + Fmt(out.delta_rotation_deg) + " deg / " +
+                         Fmt(out.delta_translation_m) + " m";
+  return out;
+}
+
+}  // namespace calibd

@@ -1,0 +1,272 @@
+#include "calibd/core/grid_search.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+namespace calibd {
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// FastAtan2 (about 1e-5 rad) is far below a range-image cell (>= 1.3e-3 rad) and several times
+// cheaper than std::atan2: this runs 8 times per region and candidate.
+bool CellOfPoint(const RangeImage& img, const Eigen::Vector3d& p, int* row, int* col) {
+  const float horizontal = static_cast<float>(std::sqrt(p.x() * p.x() + p.y() * p.y()));
+  return img.CellOf(FastAtan2(static_cast<float>(p.y()), static_cast<float>(p.x())),
+                    FastAtan2(static_cast<float>(p.z()), horizontal), row, col);
+}
+
+}  // namespace
+
+bool GridSearchConfig::IsValid(std::string* error) const {
+  auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(range_deg >= 0.0 && range_deg <= 30.0)) return fail("grid.range_deg must be in [0, 30]");
+  if (!(step_deg > 0.0 && step_deg <= 10.0)) return fail("grid.step_deg must be in (0, 10]");
+  if (range_deg / step_deg > 40.0) return fail("grid.range_deg / step_deg must be <= 40");
+  if (refine && !(refine_step_deg > 0.0 && refine_range_deg / refine_step_deg <= 40.0))
+    return fail("grid.refine_step_deg must be > 0 and refine_range/refine_step <= 40");
+  if (min_points < 1) return fail("grid.min_points must be >= 1");
+  if (max_scoring_frames < 0) return fail("grid.max_scoring_frames must be >= 0");
+  if (!(min_point_fraction >= 0.0 && min_point_fraction <= 1.0))
+    return fail("grid.min_point_fraction must be in [0, 1]");
+  return true;
+}
+
+Pose PerturbExtrinsic(const Pose& T, const Eigen::Vector3d& rpy) {
+  Pose out = T;
+  out.linear() = T.linear() * RotationFromRpy(rpy.x(), rpy.y(), rpy.z());
+  return out;
+}
+
+GridSearch::GridSearch(const GridSearchConfig& config, const RangeImage& projection,
+                       const std::vector<BoardGeometry>& boards)
+    : config_(config), projection_(projection), boards_(boards) {}
+
+// Alg. 1, CalculateROI: the bounding rectangle, in the range image, of the 8 vertices of a cube of
+// the board's side centred on the predicted board centre.
+bool GridSearch::RegionOf(const Eigen::Vector3d& c, double side, Roi* roi) const {
+  roi->row_lo = roi->col_lo = std::numeric_limits<int>::max();
+  roi->row_hi = roi->col_hi = std::numeric_limits<int>::min();
+  const double h = side / 2.0;
+  for (int v = 0; v < 8; ++v) {
+    const Eigen::Vector3d p =
+        c + Eigen::Vector3d((v & 1) ? h : -h, (v & 2) ? h : -h, (v & 4) ? h : -h);
+    int row = 0, col = 0;
+    if (!CellOfPoint(projection_, p, &row, &col)) return false;
+    roi->row_lo = std::min(roi->row_lo, row);
+    roi->row_hi = std::max(roi->row_hi, row);
+    roi->col_lo = std::min(roi->col_lo, col);
+    roi->col_hi = std::max(roi->col_hi, col);
+  }
+  // A region straddling the azimuth seam of a 360-degree image would look inverted: boards sit in
+  // front of the camera, never behind the LiDAR, so such a region is treated as empty.
+  return roi->col_hi - roi->col_lo < projection_.cols() / 2;
+}
+
+void GridSearch::Prepare(const SessionObservations& s) {
+  grids_.clear();
+  integral_.clear();
+  frame_first_cluster_.assign(static_cast<size_t>(s.num_frames) + 1, 0);
+  for (const auto& c : s.lidar) {
+    ClusterGrid g{
+        c.frame,         std::numeric_limits<int>::max(), std::numeric_limits<int>::max(), 0, 0,
+        integral_.size()};
+    int row_hi = std::numeric_limits<int>::min(), col_hi = std::numeric_limits<int>::min();
+    std::vector<std::pair<int, int>> cells;
+    cells.reserve(static_cast<size_t>(c.num_points));
+    for (int i = 0; i < c.num_points; ++i) {
+      int row = 0, col = 0;
+      if (!CellOfPoint(projection_, s.points[c.first_point + i].cast<double>(), &row, &col))
+        continue;
+      cells.emplace_back(row, col);
+      g.row0 = std::min(g.row0, row);
+      g.col0 = std::min(g.col0, col);
+      row_hi = std::max(row_hi, row);
+      col_hi = std::max(col_hi, col);
+    }
+    if (cells.empty()) {
+      g.row0 = g.col0 = 0;
+    } else {
+      g.rows = row_hi - g.row0 + 1;
+      g.cols = col_hi - g.col0 + 1;
+    }
+    // Integral image with a zero first row and column: I(r+1, c+1) = count in [0..r] x [0..c].
+    integral_.resize(integral_.size() + static_cast<size_t>((g.rows + 1) * (g.cols + 1)), 0);
+    int32_t* I = integral_.data() + g.offset;
+    for (const auto& rc : cells)
+      ++I[(rc.first - g.row0 + 1) * (g.cols + 1) + (rc.second - g.col0 + 1)];
+    for (int r = 1; r <= g.rows; ++r)
+      for (int col = 1; col <= g.cols; ++col)
+        I[r * (g.cols + 1) + col] += I[(r - 1) * (g.cols + 1) + col] +
+                                     I[r * (g.cols + 1) + col - 1] -
+                                     I[(r - 1) * (g.cols + 1) + col - 1];
+    grids_.push_back(g);
+  }
+  // Clusters are in frame order: index the first cluster of every frame.
+  size_t k = 0;
+  for (int f = 0; f <= s.num_frames; ++f) {
+    while (k < grids_.size() && grids_[k].frame < f) ++k;
+    frame_first_cluster_[static_cast<size_t>(f)] = static_cast<int>(k);
+  }
+}
+
+long GridSearch::ClusterCount(const ClusterGrid& g, const Roi& roi) const {
+  const int r0 = std::max(roi.row_lo, g.row0) - g.row0,
+            r1 = std::min(roi.row_hi, g.row0 + g.rows - 1) - g.row0;
+  const int c0 = std::max(roi.col_lo, g.col0) - g.col0,
+            c1 = std::min(roi.col_hi, g.col0 + g.cols - 1) - g.col0;
+  if (r0 > r1 || c0 > c1) return 0;
+  const int32_t* I = integral_.data() + g.offset;
+  const int w = g.cols + 1;
+  return I[(r1 + 1) * w + (c1 + 1)] - I[r0 * w + (c1 + 1)] - I[(r1 + 1) * w + c0] + I[r0 * w + c0];
+}
+
+long GridSearch::CountFast(const SessionObservations& s, const Pose& T_camera_lidar,
+                           std::vector<int>* best_cluster, int frame_stride) const {
+  const Pose T_lidar_camera = T_camera_lidar.inverse();
+  long total = 0;
+  for (size_t b = 0; b < s.camera.size(); ++b) {
+    const auto& cam = s.camera[b];
+    if (best_cluster) (*best_cluster)[b] = -1;
+    if (cam.frame % frame_stride != 0) continue;
+    if (cam.board_index < 0 || cam.board_index >= static_cast<int>(boards_.size())) continue;
+    const BoardGeometry& g = boards_[cam.board_index];
+    Roi roi;
+    if (!RegionOf(T_lidar_camera * cam.T_camera_board.translation(),
+                  std::max(g.width_m, g.height_m), &roi))
+      continue;
+    long best = 0;
+    for (int k = frame_first_cluster_[cam.frame]; k < frame_first_cluster_[cam.frame + 1]; ++k) {
+      const long n = ClusterCount(grids_[k], roi);
+      total += n;
+      if (best_cluster && n > best) {
+        best = n;
+        (*best_cluster)[b] = k;
+      }
+    }
+  }
+  return total;
+}
+
+long GridSearch::CountBruteForce(const SessionObservations& s, const Pose& T_camera_lidar) const {
+  const Pose T_lidar_camera = T_camera_lidar.inverse();
+  long total = 0;
+  for (const auto& cam : s.camera) {
+    if (cam.board_index < 0 || cam.board_index >= static_cast<int>(boards_.size())) continue;
+    const BoardGeometry& g = boards_[cam.board_index];
+    Roi roi;
+    if (!RegionOf(T_lidar_camera * cam.T_camera_board.translation(),
+                  std::max(g.width_m, g.height_m), &roi))
+      continue;
+    for (const auto& c : s.lidar) {
+      if (c.frame != cam.frame) continue;
+      for (int i = 0; i < c.num_points; ++i) {
+        int row = 0, col = 0;
+        if (!CellOfPoint(projection_, s.points[c.first_point + i].cast<double>(), &row, &col))
+          continue;
+        total += (row >= roi.row_lo && row <= roi.row_hi && col >= roi.col_lo && col <= roi.col_hi)
+                     ? 1
+                     : 0;
+      }
+    }
+  }
+  return total;
+}
+
+GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_prior,
+                                 ObservationSet* correspondences) {
+  const auto t0 = std::chrono::steady_clock::now();
+  GridSearchResult result;
+  result.T_camera_lidar = T_prior;
+  std::string why;
+  if (!config_.IsValid(&why)) {
+    result.status = GridSearchResult::Status::kNoInput;
+    result.reason = "config: " + why;
+    return result;
+  }
+  if (s.camera.empty() || s.lidar.empty()) {
+    result.reason = s.camera.empty() ? "no camera board detections" : "no LiDAR board clusters";
+    return result;
+  }
+  Prepare(s);
+  for (const auto& c : s.lidar) result.total_points += c.num_points;
+  result.prior_count = CountFast(s, T_prior, nullptr);
+  const int stride = config_.max_scoring_frames > 0
+                         ? std::max(1, (s.num_frames + config_.max_scoring_frames - 1) /
+                                           config_.max_scoring_frames)
+                         : 1;
+
+  // One pass over a cube of perturbations centred on `centre`; candidates in a fixed order, a tie
+  // keeps the one closest to the centre (then the earlier one): deterministic, biased to the prior.
+  Eigen::Vector3d best_rpy = Eigen::Vector3d::Zero();
+  long best_count = -1;
+  auto pass = [&](const Eigen::Vector3d& centre, double range_deg, double step_deg) {
+    const int n = static_cast<int>(std::floor(range_deg / step_deg + 1e-9));
+    Eigen::Vector3d pass_best = centre;
+    long pass_count = -1;
+    double pass_norm = 0.0;
+    for (int i = -n; i <= n; ++i)
+      for (int j = -n; j <= n; ++j)
+        for (int k = -n; k <= n; ++k) {
+          const Eigen::Vector3d d = Eigen::Vector3d(i, j, k) * step_deg * kDeg;
+          const Eigen::Vector3d rpy = centre + d;
+          const long count = CountFast(s, PerturbExtrinsic(T_prior, rpy), nullptr, stride);
+          ++result.candidates;
+          if (count > pass_count || (count == pass_count && d.norm() < pass_norm)) {
+            pass_count = count;
+            pass_best = rpy;
+            pass_norm = d.norm();
+          }
+        }
+    if (pass_count > best_count) {
+      best_count = pass_count;
+      best_rpy = pass_best;
+    }
+  };
+  pass(Eigen::Vector3d::Zero(), config_.range_deg, config_.step_deg);
+  if (config_.refine) pass(best_rpy, config_.refine_range_deg, config_.refine_step_deg);
+
+  // Report the winner's count over every frame (the gate below compares with all points).
+  best_count = CountFast(s, PerturbExtrinsic(T_prior, best_rpy), nullptr);
+  result.best_count = best_count;
+  result.perturbation_rpy_deg = best_rpy / kDeg;
+  const long needed = std::max<long>(
+      config_.min_points,
+      static_cast<long>(config_.min_point_fraction * static_cast<double>(result.total_points)));
+  if (best_count < needed) {
+    result.status = GridSearchResult::Status::kNoCandidate;
+    result.reason = "best candidate puts " + std::to_string(best_count) +
+                    " LiDAR board points in the camera boards' regions, fewer than " +
+                    std::to_string(needed);
+  } else {
+    result.status = GridSearchResult::Status::kOk;
+    result.T_camera_lidar = PerturbExtrinsic(T_prior, best_rpy);
+    if (correspondences) {
+      std::vector<int> best_cluster(s.camera.size(), -1);
+      CountFast(s, result.T_camera_lidar, &best_cluster);
+      std::vector<bool> used(grids_.size(), false);
+      for (size_t b = 0; b < s.camera.size(); ++b) {
+        const int k = best_cluster[b];
+        if (k < 0 || used[k]) continue;
+        used[k] = true;
+        BoardObservation o;
+        o.frame = s.camera[b].frame;
+        o.board_index = s.camera[b].board_index;
+        o.T_camera_board = s.camera[b].T_camera_board;
+        o.corners_px = s.camera[b].corners_px;
+        correspondences->Add(o, s.points.data() + s.lidar[k].first_point, s.lidar[k].num_points);
+      }
+    }
+  }
+  result.search_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return result;
+}
+
+}  // namespace calibd

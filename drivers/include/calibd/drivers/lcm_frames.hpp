@@ -1,0 +1,31 @@
+#pragma once
+/// \file
+/// The edge between LCM messages and core: checks a decoded camera or LiDAR message and exposes it
+/// as a core view, or says exactly what is wrong with it. Nothing here trusts the sender: sizes
+/// that lie, unknown encodings and absurd dimensions are refused.
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "calibd/camera_frame_t.hpp"
+#include "calibd/core/image_view.hpp"
+#include "calibd/lidar_frame_t.hpp"
+
+namespace calibd {
+
+struct FrameLimits {
+  int max_width = 16384, max_height = 16384;  ///< pixels
+  int max_points = 4000000;                   ///< per LiDAR frame
+};
+
+/// mono8 data is viewed in place (the message must outlive the view); JPEG is decoded into
+/// `decoded` (reused between calls); bgr8 is converted to grey into `decoded`. False with `error`
+/// naming the field when the message is malformed.
+bool CameraFrameToView(const camera_frame_t& msg, const FrameLimits& limits, cv::Mat* decoded,
+                       ImageView* view, std::string* error);
+
+/// Views the struct-of-arrays in place. `ring` is null when every ring is -1 (no rings).
+bool LidarFrameToView(const lidar_frame_t& msg, const FrameLimits& limits, PointCloudView* view,
+                      std::string* error);
+
+}  // namespace calibd

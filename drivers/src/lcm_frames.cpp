@@ -1,0 +1,75 @@
+#include "calibd/drivers/lcm_frames.hpp"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace calibd {
+
+namespace {
+bool Fail(std::string* error, const std::string& m) {
+  if (error) *error = m;
+  return false;
+}
+}  // namespace
+
+bool CameraFrameToView(const camera_frame_t& m, const FrameLimits& limits, cv::Mat* decoded,
+                       ImageView* view, std::string* error) {
+  if (m.width <= 0 || m.height <= 0 || m.width > limits.max_width || m.height > limits.max_height)
+    return Fail(error, "camera_frame_t: width/height " + std::to_string(m.width) + "x" +
+                           std::to_string(m.height) + " out of range");
+  if (m.size < 0 || static_cast<size_t>(m.size) != m.data.size())
+    return Fail(error, "camera_frame_t: size " + std::to_string(m.size) + " does not match " +
+                           std::to_string(m.data.size()) + " data bytes");
+  switch (m.encoding) {
+    case camera_frame_t::ENCODING_MONO8: {
+      if (m.stride < m.width ||
+          static_cast<int64_t>(m.stride) * (m.height - 1) + m.width > static_cast<int64_t>(m.size))
+        return Fail(error, "camera_frame_t: stride " + std::to_string(m.stride) +
+                               " and height do not fit in " + std::to_string(m.size) + " bytes");
+      *view = ImageView{m.data.data(), m.width, m.height, m.stride};
+      return true;
+    }
+    case camera_frame_t::ENCODING_BGR8: {
+      if (m.stride < 3 * m.width || static_cast<int64_t>(m.stride) * (m.height - 1) + 3 * m.width >
+                                        static_cast<int64_t>(m.size))
+        return Fail(error, "camera_frame_t: bgr8 stride " + std::to_string(m.stride) +
+                               " and height do not fit in " + std::to_string(m.size) + " bytes");
+      const cv::Mat bgr(m.height, m.width, CV_8UC3, const_cast<uint8_t*>(m.data.data()),
+                        static_cast<size_t>(m.stride));
+      cv::cvtColor(bgr, *decoded, cv::COLOR_BGR2GRAY);
+      break;
+    }
+    case camera_frame_t::ENCODING_JPEG: {
+      if (m.data.empty()) return Fail(error, "camera_frame_t: empty JPEG data");
+      cv::imdecode(m.data, cv::IMREAD_GRAYSCALE, decoded);
+      if (decoded->empty()) return Fail(error, "camera_frame_t: JPEG data does not decode");
+      if (decoded->cols != m.width || decoded->rows != m.height)
+        return Fail(error, "camera_frame_t: JPEG is " + std::to_string(decoded->cols) + "x" +
+                               std::to_string(decoded->rows) + ", header says " +
+                               std::to_string(m.width) + "x" + std::to_string(m.height));
+      break;
+    }
+    default:
+      return Fail(error, "camera_frame_t: unknown encoding " + std::to_string(m.encoding));
+  }
+  *view =
+      ImageView{decoded->data, decoded->cols, decoded->rows, static_cast<int>(decoded->step[0])};
+  return true;
+}
+
+bool LidarFrameToView(const lidar_frame_t& m, const FrameLimits& limits, PointCloudView* view,
+                      std::string* error) {
+  if (m.num_points < 0 || m.num_points > limits.max_points)
+    return Fail(error,
+                "lidar_frame_t: num_points " + std::to_string(m.num_points) + " out of range");
+  const size_t n = static_cast<size_t>(m.num_points);
+  if (m.x.size() != n || m.y.size() != n || m.z.size() != n || m.intensity.size() != n ||
+      m.ring.size() != n || m.time_offset_us.size() != n)
+    return Fail(error, "lidar_frame_t: array lengths differ from num_points " + std::to_string(n));
+  bool any_ring = false;
+  for (int16_t r : m.ring) any_ring = any_ring || r >= 0;
+  *view = PointCloudView{m.x.data(), m.y.data(), m.z.data(), any_ring ? m.ring.data() : nullptr, n};
+  return true;
+}
+
+}  // namespace calibd

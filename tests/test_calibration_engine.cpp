@@ -1,0 +1,78 @@
+// The session-level engine on real detections of simulated sessions: verdicts and reason codes
+// for good and degenerate inputs.
+
+#include <gtest/gtest.h>
+
+#include "calibd/core/calibration_engine.hpp"
+#include "recorded_session.hpp"
+
+namespace calibd {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// 40 frame pairs spread over the default 20 s drive (6-30 m and back).
+std::unique_ptr<testing::RecordedSession> Drive(sim::SessionOptions o) {
+  return testing::Record(o, 40, 5);
+}
+
+TEST(CalibrationEngineTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  o.prior_trans_m = 0.03;
+  auto r = Drive(o);
+  const CalibrationOutcome updated = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  std::printf("good session: plane conditioning %.2e, sigma %.4f deg\n",
+              updated.quality.plane_conditioning, updated.quality.rotation_sigma_deg);
+  ASSERT_EQ(updated.verdict, CalibrationOutcome::Verdict::kUpdated)
+      << updated.reason << ": " << updated.detail;
+  const Pose truth = r->session.T_camera_lidar();
+  EXPECT_LT(RotationAngle(updated.T_camera_lidar.linear(), truth.linear()) / kDeg, 0.1);
+  EXPECT_LT((updated.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
+  EXPECT_NEAR(updated.delta_rotation_deg, 3.0, 0.15);
+
+  // The same observations with the truth as the prior: the prior is confirmed, not replaced.
+  CalibConfig right = r->config;
+  right.prior_T_camera_lidar = truth;
+  const CalibrationOutcome verified = Calibrate(right, r->obs, r->projection, EngineConfig{});
+  EXPECT_EQ(verified.verdict, CalibrationOutcome::Verdict::kVerified)
+      << verified.reason << ": " << verified.detail << " delta " << verified.delta_rotation_deg;
+}
+
+TEST(CalibrationEngineTest, OneBoardIsRejectedForObservability) {
+  sim::SessionOptions o;
+  o.workshop.num_boards = 1;
+  auto r = Drive(o);
+  const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
+  EXPECT_EQ(out.reason, "poor_observability") << out.detail;
+  std::printf("one board: plane conditioning %.2e\n", out.quality.plane_conditioning);
+}
+
+TEST(CalibrationEngineTest, ParallelCoplanarBoardsAreRejectedForObservability) {
+  sim::SessionOptions o;
+  o.workshop.layout = "line";  // side by side, all facing the vehicle: one plane
+  o.trajectory.mode = "static";
+  o.trajectory.static_distance_m = 8.0;
+  auto r = Drive(o);
+  const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
+  EXPECT_EQ(out.reason, "poor_observability") << out.detail;
+  std::printf("parallel boards: plane conditioning %.2e\n", out.quality.plane_conditioning);
+}
+
+TEST(CalibrationEngineTest, NoLidarBoardsOrNoCameraBoardsAreExplicit) {
+  sim::SessionOptions o;
+  auto r = Drive(o);
+  SessionObservations camera_only = r->obs;
+  camera_only.lidar.clear();
+  EXPECT_EQ(Calibrate(r->config, camera_only, r->projection, EngineConfig{}).reason,
+            "no_lidar_boards");
+  SessionObservations lidar_only = r->obs;
+  lidar_only.camera.clear();
+  EXPECT_EQ(Calibrate(r->config, lidar_only, r->projection, EngineConfig{}).reason,
+            "no_camera_boards");
+}
+
+}  // namespace
+}  // namespace calibd
