@@ -1,7 +1,7 @@
 # Thin wrapper over CMake presets. `make demo` and `make test` install missing Debian packages,
 # configure, build and run. `make test` runs the suite twice: optimised (release) and under
-# AddressSanitizer + UndefinedBehaviorSanitizer (asan). `make check PRESET=debug|release|asan` runs
-# one build's suite. PRESET defaults to release.
+# AddressSanitizer + UndefinedBehaviorSanitizer (asan), the latter without the whole-session
+# suites labelled `slow`. `make check PRESET=debug|release|asan` runs one build's suite.
 PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
@@ -20,11 +20,11 @@ build: configure
 	@cmake --build --preset $(PRESET) -j $(JOBS)
 
 check: build
-	@ctest --preset $(PRESET) -j $(JOBS)
+	@ctest --preset $(PRESET) -j $(JOBS) $(CTEST_ARGS)
 
 test: deps
 	@$(MAKE) --no-print-directory check PRESET=release
-	@$(MAKE) --no-print-directory check PRESET=asan
+	@$(MAKE) --no-print-directory check PRESET=asan CTEST_ARGS="-LE slow"
 
 demo: build
 	@bash tools/demo.sh $(BUILD)
