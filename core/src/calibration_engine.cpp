@@ -5,11 +5,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <random>
 #include <set>
 #include <sstream>
 
 #include "calibd/core/board_fit.hpp"
+#include "calibd/core/stats.hpp"
 
 namespace calibd {
 
@@ -58,11 +60,9 @@ void ReprojectionFigures(const CalibConfig& config, const ObservationSet& set, c
     }
   }
   if (errors.empty()) return;
-  double sum = 0.0;
-  for (double e : errors) sum += e;
-  q->reprojection_mean_px = sum / static_cast<double>(errors.size());
-  std::sort(errors.begin(), errors.end());
-  q->reprojection_p95_px = errors[std::min(errors.size() - 1, errors.size() * 95 / 100)];
+  q->reprojection_mean_px =
+      std::accumulate(errors.begin(), errors.end(), 0.0) / static_cast<double>(errors.size());
+  q->reprojection_p95_px = Quantile(errors, 0.95);
 }
 
 void CoverageFigures(const CalibConfig& config, const ObservationSet& set, QualityFigures* q) {

@@ -69,6 +69,14 @@ bool GridSearch::RegionOf(const Eigen::Vector3d& c, double side, Roi* roi) const
   return roi->col_hi - roi->col_lo < projection_.cols() / 2;
 }
 
+bool GridSearch::BoardRegion(const SessionObservations::CameraBoard& cam,
+                             const Pose& T_lidar_camera, Roi* roi) const {
+  if (cam.board_index < 0 || cam.board_index >= static_cast<int>(boards_.size())) return false;
+  const BoardGeometry& g = boards_[cam.board_index];
+  return RegionOf(T_lidar_camera * cam.T_camera_board.translation(),
+                  std::max(g.width_m, g.height_m), roi);
+}
+
 void GridSearch::Prepare(const SessionObservations& s) {
   grids_.clear();
   integral_.clear();
@@ -135,12 +143,8 @@ long GridSearch::CountFast(const SessionObservations& s, const Pose& T_camera_li
     const auto& cam = s.camera[b];
     if (best_cluster) (*best_cluster)[b] = -1;
     if (cam.frame % frame_stride != 0) continue;
-    if (cam.board_index < 0 || cam.board_index >= static_cast<int>(boards_.size())) continue;
-    const BoardGeometry& g = boards_[cam.board_index];
     Roi roi;
-    if (!RegionOf(T_lidar_camera * cam.T_camera_board.translation(),
-                  std::max(g.width_m, g.height_m), &roi))
-      continue;
+    if (!BoardRegion(cam, T_lidar_camera, &roi)) continue;
     long best = 0;
     for (int k = frame_first_cluster_[cam.frame]; k < frame_first_cluster_[cam.frame + 1]; ++k) {
       const long n = ClusterCount(grids_[k], roi);
@@ -158,12 +162,8 @@ long GridSearch::CountBruteForce(const SessionObservations& s, const Pose& T_cam
   const Pose T_lidar_camera = T_camera_lidar.inverse();
   long total = 0;
   for (const auto& cam : s.camera) {
-    if (cam.board_index < 0 || cam.board_index >= static_cast<int>(boards_.size())) continue;
-    const BoardGeometry& g = boards_[cam.board_index];
     Roi roi;
-    if (!RegionOf(T_lidar_camera * cam.T_camera_board.translation(),
-                  std::max(g.width_m, g.height_m), &roi))
-      continue;
+    if (!BoardRegion(cam, T_lidar_camera, &roi)) continue;
     for (const auto& c : s.lidar) {
       if (c.frame != cam.frame) continue;
       for (int i = 0; i < c.num_points; ++i) {

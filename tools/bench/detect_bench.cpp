@@ -8,9 +8,9 @@
 
 #include "calibd/core/camera_detector.hpp"
 #include "calibd/core/lidar_detector.hpp"
+#include "calibd/core/stats.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "session.hpp"
-#include "stats.hpp"
 
 namespace calibd::bench {
 

@@ -10,11 +10,13 @@
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <numeric>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
 #include "calibd/core/board_fit.hpp"
 #include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/stats.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "log_session.hpp"
@@ -60,16 +62,7 @@ nlohmann::json PoseJson(const Pose& T) {
           {"rpy_deg", {rpy.x(), rpy.y(), rpy.z()}}};
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-double Sum(const std::vector<double>& v) {
-  double s = 0.0;
-  for (double x : v) s += x;
-  return s;
-}
+double Sum(const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0); }
 
 // Up to 4 frame pairs spread over the camera-to-board distances of the correspondences.
 std::vector<int> OverlayFrames(const ObservationSet& corr) {

@@ -65,10 +65,7 @@ bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
   LidarKind kind;
   LidarKindFromName(options.lidar_model, &kind, nullptr);
   lidar_.emplace(MakeLidarModel(kind), options.lidar_noise);
-  if (!camera_ || !(camera_->model().intrinsics().fx == options.camera.fx &&
-                    camera_->model().intrinsics().width == options.camera.width)) {
-    camera_.emplace(options.camera, options.imaging);
-  }
+  camera_.emplace(options.camera, options.imaging);
 
   T_vehicle_lidar_ = MountPose(options.lidar_mount);
   T_vehicle_camera_ = MountPose(options.camera_mount);

@@ -82,6 +82,9 @@ class GridSearch {
     size_t offset;  // into integral_
   };
   bool RegionOf(const Eigen::Vector3d& centre_lidar, double side, Roi* roi) const;
+  /// The region of one camera-detected board under T_lidar_camera; false when there is none.
+  bool BoardRegion(const SessionObservations::CameraBoard& cam, const Pose& T_lidar_camera,
+                   Roi* roi) const;
   long CountFast(const SessionObservations& session, const Pose& T_camera_lidar,
                  std::vector<int>* best_cluster, int frame_stride = 1) const;
   long ClusterCount(const ClusterGrid& g, const Roi& roi) const;

@@ -1,11 +1,11 @@
 #pragma once
 /// \file
-/// Small statistics helpers for bench tables: medians and percentiles of samples.
+/// Medians and percentiles of samples (reports, quality figures, bench tables).
 
 #include <algorithm>
 #include <vector>
 
-namespace calibd::bench {
+namespace calibd {
 
 /// The q-quantile (0..1) of `v` by nearest rank; 0 for an empty set. Sorts a copy.
 inline double Quantile(std::vector<double> v, double q) {
@@ -17,4 +17,4 @@ inline double Quantile(std::vector<double> v, double q) {
 
 inline double Median(const std::vector<double>& v) { return Quantile(v, 0.5); }
 
-}  // namespace calibd::bench
+}  // namespace calibd
