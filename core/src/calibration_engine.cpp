@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <set>
@@ -39,25 +40,16 @@ std::string Fmt(double v, int precision = 3) {
   return o.str();
 }
 
-// Paper Table I metric: fit each board in the LiDAR frame on its own (Eq. 2-3), map its tag corners
-// into the image with the estimate, and compare with the camera's corners.
+// Paper Table I metric over all observations: mean and p95 of the fitted corners' pixel errors.
 void ReprojectionFigures(const CalibConfig& config, const ObservationSet& set, const Pose& T_cl,
                          const DirectOptimizerConfig& direct, QualityFigures* q) {
   const CameraModel camera(config.camera);
-  const Pose T_lc = T_cl.inverse();
   std::vector<double> errors;
+  std::array<Eigen::Vector2d, 4> px;
   for (const auto& o : set.observations) {
-    const BoardGeometry& g = config.boards[o.board_index];
-    const BoardFitResult fit =
-        FitBoardPose(set.points.data() + o.first_point, o.num_points, g.width_m / 2.0,
-                     g.height_m / 2.0, direct.alpha_m, direct.huber_m, T_lc * o.T_camera_board);
-    if (!fit.usable) continue;
-    const auto corners = g.TagCornersInBoard();
-    for (int c = 0; c < 4; ++c) {
-      Eigen::Vector2d uv;
-      if (camera.Project(T_cl * fit.T_lidar_board * corners[c], &uv, 1e6))
-        errors.push_back((uv - o.corners_px[c]).norm());
-    }
+    if (!FittedTagCornersPx(camera, config.boards, set, o, T_cl, direct, &px)) continue;
+    for (int c = 0; c < 4; ++c)
+      if (px[c].allFinite()) errors.push_back((px[c] - o.corners_px[c]).norm());
   }
   if (errors.empty()) return;
   q->reprojection_mean_px =
@@ -104,6 +96,22 @@ void FormalSigmas(const Eigen::Matrix<double, 6, 6>& info, double residual_rms, 
 }
 
 }  // namespace
+
+bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeometry>& boards,
+                        const ObservationSet& set, const BoardObservation& o, const Pose& T_cl,
+                        const DirectOptimizerConfig& direct, std::array<Eigen::Vector2d, 4>* px) {
+  const BoardGeometry& g = boards[o.board_index];
+  const BoardFitResult fit = FitBoardPose(set.points.data() + o.first_point, o.num_points,
+                                          g.width_m / 2.0, g.height_m / 2.0, direct.alpha_m,
+                                          direct.huber_m, T_cl.inverse() * o.T_camera_board);
+  if (!fit.usable) return false;
+  const auto corners = g.TagCornersInBoard();
+  for (int c = 0; c < 4; ++c) {
+    if (!camera.Project(T_cl * fit.T_lidar_board * corners[c], &(*px)[c], 1e6))
+      (*px)[c] = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
+  return true;
+}
 
 const char* VerdictName(CalibrationOutcome::Verdict v) {
   switch (v) {

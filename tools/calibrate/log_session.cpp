@@ -27,14 +27,19 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
   if (!LidarKindFromName(config.lidar_model, &kind, error)) return false;
   const LidarModel model = MakeLidarModel(kind);
   const int64_t sweep_us = static_cast<int64_t>(1e6 / model.frame_rate_hz);
-  CameraDetector camera_detector(options.camera, config.camera, config.boards);
-  if (!camera_detector.ok()) {
-    if (error) *error = "camera detector: " + camera_detector.error();
+  // Detectors are built only when they will run (their references take a few hundred ms).
+  std::optional<CameraDetector> camera_detector;
+  std::optional<LidarDetector> lidar_detector;
+  if (options.detect) {
+    camera_detector.emplace(options.camera, config.camera, config.boards);
+    lidar_detector.emplace(options.lidar, model, config.boards);
+  }
+  if (camera_detector && !camera_detector->ok()) {
+    if (error) *error = "camera detector: " + camera_detector->error();
     return false;
   }
-  LidarDetector lidar_detector(options.lidar, model, config.boards);
-  if (!lidar_detector.ok()) {
-    if (error) *error = "LiDAR detector: " + lidar_detector.error();
+  if (lidar_detector && !lidar_detector->ok()) {
+    if (error) *error = "LiDAR detector: " + lidar_detector->error();
     return false;
   }
   lcm::LogFile log(log_path, "r");
@@ -42,8 +47,9 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
     if (error) *error = "cannot open LCM log '" + log_path + "'";
     return false;
   }
-  session->Reserve(options.max_frames, static_cast<int>(config.boards.size()) + 4,
-                   options.lidar.max_board_points);
+  if (options.detect)
+    session->Reserve(options.max_frames, static_cast<int>(config.boards.size()) + 4,
+                     options.lidar.max_board_points);
 
   const std::string cam_channel(channels::kCamera.name), lidar_channel(channels::kLidar.name);
   const FrameLimits limits;
@@ -90,13 +96,15 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
         continue;
       }
       const int pair_index = stats->pairs++;
-      auto t0 = std::chrono::steady_clock::now();
-      camera_detector.Detect(view, &cd);
-      stats->camera_ms.push_back(MsSince(t0));
-      t0 = std::chrono::steady_clock::now();
-      lidar_detector.Detect(cloud, &ld);
-      stats->lidar_ms.push_back(MsSince(t0));
-      if (!session->AddFrame(cd, ld, config.boards)) ++stats->frames_over_capacity;
+      if (options.detect) {
+        auto t0 = std::chrono::steady_clock::now();
+        camera_detector->Detect(view, &cd);
+        stats->camera_ms.push_back(MsSince(t0));
+        t0 = std::chrono::steady_clock::now();
+        lidar_detector->Detect(cloud, &ld);
+        stats->lidar_ms.push_back(MsSince(t0));
+        if (!session->AddFrame(cd, ld, config.boards)) ++stats->frames_over_capacity;
+      }
       if (kept && std::find(keep.begin(), keep.end(), pair_index) != keep.end()) {
         FramePairData d;
         d.pair_index = pair_index;

@@ -20,6 +20,9 @@ struct LogReadOptions {
   int64_t pair_tolerance_us = 20000;  ///< camera time may lie this far outside the LiDAR sweep
   CameraDetectorConfig camera;
   LidarDetectorConfig lidar;
+  /// False: only pair frames and copy the `keep` pairs (no detection, `session` untouched), e.g.
+  /// to fetch pictures after a calibration.
+  bool detect = true;
 };
 
 struct LogReadStats {

@@ -14,7 +14,6 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
-#include "calibd/core/board_fit.hpp"
 #include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/stats.hpp"
 #include "calibd/drivers/atomic_file.hpp"
@@ -250,9 +249,11 @@ int main(int argc, char** argv) {
     std::filesystem::create_directories(overlay_dir);
     const std::vector<int> frames = OverlayFrames(corr);
     std::vector<tools::FramePairData> kept;
-    SessionObservations scratch;
-    tools::LogReadStats scratch_stats;
-    if (!tools::ReadSessionLog(log_path, config, read_options, &scratch, &scratch_stats, &error, {},
+    SessionObservations unused;
+    tools::LogReadStats pass_stats;
+    tools::LogReadOptions pictures_only = read_options;
+    pictures_only.detect = false;  // the pairs were detected above; only their data is needed
+    if (!tools::ReadSessionLog(log_path, config, pictures_only, &unused, &pass_stats, &error, {},
                                frames, &kept)) {
       std::cerr << "calibd-calibrate: " << error << "\n";
       return 1;
@@ -269,15 +270,12 @@ int main(int argc, char** argv) {
       for (const auto& o : corr.observations) {
         if (o.frame != f.pair_index) continue;
         detected.insert(detected.end(), o.corners_px.begin(), o.corners_px.end());
-        const BoardGeometry& g = config.boards[o.board_index];
-        const BoardFitResult fit = FitBoardPose(corr.points.data() + o.first_point, o.num_points,
-                                                g.width_m / 2, g.height_m / 2, 0.0, 0.05,
-                                                out.T_camera_lidar.inverse() * o.T_camera_board);
-        for (const auto& c : g.TagCornersInBoard()) {
-          Eigen::Vector2d uv;
-          if (fit.usable && camera.Project(out.T_camera_lidar * fit.T_lidar_board * c, &uv, 1e6))
-            fitted.push_back(uv);
-        }
+        std::array<Eigen::Vector2d, 4> px;
+        if (!FittedTagCornersPx(camera, config.boards, corr, o, out.T_camera_lidar, engine.direct,
+                                &px))
+          continue;
+        for (const auto& p : px)
+          if (p.allFinite()) fitted.push_back(p);
       }
       viz::DrawMarkers(detected, 0.5, cv::Scalar(0, 255, 0), &bgr);
       viz::DrawMarkers(fitted, 0.5, cv::Scalar(0, 0, 255), &bgr);

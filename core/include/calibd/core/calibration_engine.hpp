@@ -86,6 +86,14 @@ struct CalibrationOutcome {
 
 const char* VerdictName(CalibrationOutcome::Verdict v);
 
+/// Paper Table I metric for one observation: fit its board alone in the LiDAR frame (Eq. 2-3,
+/// from the camera's board pose through T_camera_lidar) and map the fitted tag corners into the
+/// image. Corners that do not project are NaN. False when the fit fails.
+bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeometry>& boards,
+                        const ObservationSet& set, const BoardObservation& observation,
+                        const Pose& T_camera_lidar, const DirectOptimizerConfig& direct,
+                        std::array<Eigen::Vector2d, 4>* px);
+
 /// Runs the whole session-level calibration. `projection` is a RangeImage configured for the
 /// config's LiDAR model (the grid search projects into it). `correspondences` (optional) receives
 /// the camera-LiDAR board pairs the grid search found (for pictures and reports).
