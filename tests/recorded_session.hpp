@@ -48,9 +48,9 @@ inline std::unique_ptr<RecordedSession> Record(const sim::SessionOptions& option
                   &cd);
     lidar.Detect(PointCloudView{scan.x.data(), scan.y.data(), scan.z.data(),
                                 r->session.lidar_model().has_rings ? scan.ring.data() : nullptr,
-                                scan.size()},
+                                scan.size(), scan.time_offset_us.data()},
                  &ld);
-    EXPECT_TRUE(r->obs.AddFrame(cd, ld, boards));
+    EXPECT_TRUE(r->obs.AddFrame(cd, ld, boards, FrameTimes{truth.camera_utime, truth.lidar_utime}));
   }
   return r;
 }

@@ -387,11 +387,13 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
   if (out->boards.capacity() < static_cast<size_t>(c.max_boards)) out->boards.reserve(c.max_boards);
   if (out->points.capacity() < point_capacity) out->points.reserve(point_capacity);
   if (out->point_indices.capacity() < point_capacity) out->point_indices.reserve(point_capacity);
+  if (out->point_time_s.capacity() < point_capacity) out->point_time_s.reserve(point_capacity);
   if (out->candidates.capacity() < static_cast<size_t>(c.max_clusters))
     out->candidates.reserve(c.max_clusters);
   out->boards.clear();
   out->points.clear();
   out->point_indices.clear();
+  out->point_time_s.clear();
   out->candidates.clear();
   out->invalid_points = out->outside_points = out->dropped_points = out->overflow_points = 0;
   out->chained_points = 0;
@@ -490,6 +492,8 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
       const int32_t i = d.cluster_indices[(static_cast<long long>(k) * num_indices) / m];
       out->points.emplace_back(cloud.x[i], cloud.y[i], cloud.z[i]);
       out->point_indices.push_back(i);
+      out->point_time_s.push_back(
+          cloud.time_offset_us ? static_cast<float>(cloud.time_offset_us[i]) * 1e-6f : 0.0f);
     }
     board.num_points = m;
     out->boards.push_back(board);

@@ -68,7 +68,15 @@ bool LidarFrameToView(const lidar_frame_t& m, const FrameLimits& limits, PointCl
     return Fail(error, "lidar_frame_t: array lengths differ from num_points " + std::to_string(n));
   bool any_ring = false;
   for (int16_t r : m.ring) any_ring = any_ring || r >= 0;
-  *view = PointCloudView{m.x.data(), m.y.data(), m.z.data(), any_ring ? m.ring.data() : nullptr, n};
+  for (size_t i = 0; i < n; ++i)
+    if (m.time_offset_us[i] < -limits.max_time_offset_us ||
+        m.time_offset_us[i] > limits.max_time_offset_us)
+      return Fail(error, "lidar_frame_t: time_offset_us[" + std::to_string(i) +
+                             "] = " + std::to_string(m.time_offset_us[i]) + " us is beyond +-" +
+                             std::to_string(limits.max_time_offset_us) + " us");
+  *view = PointCloudView{m.x.data(), m.y.data(),
+                         m.z.data(), any_ring ? m.ring.data() : nullptr,
+                         n,          m.time_offset_us.data()};
   return true;
 }
 

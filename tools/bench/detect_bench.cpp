@@ -138,9 +138,10 @@ bool RunDetectBench(const DetectBenchOptions& o, std::ostream& out, std::ostream
     for (int k = 0; k < session.num_frames(); ++k) {
       // The camera sees the same images whichever LiDAR is fitted: evaluate it once.
       session.SimulateFrame(k, camera_done ? nullptr : &image, &scan, &truth);
-      PointCloudView cloud{scan.x.data(), scan.y.data(), scan.z.data(),
-                           session.lidar_model().has_rings ? scan.ring.data() : nullptr,
-                           scan.size()};
+      PointCloudView cloud{
+          scan.x.data(), scan.y.data(),
+          scan.z.data(), session.lidar_model().has_rings ? scan.ring.data() : nullptr,
+          scan.size(),   scan.time_offset_us.data()};
       const auto t0 = Clock::now();
       lidar_detector.Detect(cloud, &lidar_out);
       times.total.push_back(MsSince(t0));

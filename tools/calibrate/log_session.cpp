@@ -103,7 +103,8 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
         t0 = std::chrono::steady_clock::now();
         lidar_detector->Detect(cloud, &ld);
         stats->lidar_ms.push_back(MsSince(t0));
-        if (!session->AddFrame(cd, ld, config.boards)) ++stats->frames_over_capacity;
+        if (!session->AddFrame(cd, ld, config.boards, FrameTimes{pending->utime, lidar_msg.utime}))
+          ++stats->frames_over_capacity;
       }
       if (kept && std::find(keep.begin(), keep.end(), pair_index) != keep.end()) {
         FramePairData d;

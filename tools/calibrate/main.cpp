@@ -263,9 +263,9 @@ int main(int argc, char** argv) {
       cv::Mat bgr;
       const ImageView view{f.image.data, f.image.cols, f.image.rows,
                            static_cast<int>(f.image.step[0])};
-      viz::DrawLidarOverlay(view,
-                            PointCloudView{f.x.data(), f.y.data(), f.z.data(), nullptr, f.x.size()},
-                            out.T_camera_lidar, camera, 0.5, &bgr);
+      viz::DrawLidarOverlay(
+          view, PointCloudView{f.x.data(), f.y.data(), f.z.data(), nullptr, f.x.size(), nullptr},
+          out.T_camera_lidar, camera, 0.5, &bgr);
       std::vector<Eigen::Vector2d> detected, fitted;
       for (const auto& o : corr.observations) {
         if (o.frame != f.pair_index) continue;

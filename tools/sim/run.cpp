@@ -109,7 +109,8 @@ bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, Sim
       cv::Mat bgr;
       viz::DrawLidarOverlay(
           ImageView{image.data, image.cols, image.rows, static_cast<int>(image.step[0])},
-          PointCloudView{scan.x.data(), scan.y.data(), scan.z.data(), nullptr, scan.size()},
+          PointCloudView{scan.x.data(), scan.y.data(), scan.z.data(), nullptr, scan.size(),
+                         scan.time_offset_us.data()},
           session.T_camera_lidar(), session.camera_model(), outputs.overlay_scale, &bgr);
       if (!cv::imwrite(outputs.overlay_path, bgr)) {
         if (error) *error = "cannot write overlay picture '" + outputs.overlay_path + "'";

@@ -24,6 +24,9 @@ struct PointCloudView {
   const float* z = nullptr;
   const int16_t* ring = nullptr;  ///< laser channel per point, or null; -1 entries mean none
   size_t size = 0;
+  /// Firing time of each point after the sweep start (microseconds), or null when the sensor
+  /// does not report it: then the whole sweep counts as fired at its start.
+  const int32_t* time_offset_us = nullptr;
 };
 
 }  // namespace calibd

@@ -152,10 +152,12 @@ struct LidarStageTimes {
 };
 
 struct LidarDetections {
-  std::vector<BoardCluster> boards;        ///< size = boards found (capacity max_boards)
-  std::vector<Eigen::Vector3f> points;     ///< board points, LiDAR frame (capacity max_boards *
-                                           ///< max_board_points)
-  std::vector<int> point_indices;          ///< index of each stored point in the input cloud
+  std::vector<BoardCluster> boards;     ///< size = boards found (capacity max_boards)
+  std::vector<Eigen::Vector3f> points;  ///< board points, LiDAR frame (capacity max_boards *
+                                        ///< max_board_points)
+  std::vector<int> point_indices;       ///< index of each stored point in the input cloud
+  std::vector<float> point_time_s;      ///< firing time of each stored point after the sweep start,
+                                        ///< s (0 when the cloud has no times)
   std::vector<LidarCandidate> candidates;  ///< every gated cluster with its score (capacity
                                            ///< max_clusters)
   int invalid_points = 0;                  ///< NaN/inf or out of range, skipped

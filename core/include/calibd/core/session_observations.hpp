@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "calibd/core/board.hpp"
@@ -15,12 +16,23 @@
 
 namespace calibd {
 
+/// When a frame pair was captured (microseconds, any common clock). Zeros when unknown: then
+/// no motion compensation is possible and the pair counts as captured at one instant.
+struct FrameTimes {
+  int64_t camera_utime = 0;  ///< the image's capture time (mid-exposure)
+  int64_t lidar_utime = 0;   ///< the sweep's start; points fire later (their time offsets)
+};
+
 struct SessionObservations {
   struct CameraBoard {
     int frame = 0;
     int board_index = -1;  ///< index into the configured boards
     Pose T_camera_board = Pose::Identity();
     std::array<Eigen::Vector2d, 4> corners_px;  ///< AprilTag order, OpenCV pixel convention
+    /// Apparent velocity of the board centre in the camera frame (m/s) around the capture time,
+    /// from the same board in neighbouring frames (EstimateBoardMotion, board_motion.hpp).
+    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+    bool has_velocity = false;
   };
   struct LidarCluster {
     int frame = 0;
@@ -31,6 +43,10 @@ struct SessionObservations {
   std::vector<CameraBoard> camera;      ///< in frame order
   std::vector<LidarCluster> lidar;      ///< in frame order
   std::vector<Eigen::Vector3f> points;  ///< LiDAR frame, m
+  /// Per point: its firing time minus its frame's camera time, s (the LiDAR and camera clocks
+  /// are assumed synchronised, e.g. by PTP). 0 when the times are unknown.
+  std::vector<float> point_dt;
+  std::vector<FrameTimes> frame_times;  ///< one per frame pair
   int num_frames = 0;
 
   /// Reserves room for `max_frames` frame pairs of up to `max_boards` boards and clusters each,
@@ -39,16 +55,17 @@ struct SessionObservations {
   void Clear();
 
   /// Starts a new frame pair; false when the frame capacity is used up.
-  bool BeginFrame();
+  bool BeginFrame(const FrameTimes& times = {});
   /// Adds to the current frame; false (nothing added) when a capacity would be exceeded.
+  /// `time_s` (may be null: all 0) holds each point's firing time after the sweep start.
   bool AddCameraBoard(const CameraBoard& board);
-  bool AddLidarCluster(const Eigen::Vector3f* cluster_points, int count);
+  bool AddLidarCluster(const Eigen::Vector3f* cluster_points, const float* time_s, int count);
 
   /// Records one frame pair from the detectors' outputs (camera boards mapped from board_id to
   /// their index in `boards`). False when a capacity ran out: what fitted is kept, the rest
   /// dropped.
   bool AddFrame(const CameraDetections& camera_detections, const LidarDetections& lidar_detections,
-                const std::vector<BoardGeometry>& boards);
+                const std::vector<BoardGeometry>& boards, const FrameTimes& times = {});
 
  private:
   int max_frames_ = 0;

@@ -4,6 +4,7 @@
 /// as a core view, or says exactly what is wrong with it. Nothing here trusts the sender: sizes
 /// that lie, unknown encodings and absurd dimensions are refused.
 
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -16,6 +17,9 @@ namespace calibd {
 struct FrameLimits {
   int max_width = 16384, max_height = 16384;  ///< pixels
   int max_points = 4000000;                   ///< per LiDAR frame
+  /// A point's time_offset_us must lie within [-this, +this]: a sweep lasts 0.05-0.2 s, so
+  /// larger offsets are a malformed message, not a slow sensor.
+  int32_t max_time_offset_us = 1000000;
 };
 
 /// mono8 data is viewed in place (the message must outlive the view); JPEG is decoded into
@@ -24,7 +28,8 @@ struct FrameLimits {
 bool CameraFrameToView(const camera_frame_t& msg, const FrameLimits& limits, cv::Mat* decoded,
                        ImageView* view, std::string* error);
 
-/// Views the struct-of-arrays in place. `ring` is null when every ring is -1 (no rings).
+/// Views the struct-of-arrays in place. `ring` is null when every ring is -1 (no rings); the
+/// per-point time offsets are always viewed (checked against the limits).
 bool LidarFrameToView(const lidar_frame_t& msg, const FrameLimits& limits, PointCloudView* view,
                       std::string* error);
 
