@@ -43,8 +43,7 @@ Synthetic MakeSynthetic(uint64_t seed, int frames, double noise_m) {
       Eigen::Vector3d(0.05 * u(rng), 0.5 + 0.1 * u(rng), -0.4 + 0.1 * u(rng));
   const Pose T_lidar_camera = s.T_camera_lidar.inverse();
 
-  s.set.observations.reserve(frames * 3);
-  s.set.points.reserve(frames * 3 * 4000);
+  s.set.Reserve(frames * 3, frames * 3 * 4000);
   std::vector<Eigen::Vector3f> pts;
   for (int f = 0; f < frames; ++f) {
     const double d = 6.0 + 24.0 * (0.5 + 0.5 * u(rng));
@@ -72,7 +71,7 @@ Synthetic MakeSynthetic(uint64_t seed, int frames, double noise_m) {
       const auto corners = s.boards[b].TagCornersInBoard();
       for (int c = 0; c < 4; ++c)
         CameraModel(CameraIntrinsics{}).Project(T_camera_board * corners[c], &o.corners_px[c], 1e6);
-      EXPECT_TRUE(s.set.Add(o, pts.data(), static_cast<int>(pts.size())));
+      EXPECT_TRUE(s.set.Add(o, pts.data(), nullptr, static_cast<int>(pts.size())));
     }
   }
   return s;

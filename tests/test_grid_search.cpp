@@ -55,8 +55,7 @@ TEST_P(GridSearchRecoveryTest, RecoversRandomPriorRotationsThenDirectRefines) {
     const Pose prior = PerturbExtrinsic(truth, Eigen::Vector3d(u(rng), u(rng), u(rng)) * kDeg);
     GridSearch search(GridSearchConfig{}, r->projection, r->config.boards);
     ObservationSet corr;
-    corr.observations.reserve(200);
-    corr.points.reserve(200 * 4096);
+    corr.Reserve(200, 200 * 4096);
     const GridSearchResult g = search.Run(r->obs, prior, &corr);
     ASSERT_EQ(g.status, GridSearchResult::Status::kOk) << g.reason;
     const double grid_err = RotationAngle(g.T_camera_lidar.linear(), truth.linear()) / kDeg;

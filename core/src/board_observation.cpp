@@ -2,15 +2,34 @@
 
 namespace calibd {
 
+void ObservationSet::Reserve(int max_observations, int max_points) {
+  observations.reserve(static_cast<size_t>(max_observations));
+  points.reserve(static_cast<size_t>(max_points));
+  point_dt.reserve(static_cast<size_t>(max_points));
+  Clear();
+}
+
+void ObservationSet::Clear() {
+  observations.clear();
+  points.clear();
+  point_dt.clear();
+  motion_compensated = false;
+}
+
 bool ObservationSet::Add(const BoardObservation& obs, const Eigen::Vector3f* board_points,
-                         int count) {
+                         const float* dt, int count) {
+  const size_t needed = points.size() + static_cast<size_t>(count);
   if (count < 0 || observations.size() + 1 > observations.capacity() ||
-      points.size() + static_cast<size_t>(count) > points.capacity())
+      needed > points.capacity() || needed > point_dt.capacity())
     return false;
   BoardObservation o = obs;
   o.first_point = static_cast<int>(points.size());
   o.num_points = count;
   points.insert(points.end(), board_points, board_points + count);
+  if (dt)
+    point_dt.insert(point_dt.end(), dt, dt + count);
+  else
+    point_dt.insert(point_dt.end(), static_cast<size_t>(count), 0.0f);
   observations.push_back(o);
   return true;
 }

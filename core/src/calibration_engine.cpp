@@ -132,6 +132,9 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   out.prior_T_camera_lidar = config.prior_T_camera_lidar;
   out.T_camera_lidar = config.prior_T_camera_lidar;
   const VerdictConfig& v = engine.verdict;
+  std::string why;
+  if (!engine.grid.IsValid(&why) || !engine.motion.IsValid(&why) || !engine.direct.IsValid(&why))
+    return Reject(out, "invalid_config", "engine config: " + why);
   if (session.camera.empty())
     return Reject(out, "no_camera_boards", "the camera saw no configured board in any frame pair");
   if (session.lidar.empty())
@@ -140,14 +143,12 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   GridSearch grid(engine.grid, projection, config.boards);
   ObservationSet local;
   ObservationSet& corr = correspondences ? *correspondences : local;
-  corr.observations.clear();
-  corr.points.clear();
-  corr.observations.reserve(session.camera.size());
-  corr.points.reserve(session.points.size());
+  corr.Reserve(static_cast<int>(session.camera.size()), static_cast<int>(session.points.size()));
   out.grid = grid.Run(session, config.prior_T_camera_lidar, &corr);
   if (out.grid.status != GridSearchResult::Status::kOk)
     return Reject(out, "no_grid_candidate", out.grid.reason);
   out.T_camera_lidar = out.grid.T_camera_lidar;
+  out.motion = CompensateBoardMotion(session, out.grid.T_camera_lidar, engine.motion, &corr);
   CoverageFigures(config, corr, &out.quality);
   QualityFigures& q = out.quality;
   if (q.frames_used < v.min_frames)

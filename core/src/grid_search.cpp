@@ -260,7 +260,11 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
         o.board_index = s.camera[b].board_index;
         o.T_camera_board = s.camera[b].T_camera_board;
         o.corners_px = s.camera[b].corners_px;
-        correspondences->Add(o, s.points.data() + s.lidar[k].first_point, s.lidar[k].num_points);
+        const int first = s.lidar[k].first_point;
+        correspondences->Add(
+            o, s.points.data() + first,
+            s.point_dt.size() == s.points.size() ? s.point_dt.data() + first : nullptr,
+            s.lidar[k].num_points);
       }
     }
   }

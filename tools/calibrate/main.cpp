@@ -44,6 +44,10 @@ Options:
   --truth FILE         the simulator's truth JSON: adds the error against ground truth to the
                        report (evaluation only; the calibration never sees it)
   --method NAME        direct (default) or indirect (Huang & Grizzle baseline)
+  --motion-compensation on|off
+                       move LiDAR board points to the camera's capture time with the boards'
+                       apparent velocity (default on; off when the sensors' clocks or the
+                       per-point time offsets cannot be trusted)
   --max-frames N       frame pairs kept (default 2000)
   --pair-tolerance-ms  camera time allowed outside the LiDAR sweep (default 20)
   --quiet              no progress or summary
@@ -83,6 +87,7 @@ std::vector<int> OverlayFrames(const ObservationSet& corr) {
 
 int main(int argc, char** argv) {
   std::string log_path, config_path, report_path, overlay_dir, truth_path, method = "direct";
+  bool motion_compensation = true;
   tools::LogReadOptions read_options;
   bool quiet = false;
   for (int i = 1; i < argc; ++i) {
@@ -113,7 +118,14 @@ int main(int argc, char** argv) {
       truth_path = value;
     else if (arg == "--method")
       method = value;
-    else if (arg == "--max-frames") {
+    else if (arg == "--motion-compensation") {
+      if (value != "on" && value != "off") {
+        std::cerr << "calibd-calibrate: --motion-compensation must be on or off (got '" << value
+                  << "')\n";
+        return 2;
+      }
+      motion_compensation = value == "on";
+    } else if (arg == "--max-frames") {
       const long n = std::strtol(value.c_str(), &end, 10);
       if (*end != '\0' || n < 1 || n > 100000) {
         std::cerr << "calibd-calibrate: --max-frames must be an integer in [1, 100000]\n";
@@ -167,6 +179,7 @@ int main(int argc, char** argv) {
   EngineConfig engine;
   engine.method =
       method == "indirect" ? EngineConfig::Method::kIndirect : EngineConfig::Method::kDirect;
+  engine.motion.enabled = motion_compensation;
   ObservationSet corr;
   const CalibrationOutcome out = Calibrate(config, session, projection, engine, &corr);
   const auto& q = out.quality;
@@ -201,6 +214,9 @@ int main(int argc, char** argv) {
                            {"prior_count", out.grid.prior_count},
                            {"total_points", out.grid.total_points},
                            {"candidates", out.grid.candidates}};
+  report["motion_compensation"] = {{"compensated_boards", out.motion.compensated},
+                                   {"uncompensated_boards", out.motion.uncompensated},
+                                   {"max_shift_m", out.motion.max_shift_m}};
   report["frames"] = {{"camera", stats.camera_frames},
                       {"lidar", stats.lidar_frames},
                       {"pairs", stats.pairs},

@@ -19,16 +19,29 @@ struct BoardObservation {
   std::array<Eigen::Vector2d, 4> corners_px;  ///< detected tag corners (AprilTag order)
   int first_point = 0;  ///< this board's LiDAR points in ObservationSet::points
   int num_points = 0;
+  /// Apparent velocity of the board centre in the camera frame (m/s), when known
+  /// (board_motion.hpp); CompensateBoardMotion moves the points by it.
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  bool has_velocity = false;
 };
 
-/// All correspondences of a session. `points` are LiDAR-frame board points (metres).
+/// All correspondences of a session. `points` are LiDAR-frame board points (metres); `point_dt`
+/// their firing time minus the camera's capture time (s).
 struct ObservationSet {
   std::vector<BoardObservation> observations;
   std::vector<Eigen::Vector3f> points;
+  std::vector<float> point_dt;
+  /// True once CompensateBoardMotion moved the points to the camera's capture time.
+  bool motion_compensated = false;
 
-  /// Appends an observation with its points; false (nothing added) when it would exceed the
-  /// capacity reserved by the caller, so memory stays fixed.
-  bool Add(const BoardObservation& obs, const Eigen::Vector3f* board_points, int count);
+  /// Empties the set and reserves room once (fixed memory: Add never grows beyond it).
+  void Reserve(int max_observations, int max_points);
+  void Clear();
+
+  /// Appends an observation with its points (`dt` may be null: all 0); false (nothing added)
+  /// when it would exceed the reserved capacity.
+  bool Add(const BoardObservation& obs, const Eigen::Vector3f* board_points, const float* dt,
+           int count);
 };
 
 }  // namespace calibd

@@ -6,6 +6,7 @@
 /// Verdicts: `verified` (the new estimate agrees with the prior within the verification
 /// tolerance: the prior is kept), `updated` (a plausible change and every quality gate passes),
 /// `rejected` (with one reason code below). Reason codes:
+/// - `invalid_config`: an engine setting is out of range (the detail names it).
 /// - `no_camera_boards`: no board detected by the camera in any frame pair.
 /// - `no_lidar_boards`: no board cluster detected by the LiDAR in any frame pair.
 /// - `no_grid_candidate`: no extrinsic within the search range aligns the detections.
@@ -21,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "calibd/core/board_motion.hpp"
 #include "calibd/core/camera_model.hpp"
 #include "calibd/core/config.hpp"
 #include "calibd/core/direct_optimizer.hpp"
@@ -53,6 +55,7 @@ struct VerdictConfig {
 struct EngineConfig {
   enum class Method { kDirect, kIndirect } method = Method::kDirect;
   GridSearchConfig grid;
+  MotionCompensationConfig motion;  ///< applied to the correspondences after the grid search
   DirectOptimizerConfig direct;
   IndirectOptimizerConfig indirect;
   VerdictConfig verdict;
@@ -81,6 +84,7 @@ struct CalibrationOutcome {
   double delta_rotation_deg = 0.0, delta_translation_m = 0.0;
   QualityFigures quality;
   GridSearchResult grid;
+  MotionCompensationStats motion;
   double optimise_ms = 0.0, quality_ms = 0.0;
 };
 

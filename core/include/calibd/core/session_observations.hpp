@@ -29,10 +29,6 @@ struct SessionObservations {
     int board_index = -1;  ///< index into the configured boards
     Pose T_camera_board = Pose::Identity();
     std::array<Eigen::Vector2d, 4> corners_px;  ///< AprilTag order, OpenCV pixel convention
-    /// Apparent velocity of the board centre in the camera frame (m/s) around the capture time,
-    /// from the same board in neighbouring frames (EstimateBoardMotion, board_motion.hpp).
-    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
-    bool has_velocity = false;
   };
   struct LidarCluster {
     int frame = 0;

@@ -1,0 +1,92 @@
+#include "calibd/core/board_motion.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+namespace calibd {
+
+bool MotionCompensationConfig::IsValid(std::string* error) const {
+  auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(window_s > 0.0 && window_s <= 2.0)) return fail("window_s must be in (0, 2] s");
+  if (min_samples < 2) return fail("min_samples must be >= 2");
+  if (!(min_span_s > 0.0 && min_span_s <= 2.0 * window_s))
+    return fail("min_span_s must be in (0, 2 window_s]");
+  if (!(max_speed_mps > 0.0)) return fail("max_speed_mps must be > 0");
+  return true;
+}
+
+bool EstimateBoardVelocity(const SessionObservations& s, int frame, int board_index,
+                           const MotionCompensationConfig& config, Eigen::Vector3d* velocity) {
+  if (frame < 0 || frame >= static_cast<int>(s.frame_times.size())) return false;
+  const int64_t t0 = s.frame_times[frame].camera_utime;
+  const auto window_us = static_cast<int64_t>(config.window_s * 1e6);
+  // Camera boards are stored in frame order: scan outwards from the frame's first entry.
+  const auto mid = std::lower_bound(
+      s.camera.begin(), s.camera.end(), frame,
+      [](const SessionObservations::CameraBoard& b, int f) { return b.frame < f; });
+  // Sums for the least-squares line through (t_i, c_i): slope = Sxy / Sxx after centring.
+  int n = 0;
+  double st = 0.0, stt = 0.0, tmin = 1e30, tmax = -1e30;
+  Eigen::Vector3d sc = Eigen::Vector3d::Zero(), stc = Eigen::Vector3d::Zero();
+  auto take = [&](const SessionObservations::CameraBoard& b) {
+    if (b.board_index != board_index) return;
+    const double t = static_cast<double>(s.frame_times[b.frame].camera_utime - t0) * 1e-6;
+    const Eigen::Vector3d c = b.T_camera_board.translation();
+    ++n;
+    st += t;
+    stt += t * t;
+    sc += c;
+    stc += t * c;
+    tmin = std::min(tmin, t);
+    tmax = std::max(tmax, t);
+  };
+  auto in_window = [&](const SessionObservations::CameraBoard& b) {
+    return b.frame >= 0 && b.frame < static_cast<int>(s.frame_times.size()) &&
+           std::llabs(s.frame_times[b.frame].camera_utime - t0) <= window_us;
+  };
+  for (auto it = mid; it != s.camera.end() && in_window(*it); ++it) take(*it);
+  for (auto it = mid; it != s.camera.begin() && in_window(*(it - 1)); --it) take(*(it - 1));
+  if (n < config.min_samples || tmax - tmin < config.min_span_s) return false;
+  const double sxx = stt - st * st / n;
+  if (!(sxx > 0.0)) return false;
+  const Eigen::Vector3d u = (stc - st * sc / n) / sxx;
+  if (!u.allFinite() || u.norm() > config.max_speed_mps) return false;
+  *velocity = u;
+  return true;
+}
+
+MotionCompensationStats CompensateBoardMotion(const SessionObservations& session,
+                                              const Pose& T_camera_lidar,
+                                              const MotionCompensationConfig& config,
+                                              ObservationSet* set) {
+  MotionCompensationStats stats;
+  if (!config.enabled || set->motion_compensated || set->point_dt.size() != set->points.size())
+    return stats;
+  const Eigen::Matrix3d R_lidar_camera = T_camera_lidar.linear().transpose();
+  for (BoardObservation& o : set->observations) {
+    Eigen::Vector3d u;
+    o.has_velocity = EstimateBoardVelocity(session, o.frame, o.board_index, config, &u);
+    if (!o.has_velocity) {
+      ++stats.uncompensated;
+      continue;
+    }
+    o.velocity = u;
+    ++stats.compensated;
+    // Paper Eq. 5 compares a point with the board where the camera saw it: the board moved by
+    // u dt between the capture and the firing, so the point is moved back by as much.
+    const Eigen::Vector3f u_lidar = (R_lidar_camera * u).cast<float>();
+    for (int i = o.first_point; i < o.first_point + o.num_points; ++i) {
+      const Eigen::Vector3f shift = set->point_dt[i] * u_lidar;
+      set->points[i] -= shift;
+      stats.max_shift_m = std::max(stats.max_shift_m, static_cast<double>(shift.norm()));
+    }
+  }
+  set->motion_compensated = true;
+  return stats;
+}
+
+}  // namespace calibd
