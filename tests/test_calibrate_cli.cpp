@@ -27,8 +27,7 @@ nlohmann::json ReadJson(const std::string& path) {
 TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
   testing::TempDir dir;
   // The default 20 s drive (6-30 m and back) sampled at 2 Hz: 40 frame pairs; prior 4 deg / 4 cm
-  // off. (Falcon and M1 sweep slowly top to bottom: without motion compensation, which is not
-  // written yet, a moving vehicle smears their boards; see the engine notes.)
+  // off.
   ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --seed 5 --lidar ot128 --rate 2 " +
                        "--prior-rot-deg 4 --prior-trans-m 0.04 --image-encoding jpeg" + " --out " +
                        dir.file("s.lcmlog") + " --truth " + dir.file("truth.json") +
@@ -45,6 +44,7 @@ TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
   EXPECT_LT(report["error_vs_truth"]["translation_m"].get<double>(), 0.02);
   EXPECT_EQ(report["frames"]["pairs"].get<int>(), 40);
   EXPECT_EQ(report["frames"]["unpaired_camera"].get<int>(), 0);
+  EXPECT_GT(report["board_pose_refinement"]["refined_boards"].get<int>(), 60);
 }
 
 TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {
@@ -54,6 +54,9 @@ TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {
   EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log x --config /nonexistent.yaml"),
             2);
   EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log x --config y --method magic"),
+            2);
+  EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) +
+                       " --log x --config y --board-pose-refinement maybe"),
             2);
   ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --frames 1 --out " +
                        dir.file("one.lcmlog") + " --config-out " + dir.file("calib.yaml")),

@@ -3,17 +3,9 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "box_hinge.hpp"
+
 namespace calibd {
-
-namespace {
-
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return S;
-}
-
-}  // namespace
 
 BoardBoxCost::BoardBoxCost(const Eigen::Vector3f* points, int num_points, int stride,
                            const Pose& T_board_camera, double half_width, double half_height,
@@ -32,12 +24,7 @@ BoardBoxCost::BoardBoxCost(const Eigen::Vector3f* points, int num_points, int st
 Eigen::Vector3d BoardBoxCost::PointResidual(const Pose& T_camera_lidar, int i) const {
   const Eigen::Vector3d p_board =
       R_board_camera_ * (T_camera_lidar * points_[i * stride_].cast<double>()) + t_board_camera_;
-  Eigen::Vector3d r;
-  for (int k = 0; k < 3; ++k) {
-    const double excess = std::abs(p_board[k]) - half_extent_[k];  // Eq. 1
-    r[k] = excess > 0.0 ? std::copysign(excess, p_board[k]) : 0.0;
-  }
-  return r;
+  return detail::HingeResidual(p_board, half_extent_);  // Eq. 1
 }
 
 bool BoardBoxCost::Evaluate(double const* const* parameters, double* residuals,
@@ -49,38 +36,19 @@ bool BoardBoxCost::Evaluate(double const* const* parameters, double* residuals,
   double* J = jacobians != nullptr ? jacobians[0] : nullptr;
 
   for (int i = 0; i < num_used_; ++i) {
-    const Eigen::Vector3d p_cam = R * points_[i * stride_].cast<double>() + t;
-    const Eigen::Vector3d p_board = R_board_camera_ * p_cam + t_board_camera_;
-    // Signed hinge r = sign(lambda) c(lambda, a) = lambda - sign(lambda) a outside the box, so
-    // dr/dlambda is 1 where the hinge is active and 0 inside.
+    const Eigen::Vector3d p_rotated = R * points_[i * stride_].cast<double>();
+    const Eigen::Vector3d p_board = R_board_camera_ * (p_rotated + t) + t_board_camera_;
     Eigen::Vector3d r;
-    Eigen::Vector3d active;
-    for (int k = 0; k < 3; ++k) {
-      const double excess = std::abs(p_board[k]) - half_extent_[k];  // Eq. 1
-      active[k] = excess > 0.0 ? 1.0 : 0.0;
-      r[k] = excess > 0.0 ? std::copysign(excess, p_board[k]) : 0.0;
-    }
-    // Huber on the point's residual norm n: the residual becomes g(n) r/n with g = sqrt(rho(n^2)),
-    // so its squared norm is exactly rho; Jacobian [g' u u^T + (g/n)(I - u u^T)] dr/dx.
-    const double n = r.norm();
-    double scale_along = 1.0, scale_across = 1.0;
-    if (huber_ > 0.0 && n > huber_) {
-      const double g = std::sqrt(2.0 * huber_ * n - huber_ * huber_);
-      scale_across = g / n;
-      scale_along = huber_ / g;  // g'(n) = rho'(n^2) n / g with rho' = huber / n
-    }
-    const Eigen::Vector3d u = n > 0.0 ? Eigen::Vector3d(r / n) : Eigen::Vector3d::Zero();
-    Eigen::Map<Eigen::Vector3d>(residuals + 3 * i) = scale_across * r;
+    Eigen::Matrix3d dr_dp;
+    detail::RobustHinge(p_board, half_extent_, huber_, &r, J != nullptr ? &dr_dp : nullptr);
+    Eigen::Map<Eigen::Vector3d>(residuals + 3 * i) = r;
     if (J == nullptr) continue;
     // dp_board/d[dt, dtheta] with the left perturbation R' = Exp(dtheta) R (PoseManifold).
     Eigen::Matrix<double, 3, 6> dp;
     dp.leftCols<3>() = R_board_camera_;
-    dp.rightCols<3>() = -R_board_camera_ * Skew(R * points_[i * stride_].cast<double>());
-    const Eigen::Matrix<double, 3, 6> dr = active.asDiagonal() * dp;
-    const Eigen::Matrix3d robust = scale_along * u * u.transpose() +
-                                   scale_across * (Eigen::Matrix3d::Identity() - u * u.transpose());
+    dp.rightCols<3>() = -R_board_camera_ * detail::Skew(p_rotated);
     Eigen::Map<Eigen::Matrix<double, 3, 7, Eigen::RowMajor>> Ji(J + 21 * i);
-    Ji.leftCols<6>() = robust * dr;
+    Ji.leftCols<6>() = dr_dp * dp;
     Ji.col(6).setZero();
   }
   return true;

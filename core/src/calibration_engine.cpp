@@ -160,20 +160,25 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                   std::to_string(q.boards_used) + " board correspondences, " +
                       std::to_string(v.min_boards) + " needed");
 
+  const CameraModel camera(config.camera);
   const auto t_opt = Clock::now();
   DirectResult direct;
   if (engine.method == EngineConfig::Method::kIndirect) {
-    const IndirectResult ind = OptimizeIndirect(config.boards, corr, CameraModel(config.camera),
-                                                out.grid.T_camera_lidar, engine.indirect);
+    const IndirectResult ind =
+        OptimizeIndirect(config.boards, corr, camera, out.grid.T_camera_lidar, engine.indirect);
     if (!ind.usable) return Reject(out, "solver_failed", "indirect method: " + ind.reason);
     direct = OptimizeDirect(config.boards, corr, ind.T_camera_lidar, engine.direct, nullptr, false);
     direct.T_camera_lidar = ind.T_camera_lidar;
   } else {
-    direct = OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct);
+    direct = OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr,
+                            true, &camera);
     if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
   }
   out.optimise_ms = Ms(t_opt);
   out.T_camera_lidar = direct.T_camera_lidar;
+  out.refined_boards = direct.refined_boards;
+  out.board_rotation_change_deg = direct.board_rotation_change_deg;
+  out.board_translation_change_m = direct.board_translation_change_m;
   out.delta_rotation_deg =
       RotationAngle(config.prior_T_camera_lidar.linear(), out.T_camera_lidar.linear()) * kRad2Deg;
   out.delta_translation_m =
@@ -201,8 +206,8 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     std::vector<char> use(corr.observations.size());
     for (int run = 0; run < engine.stability_runs; ++run) {
       for (auto& u : use) u = static_cast<char>(rng() & 1u);
-      const DirectResult half =
-          OptimizeDirect(config.boards, corr, out.T_camera_lidar, engine.direct, &use);
+      const DirectResult half = OptimizeDirect(config.boards, corr, out.T_camera_lidar,
+                                               engine.direct, &use, true, &camera);
       if (!half.usable) continue;
       q.rotation_spread_deg = std::max(
           q.rotation_spread_deg,

@@ -6,11 +6,89 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <thread>
 
+#include "calibd/core/board_box_joint_cost.hpp"
 #include "calibd/core/box_cost.hpp"
+#include "calibd/core/corner_reprojection_cost.hpp"
 #include "calibd/core/pose_manifold.hpp"
 
 namespace calibd {
+
+namespace {
+
+constexpr double kRad2Deg = 180.0 / M_PI;
+
+bool Used(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
+          const std::vector<char>* use, size_t k) {
+  const BoardObservation& o = set.observations[k];
+  if (use != nullptr && (k >= use->size() || !(*use)[k])) return false;
+  return o.board_index >= 0 && o.board_index < static_cast<int>(boards.size()) && o.num_points > 0;
+}
+
+int StrideOf(const BoardObservation& o, int max_points) {
+  return std::max(1, (o.num_points + max_points - 1) / max_points);
+}
+
+ceres::Solver::Options SolverOptions(const DirectOptimizerConfig& config) {
+  ceres::Solver::Options options;
+  options.max_num_iterations = config.max_iterations;
+  options.function_tolerance = config.function_tolerance;
+  options.gradient_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-12;
+  options.num_threads = config.threads;
+  options.logging_type = ceres::SILENT;
+  return options;
+}
+
+// Board poses refined one by one with the extrinsic held fixed: each board's LiDAR points (box
+// cost through T_camera_lidar) and its tag corners, a 6-unknown problem per board. Boards
+// [begin, end) of `set`; independent of the others, so ranges run on their own threads.
+void RefineBoardPoses(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
+                      const std::vector<char>* use, const DirectOptimizerConfig& config,
+                      const CameraModel& camera, const Pose& T_camera_lidar, size_t begin,
+                      size_t end, std::vector<Pose>* T_camera_board) {
+  PoseManifold manifold;
+  const double weight = config.lidar_sigma_m / config.corner_sigma_px;  // m per px
+  const double scale = camera.intrinsics().fx * weight;
+  double ext[7];  // held constant
+  PoseToParameters(T_camera_lidar, ext);
+  ceres::Solver::Options options = SolverOptions(config);
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.num_threads = 1;
+  options.max_num_iterations = 20;
+  options.function_tolerance = 1e-8;
+  for (size_t k = begin; k < end; ++k) {
+    if (!Used(boards, set, use, k)) continue;
+    const BoardObservation& o = set.observations[k];
+    const BoardGeometry& g = boards[o.board_index];
+    ceres::Problem::Options problem_options;
+    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    double b[7];
+    PoseToParameters((*T_camera_board)[k], b);
+    problem.AddParameterBlock(ext, 7);
+    problem.SetParameterBlockConstant(ext);
+    problem.AddParameterBlock(b, 7, &manifold);
+    problem.AddResidualBlock(
+        new BoardBoxJointCost(set.points.data() + o.first_point, o.num_points,
+                              StrideOf(o, config.joint_points_per_observation), g.width_m / 2.0,
+                              g.height_m / 2.0, config.alpha_m, config.huber_m),
+        nullptr, ext, b);
+    const auto corners = g.TagCornersInBoard();
+    for (int c = 0; c < 4; ++c) {
+      Eigen::Vector2d xy;
+      if (!camera.Unproject(o.corners_px[c], &xy)) continue;
+      problem.AddResidualBlock(new CornerReprojectionCost(corners[c], xy, scale),
+                               new ceres::HuberLoss(config.corner_huber_px * weight), b);
+    }
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    if (summary.IsSolutionUsable()) (*T_camera_board)[k] = PoseFromParameters(b);
+  }
+}
+
+}  // namespace
 
 bool DirectOptimizerConfig::IsValid(std::string* error) const {
   auto fail = [&](const char* m) {
@@ -20,25 +98,30 @@ bool DirectOptimizerConfig::IsValid(std::string* error) const {
   if (!(alpha_m >= 0.0 && alpha_m < 1.0)) return fail("alpha_m must be in [0, 1) m");
   if (!(huber_m < 1.0)) return fail("huber_m must be below 1 m");
   if (max_points_per_observation < 3) return fail("max_points_per_observation must be >= 3");
+  if (joint_points_per_observation < 3) return fail("joint_points_per_observation must be >= 3");
   if (max_iterations < 1) return fail("max_iterations must be >= 1");
   if (threads < 1) return fail("threads must be >= 1");
+  if (!(corner_sigma_px > 0.0 && corner_sigma_px < 100.0))
+    return fail("corner_sigma_px must be in (0, 100) px");
+  if (!(lidar_sigma_m > 0.0 && lidar_sigma_m < 1.0))
+    return fail("lidar_sigma_m must be in (0, 1) m");
+  if (!(corner_huber_px > 0.0)) return fail("corner_huber_px must be > 0");
   return true;
 }
 
-DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
-                            const Pose& T_init, const DirectOptimizerConfig& config,
-                            const std::vector<char>* use, bool solve) {
-  const auto t0 = std::chrono::steady_clock::now();
-  DirectResult result;
-  result.T_camera_lidar = T_init;
-  std::string why;
-  if (!config.IsValid(&why)) {
-    result.reason = "config: " + why;
-    return result;
-  }
-
+// Paper Eq. 4 with the board poses held: solves (or only evaluates) T_camera_lidar from `T_start`
+// and fills `result` with the solution, the residual statistics and the information.
+void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
+                         const std::vector<char>* use, const DirectOptimizerConfig& config,
+                         const std::vector<Pose>& T_camera_board, const Pose& T_start, bool solve,
+                         bool statistics, DirectResult* out) {
+  DirectResult& result = *out;
+  result.T_camera_lidar = T_start;
+  result.observations = result.points = 0;
+  result.information.setZero();
+  result.plane_information.setZero();
   double params[7];
-  PoseToParameters(T_init, params);
+  PoseToParameters(T_start, params);
   ceres::Problem::Options problem_options;
   problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
   problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -47,39 +130,26 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
 
   std::vector<const BoardBoxCost*> costs;
   for (size_t k = 0; k < set.observations.size(); ++k) {
+    if (!Used(boards, set, use, k)) continue;
     const BoardObservation& o = set.observations[k];
-    if (use != nullptr && (k >= use->size() || !(*use)[k])) continue;
-    if (o.board_index < 0 || o.board_index >= static_cast<int>(boards.size()) || o.num_points <= 0)
-      continue;
     const BoardGeometry& g = boards[o.board_index];
-    const int stride = std::max(1, (o.num_points + config.max_points_per_observation - 1) /
-                                       config.max_points_per_observation);
-    auto* cost = new BoardBoxCost(set.points.data() + o.first_point, o.num_points, stride,
-                                  o.T_camera_board.inverse(), g.width_m / 2.0, g.height_m / 2.0,
+    auto* cost = new BoardBoxCost(set.points.data() + o.first_point, o.num_points,
+                                  StrideOf(o, config.max_points_per_observation),
+                                  T_camera_board[k].inverse(), g.width_m / 2.0, g.height_m / 2.0,
                                   config.alpha_m, config.huber_m);
     problem.AddResidualBlock(cost, nullptr, params);
     costs.push_back(cost);
     ++result.observations;
     result.points += cost->num_used_points();
   }
-  if (result.observations == 0) {
-    result.reason = "no board observations with LiDAR points";
-    return result;
-  }
 
-  ceres::Solver::Options options;
+  ceres::Solver::Options options = SolverOptions(config);
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // 6 unknowns, many residuals
-  options.max_num_iterations = config.max_iterations;
-  options.function_tolerance = config.function_tolerance;
-  options.gradient_tolerance = 1e-12;
-  options.parameter_tolerance = 1e-12;
-  options.num_threads = config.threads;
-  options.logging_type = ceres::SILENT;
   if (solve) {
     ceres::Solver::Summary summary;
     ceres::Solve(options, &problem, &summary);
-    result.iterations = static_cast<int>(summary.iterations.size());
-    result.initial_cost = summary.initial_cost;
+    if (result.iterations == 0) result.initial_cost = summary.initial_cost;
+    result.iterations += static_cast<int>(summary.iterations.size());
     result.final_cost = summary.final_cost;
     result.T_camera_lidar = PoseFromParameters(params);
     result.usable = summary.IsSolutionUsable() && summary.termination_type == ceres::CONVERGENCE;
@@ -88,6 +158,7 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
     result.usable = true;
   }
 
+  if (!statistics) return;
   // Residual statistics without the robust loss, and J^T J in the tangent space.
   double sum_sq = 0.0;
   for (const BoardBoxCost* c : costs)
@@ -107,6 +178,63 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
   result.min_information_eigenvalue =
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(result.information)
           .eigenvalues()(0);
+}
+
+DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
+                            const Pose& T_init, const DirectOptimizerConfig& config,
+                            const std::vector<char>* use, bool solve, const CameraModel* camera) {
+  const auto t0 = std::chrono::steady_clock::now();
+  DirectResult result;
+  result.T_camera_lidar = T_init;
+  std::string why;
+  if (!config.IsValid(&why)) {
+    result.reason = "config: " + why;
+    return result;
+  }
+
+  // Board poses: the camera's, or refined with the extrinsic (refine_board_poses).
+  std::vector<Pose> T_camera_board(set.observations.size());
+  for (size_t k = 0; k < set.observations.size(); ++k)
+    T_camera_board[k] = set.observations[k].T_camera_board;
+  Pose T_start = T_init;
+  const bool joint = solve && config.refine_board_poses && camera != nullptr;
+  bool any = false;
+  for (size_t k = 0; k < set.observations.size() && !any; ++k) any = Used(boards, set, use, k);
+  if (!any) {
+    result.reason = "no board observations with LiDAR points";
+    return result;
+  }
+  if (joint) {
+    // Alternation: extrinsic with the board poses held, then each board's pose with the
+    // extrinsic held; the final solve below starts from the last extrinsic.
+    for (int round = 0; round < config.refine_rounds; ++round) {
+      SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start, true, false, &result);
+      if (!result.usable) return result;
+      T_start = result.T_camera_lidar;
+      const size_t n = set.observations.size();
+      const size_t threads = static_cast<size_t>(std::min(config.threads, 8));
+      std::vector<std::thread> workers;
+      for (size_t t = 1; t < threads; ++t)
+        workers.emplace_back(RefineBoardPoses, std::cref(boards), std::cref(set), use,
+                             std::cref(config), std::cref(*camera), std::cref(T_start),
+                             n * t / threads, n * (t + 1) / threads, &T_camera_board);
+      RefineBoardPoses(boards, set, use, config, *camera, T_start, 0, n / threads, &T_camera_board);
+      for (auto& w : workers) w.join();
+    }
+    for (size_t k = 0; k < set.observations.size(); ++k) {
+      if (!Used(boards, set, use, k)) continue;
+      ++result.refined_boards;
+      result.board_rotation_change_deg +=
+          RotationAngle(T_camera_board[k].linear(), set.observations[k].T_camera_board.linear()) *
+          kRad2Deg;
+      result.board_translation_change_m +=
+          (T_camera_board[k].translation() - set.observations[k].T_camera_board.translation())
+              .norm();
+    }
+    result.board_rotation_change_deg /= std::max(1, result.refined_boards);
+    result.board_translation_change_m /= std::max(1, result.refined_boards);
+  }
+  SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start, solve, true, &result);
   result.solve_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return result;

@@ -85,6 +85,10 @@ struct CalibrationOutcome {
   QualityFigures quality;
   GridSearchResult grid;
   MotionCompensationStats motion;
+  /// Board-pose refinement (DirectOptimizerConfig::refine_board_poses): boards refined and the
+  /// mean change of their poses from the camera's PnP, rotation (deg) and translation (m).
+  int refined_boards = 0;
+  double board_rotation_change_deg = 0.0, board_translation_change_m = 0.0;
   double optimise_ms = 0.0, quality_ms = 0.0;
 };
 

@@ -11,6 +11,7 @@
 
 #include "calibd/core/board.hpp"
 #include "calibd/core/board_observation.hpp"
+#include "calibd/core/camera_model.hpp"
 #include "calibd/core/geometry.hpp"
 
 namespace calibd {
@@ -22,6 +23,25 @@ struct DirectOptimizerConfig {
   int max_iterations = 50;
   double function_tolerance = 1e-10;
   int threads = 2;
+  /// Beyond the paper: Eq. 4 takes the camera's PnP board poses as exact, but a far board's
+  /// PnP tilt is uncertain by degrees, and the LiDAR's plane of the same board knows better.
+  /// With refinement, the extrinsic is solved with the board poses held, then every board's pose
+  /// is refined with the extrinsic held, from its tag corners (CornerReprojectionCost) and its
+  /// LiDAR points (BoardBoxJointCost) weighed by their noise, refine_rounds times; then the
+  /// extrinsic is solved once more. A joint solve of all poses (Schur complement) reached the
+  /// same accuracy in 30 slow iterations: the alternation is 2-3x faster. Simulated Falcon
+  /// drive, 200 pairs, seed 1, motion compensation on: 0.037 -> 0.017 deg (0.009 deg with the
+  /// true board poses). Needs the camera model (OptimizeDirect's `camera`).
+  bool refine_board_poses = true;
+  double corner_sigma_px = 0.25;  ///< tag corner noise (1 sigma) that weighs the camera's term
+  double lidar_sigma_m = 0.02;    ///< LiDAR range noise (1 sigma) that weighs the LiDAR's term
+  double corner_huber_px = 2.0;   ///< Huber threshold on a corner's reprojection error
+  /// LiDAR points per board in its pose refinement (strided like max_points_per_observation):
+  /// a board's pose needs its plane, not every point.
+  int joint_points_per_observation = 64;
+  /// Extrinsic / board-pose alternations before the final solve: the alternation converges
+  /// slowly towards the joint optimum; each round costs about a third of the solve time.
+  int refine_rounds = 2;
 
   bool IsValid(std::string* error) const;
 };
@@ -44,13 +64,20 @@ struct DirectResult {
   /// judged on this one: one board, or parallel boards, leave it rank-deficient.
   Eigen::Matrix<double, 6, 6> plane_information = Eigen::Matrix<double, 6, 6>::Zero();
   double solve_ms = 0.0;
+  int refined_boards = 0;  ///< board poses refined (0 without refine_board_poses)
+  /// Mean change of the refined board poses from the camera's PnP: rotation (deg), translation
+  /// (m).
+  double board_rotation_change_deg = 0.0, board_translation_change_m = 0.0;
 };
 
 /// Minimises paper Eq. 4 starting from `T_camera_lidar_init`. `boards[o.board_index]` gives each
 /// observation's board size. `use` (optional, one entry per observation) selects a subset.
-/// With `solve` false it only evaluates residuals and information at the initial pose.
+/// With `solve` false it only evaluates residuals and information at the initial pose. With
+/// `camera` and refine_board_poses, the board poses are refined too (`information` and the
+/// residuals are then those of the extrinsic with the refined board poses held fixed).
 DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
                             const Pose& T_camera_lidar_init, const DirectOptimizerConfig& config,
-                            const std::vector<char>* use = nullptr, bool solve = true);
+                            const std::vector<char>* use = nullptr, bool solve = true,
+                            const CameraModel* camera = nullptr);
 
 }  // namespace calibd
