@@ -78,6 +78,7 @@ TEST(CalibrationEngineTest, OnlyFarFramesAreRejectedForTheirPrecision) {
               out.quality.max_distance_m);
   EXPECT_GT(out.quality.min_distance_m, 24.0);
   EXPECT_GT(out.quality.boards_used, 60);  // not rejected for a lack of data
+  EXPECT_TRUE(out.solved);                 // the estimate is there for diagnosis
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
   EXPECT_TRUE(out.reason == "poor_observability" || out.reason == "unstable_solution")
       << out.reason << ": " << out.detail;
@@ -88,8 +89,9 @@ TEST(CalibrationEngineTest, NoLidarBoardsOrNoCameraBoardsAreExplicit) {
   auto r = Drive(o);
   SessionObservations camera_only = r->obs;
   camera_only.lidar.clear();
-  EXPECT_EQ(Calibrate(r->config, camera_only, r->projection, EngineConfig{}).reason,
-            "no_lidar_boards");
+  const CalibrationOutcome no_lidar = Calibrate(r->config, camera_only, r->projection, {});
+  EXPECT_EQ(no_lidar.reason, "no_lidar_boards");
+  EXPECT_FALSE(no_lidar.solved);
   SessionObservations lidar_only = r->obs;
   lidar_only.camera.clear();
   EXPECT_EQ(Calibrate(r->config, lidar_only, r->projection, EngineConfig{}).reason,

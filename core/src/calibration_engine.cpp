@@ -176,6 +176,7 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   }
   out.optimise_ms = Ms(t_opt);
   out.T_camera_lidar = direct.T_camera_lidar;
+  out.solved = true;
   out.refined_boards = direct.refined_boards;
   out.board_rotation_change_deg = direct.board_rotation_change_deg;
   out.board_translation_change_m = direct.board_translation_change_m;

@@ -1,6 +1,5 @@
 #include "detect_bench.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <nlohmann/json.hpp>
@@ -10,17 +9,11 @@
 #include "calibd/core/lidar_detector.hpp"
 #include "calibd/core/stats.hpp"
 #include "calibd/drivers/atomic_file.hpp"
-#include "session.hpp"
+#include "session_detector.hpp"
 
 namespace calibd::bench {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 /// What one LiDAR frame contributes to precision/recall at any threshold.
 struct LidarFrameEval {
@@ -106,45 +99,24 @@ bool RunDetectBench(const DetectBenchOptions& o, std::ostream& out, std::ostream
   bool camera_done = false;
 
   for (const std::string& lidar : o.lidars) {
-    sim::SessionOptions so;
-    so.seed = o.seed;
-    so.lidar_model = lidar;
-    so.trajectory.duration_s = o.frames / so.trajectory.rate_hz;
-    sim::SessionSimulator session;
-    if (!session.Init(so, error)) return false;
+    DetectedSession detected;
+    if (!detected.Init(BenchSessionOptions(lidar, o.seed, o.frames), error)) return false;
+    const sim::SessionSimulator& session = detected.session();
     const auto& geometries = session.workshop().geometries;
+    const LidarDetectorConfig& lcfg = detected.lidar_config();
 
-    LidarDetectorConfig lcfg;
-    LidarDetector lidar_detector(lcfg, session.lidar_model(), geometries);
-    if (!lidar_detector.ok()) {
-      if (error) *error = "LiDAR detector: " + lidar_detector.error();
-      return false;
-    }
-    CameraDetector camera_detector(CameraDetectorConfig{}, so.camera, geometries);
-    if (!camera_detector.ok()) {
-      if (error) *error = "camera detector: " + camera_detector.error();
-      return false;
-    }
-
-    sim::LidarScan scan;
-    sim::FrameTruth truth;
-    cv::Mat image;
-    LidarDetections lidar_out;
-    CameraDetections camera_out;
+    FrameDetections frame;
+    const sim::FrameTruth& truth = frame.truth;
+    const LidarDetections& lidar_out = frame.lidar;
+    const CameraDetections& camera_out = frame.camera;
     std::vector<LidarFrameEval> evals;
     TimeSeries times;
     const Pose T_vehicle_lidar = session.T_vehicle_lidar();
 
     for (int k = 0; k < session.num_frames(); ++k) {
       // The camera sees the same images whichever LiDAR is fitted: evaluate it once.
-      session.SimulateFrame(k, camera_done ? nullptr : &image, &scan, &truth);
-      PointCloudView cloud{
-          scan.x.data(), scan.y.data(),
-          scan.z.data(), session.lidar_model().has_rings ? scan.ring.data() : nullptr,
-          scan.size(),   scan.time_offset_us.data()};
-      const auto t0 = Clock::now();
-      lidar_detector.Detect(cloud, &lidar_out);
-      times.total.push_back(MsSince(t0));
+      detected.Detect(k, !camera_done, &frame);
+      times.total.push_back(frame.lidar_ms);
       times.range_image.push_back(lidar_out.times.range_image_ms);
       times.ground.push_back(lidar_out.times.ground_ms);
       times.segmentation.push_back(lidar_out.times.segmentation_ms);
@@ -165,10 +137,7 @@ bool RunDetectBench(const DetectBenchOptions& o, std::ostream& out, std::ostream
       evals.push_back(std::move(ev));
 
       if (!camera_done) {
-        ImageView view{image.data, image.cols, image.rows, static_cast<int>(image.step[0])};
-        const auto tc = Clock::now();
-        camera_detector.Detect(view, &camera_out);
-        cam.time_ms.push_back(MsSince(tc));
+        cam.time_ms.push_back(frame.camera_ms);
         cam.full_frame_searches += camera_out.full_frame_search ? 1 : 0;
         std::vector<bool> seen(truth.boards.size(), false);
         for (const auto& d : camera_out.boards) {

@@ -195,6 +195,7 @@ int main(int argc, char** argv) {
   report["reason"] = out.reason;
   report["detail"] = out.detail;
   report["method"] = method;
+  report["solved"] = out.solved;  // false: T_camera_lidar is only the prior or grid candidate
   report["T_camera_lidar"] = PoseJson(out.T_camera_lidar);
   report["T_lidar_camera"] = PoseJson(out.T_camera_lidar.inverse());
   report["prior_T_camera_lidar"] = PoseJson(out.prior_T_camera_lidar);

@@ -81,6 +81,10 @@ struct CalibrationOutcome {
   std::string detail;  ///< human-readable explanation with the figures involved
   Pose prior_T_camera_lidar = Pose::Identity();
   Pose T_camera_lidar = Pose::Identity();  ///< the estimate (even when rejected, for diagnosis)
+  /// True once the optimiser produced T_camera_lidar: a rejection by a later gate (observability,
+  /// stability, reprojection, residual, delta) still carries the solved estimate; before that
+  /// T_camera_lidar is only the prior or the grid search's candidate.
+  bool solved = false;
   double delta_rotation_deg = 0.0, delta_translation_m = 0.0;
   QualityFigures quality;
   GridSearchResult grid;

@@ -1,0 +1,264 @@
+#include "calib_experiments.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cassert>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "calibd/core/grid_search.hpp"
+#include "calibd/core/stats.hpp"
+#include "session_detector.hpp"
+
+namespace calibd::bench {
+
+namespace {
+
+constexpr double kRad2Deg = 180.0 / M_PI;
+
+double Mean(const std::vector<double>& v) {
+  double sum = 0.0;
+  for (double x : v) sum += x;
+  return v.empty() ? 0.0 : sum / static_cast<double>(v.size());
+}
+
+}  // namespace
+
+bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error) {
+  const auto t0 = std::chrono::steady_clock::now();
+  DetectedSession detected;
+  if (!detected.Init(options, error)) return false;
+  const sim::SessionSimulator& session = detected.session();
+  drive->seed = options.seed;
+  drive->config = session.UserConfig();
+  drive->T_camera_lidar = session.T_camera_lidar();
+  const auto& boards = drive->config.boards;
+  const int frames = session.num_frames();
+  // As tests/recorded_session.hpp: room for every frame pair, so positions stay aligned.
+  drive->observations.Reserve(frames, static_cast<int>(boards.size()) + 4, 4096);
+  drive->vehicle_positions.clear();
+  drive->incomplete_frames = 0;
+  FrameDetections frame;
+  for (int k = 0; k < frames; ++k) {
+    detected.Detect(k, true, &frame);
+    const FrameTimes times{frame.truth.camera_utime, frame.truth.lidar_utime};
+    if (!drive->observations.AddFrame(frame.camera, frame.lidar, boards, times))
+      ++drive->incomplete_frames;
+    drive->vehicle_positions.push_back(frame.truth.T_world_vehicle.translation());
+  }
+  drive->detect_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return true;
+}
+
+SessionObservations Subset(const SessionObservations& s, const std::vector<char>& keep_frame,
+                           const std::vector<char>& keep_camera,
+                           const std::vector<char>& keep_lidar) {
+  // Capacities: kept frames, the most kept entries of one frame, the largest kept cluster.
+  std::vector<int> camera_per_frame(static_cast<size_t>(s.num_frames), 0);
+  std::vector<int> lidar_per_frame(camera_per_frame.size(), 0);
+  int max_points = 1;
+  for (size_t i = 0; i < s.camera.size(); ++i)
+    if (keep_camera[i]) ++camera_per_frame[static_cast<size_t>(s.camera[i].frame)];
+  for (size_t j = 0; j < s.lidar.size(); ++j) {
+    if (!keep_lidar[j]) continue;
+    ++lidar_per_frame[static_cast<size_t>(s.lidar[j].frame)];
+    max_points = std::max(max_points, s.lidar[j].num_points);
+  }
+  int frames = 0, max_entries = 1;
+  for (size_t f = 0; f < camera_per_frame.size(); ++f) {
+    if (!keep_frame[f]) continue;
+    ++frames;
+    max_entries = std::max({max_entries, camera_per_frame[f], lidar_per_frame[f]});
+  }
+
+  SessionObservations out;
+  out.Reserve(frames, max_entries, max_points);
+  std::vector<float> time_s;
+  size_t i = 0, j = 0;  // camera and lidar entries are in frame order
+  for (int f = 0; f < s.num_frames; ++f) {
+    const bool keep = keep_frame[static_cast<size_t>(f)] != 0;
+    const FrameTimes& t = s.frame_times[static_cast<size_t>(f)];
+    [[maybe_unused]] bool ok = !keep || out.BeginFrame(t);
+    // AddLidarCluster takes firing times after the sweep start; the store keeps them relative to
+    // the camera time (point_dt = sweep start - camera time + firing time).
+    const float sweep_dt =
+        static_cast<float>(static_cast<double>(t.lidar_utime - t.camera_utime) * 1e-6);
+    for (; i < s.camera.size() && s.camera[i].frame == f; ++i)
+      if (keep && keep_camera[i]) ok = out.AddCameraBoard(s.camera[i]) && ok;
+    for (; j < s.lidar.size() && s.lidar[j].frame == f; ++j) {
+      if (!keep || !keep_lidar[j]) continue;
+      const auto& c = s.lidar[j];
+      const auto first = static_cast<size_t>(c.first_point);
+      time_s.resize(static_cast<size_t>(c.num_points));
+      for (size_t p = 0; p < time_s.size(); ++p) time_s[p] = s.point_dt[first + p] - sweep_dt;
+      ok = out.AddLidarCluster(s.points.data() + first, time_s.data(), c.num_points) && ok;
+    }
+    assert(ok && "capacities are sized to fit");
+  }
+  return out;
+}
+
+SessionObservations DistanceBand(const SessionObservations& s, double min_m, double max_m,
+                                 double baseline_m) {
+  std::vector<char> keep_frame(static_cast<size_t>(s.num_frames), 0);
+  std::vector<char> keep_camera(s.camera.size(), 0), keep_lidar(s.lidar.size(), 0);
+  for (size_t i = 0; i < s.camera.size(); ++i) {
+    const double d = s.camera[i].T_camera_board.translation().norm();
+    if (d > min_m && d < max_m) {
+      keep_camera[i] = 1;
+      keep_frame[static_cast<size_t>(s.camera[i].frame)] = 1;
+    }
+  }
+  for (size_t j = 0; j < s.lidar.size(); ++j) {
+    const auto& c = s.lidar[j];
+    if (!keep_frame[static_cast<size_t>(c.frame)] || c.num_points <= 0) continue;
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (int p = 0; p < c.num_points; ++p)
+      centroid += s.points[static_cast<size_t>(c.first_point + p)].cast<double>();
+    const double r = (centroid / static_cast<double>(c.num_points)).norm();
+    keep_lidar[j] = r > min_m - baseline_m && r < max_m + baseline_m ? 1 : 0;
+  }
+  return Subset(s, keep_frame, keep_camera, keep_lidar);
+}
+
+SessionObservations SampleByTravel(const SessionObservations& s,
+                                   const std::vector<Eigen::Vector3d>& vehicle_positions,
+                                   double min_step_m) {
+  std::vector<char> keep_frame(static_cast<size_t>(s.num_frames), 0);
+  const std::vector<char> keep_camera(s.camera.size(), 1), keep_lidar(s.lidar.size(), 1);
+  Eigen::Vector3d last = Eigen::Vector3d::Zero();
+  for (size_t f = 0; f < keep_frame.size() && f < vehicle_positions.size(); ++f) {
+    if (f > 0 && (vehicle_positions[f] - last).norm() < min_step_m) continue;
+    keep_frame[f] = 1;
+    last = vehicle_positions[f];
+  }
+  return Subset(s, keep_frame, keep_camera, keep_lidar);
+}
+
+const char* MethodName(Method method) {
+  switch (method) {
+    case Method::kIndirect:
+      return "indirect";
+    case Method::kDirect:
+      return "direct";
+    case Method::kDirectRefined:
+      return "direct+refinement";
+  }
+  return "direct+refinement";
+}
+
+EngineConfig BenchEngine(Method method) {
+  EngineConfig engine;
+  engine.stability_runs = 0;
+  engine.method =
+      method == Method::kIndirect ? EngineConfig::Method::kIndirect : EngineConfig::Method::kDirect;
+  engine.direct.refine_board_poses = method == Method::kDirectRefined;
+  return engine;
+}
+
+ScoredRun RunEngine(const CalibConfig& config, const SessionObservations& s,
+                    const RangeImage& projection, const EngineConfig& engine,
+                    const Pose& T_camera_lidar_true) {
+  const CalibrationOutcome outcome = Calibrate(config, s, projection, engine);
+  ScoredRun r;
+  r.verdict = VerdictName(outcome.verdict);
+  r.reason = outcome.reason;
+  r.has_estimate = outcome.solved;
+  r.grid_ms = outcome.grid.search_ms;
+  r.optimise_ms = outcome.optimise_ms;
+  r.frames = s.num_frames;
+  r.camera_boards = static_cast<int>(s.camera.size());
+  r.boards_used = outcome.quality.boards_used;
+  if (!r.has_estimate) return r;
+  const Pose& T_est = outcome.T_camera_lidar;
+  const Eigen::AngleAxisd delta(T_camera_lidar_true.linear().transpose() * T_est.linear());
+  r.error_rpy_deg = delta.angle() * delta.axis() * kRad2Deg;
+  r.rotation_error_deg = RotationAngle(T_est.linear(), T_camera_lidar_true.linear()) * kRad2Deg;
+  r.translation_error_m = (T_est.translation() - T_camera_lidar_true.translation()).norm();
+  r.reprojection_mean_px = outcome.quality.reprojection_mean_px;
+  return r;
+}
+
+Summary Summarise(const std::vector<ScoredRun>& runs) {
+  Summary s;
+  s.runs = static_cast<int>(runs.size());
+  std::vector<double> rot, trans, reproj, grid, opt, frames, boards;
+  std::vector<Eigen::Vector3d> rpy;
+  for (const auto& r : runs) {
+    frames.push_back(r.frames);
+    boards.push_back(r.camera_boards);
+    if (!r.has_estimate) {
+      if (s.missing_reason.empty()) s.missing_reason = r.reason.empty() ? "no_estimate" : r.reason;
+      continue;
+    }
+    ++s.estimates;
+    if (!r.reason.empty()) {
+      ++s.gated;
+      if (s.gate_reason.empty()) s.gate_reason = r.reason;
+    }
+    rot.push_back(r.rotation_error_deg);
+    trans.push_back(r.translation_error_m);
+    reproj.push_back(r.reprojection_mean_px);
+    grid.push_back(r.grid_ms);
+    opt.push_back(r.optimise_ms);
+    rpy.push_back(r.error_rpy_deg);
+  }
+  s.frames_mean = Mean(frames);
+  s.camera_boards_mean = Mean(boards);
+  if (rot.empty()) return s;
+  s.rotation_mean_deg = Mean(rot);
+  s.rotation_max_deg = *std::max_element(rot.begin(), rot.end());
+  s.translation_mean_m = Mean(trans);
+  s.translation_max_m = *std::max_element(trans.begin(), trans.end());
+  s.reprojection_mean_px = Mean(reproj);
+  s.grid_median_ms = Median(grid);
+  s.optimise_median_ms = Median(opt);
+  if (rpy.size() < 2) {
+    s.std_rpy_deg.setConstant(std::numeric_limits<double>::quiet_NaN());
+    return s;
+  }
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& v : rpy) mean += v;
+  mean /= static_cast<double>(rpy.size());
+  Eigen::Vector3d sq = Eigen::Vector3d::Zero();
+  for (const auto& v : rpy) sq += (v - mean).cwiseAbs2();
+  s.std_rpy_deg = (sq / static_cast<double>(rpy.size() - 1)).cwiseSqrt();
+  return s;
+}
+
+GridTrials RunGridTrials(const RecordedDrive& drive, const RangeImage& projection, int trials,
+                         uint64_t rng_seed) {
+  GridTrials g;
+  std::mt19937_64 rng(rng_seed);
+  std::uniform_real_distribution<double> angle(-g.max_deg, g.max_deg);
+  const EngineConfig with_search = BenchEngine(Method::kDirectRefined);
+  EngineConfig without_search = with_search;
+  without_search.grid.range_deg = 0.0;
+  without_search.grid.refine = false;
+  // The paper optimises straight from the prior: associate with whatever points the prior puts
+  // in the regions instead of refusing a weak prior (no_grid_candidate then means none at all).
+  without_search.grid.min_points = 1;
+  without_search.grid.min_point_fraction = 0.0;
+  CalibConfig config = drive.config;
+  for (int t = 0; t < trials; ++t) {
+    Eigen::Vector3d rpy_deg;
+    for (int a = 0; a < 3; ++a) rpy_deg(a) = angle(rng);
+    g.perturbations_deg.push_back(rpy_deg);
+    // Paper §IV-D: rotation only, added to the accurate extrinsic.
+    config.prior_T_camera_lidar = PerturbExtrinsic(drive.T_camera_lidar, rpy_deg / kRad2Deg);
+    g.with_search.push_back(
+        RunEngine(config, drive.observations, projection, with_search, drive.T_camera_lidar));
+    g.without_search.push_back(
+        RunEngine(config, drive.observations, projection, without_search, drive.T_camera_lidar));
+    auto converged = [&](const ScoredRun& r) {
+      return r.has_estimate && r.rotation_error_deg < g.converged_deg ? 1 : 0;
+    };
+    g.converged_with += converged(g.with_search.back());
+    g.converged_without += converged(g.without_search.back());
+  }
+  return g;
+}
+
+}  // namespace calibd::bench

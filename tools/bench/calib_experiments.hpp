@@ -1,0 +1,159 @@
+#pragma once
+/// \file
+/// The pieces of `calibd-bench calib`: a drive detected once, subsets of its observations (by
+/// camera-to-board distance, by distance travelled), one engine run scored against the truth,
+/// figures over several drives, and the grid search's convergence trials.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/config.hpp"
+#include "calibd/core/range_image.hpp"
+#include "calibd/core/session_observations.hpp"
+#include "session.hpp"
+
+namespace calibd::bench {
+
+/// One simulated drive, detected once: every experiment runs on its stored observations.
+struct RecordedDrive {
+  unsigned long long seed = 0;
+  CalibConfig config;                      ///< what a user would write (the simulator's prior)
+  Pose T_camera_lidar = Pose::Identity();  ///< the truth
+  SessionObservations observations;
+  std::vector<Eigen::Vector3d> vehicle_positions;  ///< per frame pair, world frame, m (truth)
+  int incomplete_frames = 0;  ///< frame pairs whose detections did not all fit the store
+  double detect_s = 0.0;      ///< wall time of simulation and detection
+};
+
+/// Simulates every frame pair of a drive and runs the real detectors on it into
+/// `drive->observations`, the way tests/recorded_session.hpp does.
+bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error);
+
+/// A copy of `s` holding the frame pairs with keep_frame[f] (renumbered in order) and in them only
+/// the camera boards with keep_camera[i] and the LiDAR clusters with keep_lidar[j] (indices into
+/// s.camera and s.lidar). Built through the store's public API, capacities sized to fit.
+SessionObservations Subset(const SessionObservations& s, const std::vector<char>& keep_frame,
+                           const std::vector<char>& keep_camera,
+                           const std::vector<char>& keep_lidar);
+
+/// Board observations at camera-to-board distances in (min_m, max_m) only (paper Table II: close
+/// < 8.5 m, far > 25 m). Camera boards are kept by their PnP distance. A LiDAR cluster's board is
+/// unknown before the grid search, so clusters are kept by their centroid's range from the LiDAR
+/// within the band widened by `baseline_m` (the camera-LiDAR offset), in frame pairs that keep a
+/// camera board: left in, the other clusters would dilute the grid search's point fraction.
+SessionObservations DistanceBand(const SessionObservations& s, double min_m, double max_m,
+                                 double baseline_m);
+
+/// Frame pairs kept only when the vehicle is at least `min_step_m` (straight line) from where the
+/// last kept pair was taken (paper Fig. 7); the first pair is always kept.
+SessionObservations SampleByTravel(const SessionObservations& s,
+                                   const std::vector<Eigen::Vector3d>& vehicle_positions,
+                                   double min_step_m);
+
+/// The optimisers compared in Table II and Fig. 7.
+enum class Method {
+  kIndirect,       ///< Huang & Grizzle's vertex fit + PnP (the paper's baseline)
+  kDirect,         ///< paper Eq. 4: camera board poses held exact
+  kDirectRefined,  ///< ours, the default: board poses refined with the LiDAR planes
+};
+const char* MethodName(Method method);
+/// The engine's defaults for `method`, without the half-data stability re-solves (bench time).
+EngineConfig BenchEngine(Method method);
+
+/// One engine run scored against the truth.
+struct ScoredRun {
+  std::string verdict;  ///< VerdictName()
+  std::string reason;   ///< reason code when rejected
+  /// The optimiser produced the estimate: accepted, or rejected by a quality gate that is checked
+  /// only after the solve (the outcome then still carries the solution). False when the engine
+  /// stopped before it (no correspondences, too few boards, solver failure...).
+  bool has_estimate = false;
+  double rotation_error_deg = 0.0;  ///< angle of R_est^T R_true
+  double translation_error_m = 0.0;
+  /// log(R_true^T R_est) on the LiDAR's axes, deg: x forward (roll), y (pitch), z (yaw).
+  Eigen::Vector3d error_rpy_deg = Eigen::Vector3d::Zero();
+  double reprojection_mean_px = 0.0;  ///< paper Table I metric
+  double grid_ms = 0.0, optimise_ms = 0.0;
+  int frames = 0;         ///< frame pairs in the (sub)session
+  int camera_boards = 0;  ///< camera board detections in the (sub)session
+  int boards_used = 0;    ///< correspondences after the grid search
+};
+
+ScoredRun RunEngine(const CalibConfig& config, const SessionObservations& s,
+                    const RangeImage& projection, const EngineConfig& engine,
+                    const Pose& T_camera_lidar_true);
+
+/// Figures over drives, from the runs with an estimate. Tables print a figure only when every run
+/// has one (complete()), and otherwise `missing_reason`.
+struct Summary {
+  int runs = 0, estimates = 0;
+  std::string missing_reason;  ///< reason code of the first run without an estimate
+  int gated = 0;               ///< estimates whose outcome a post-solve quality gate rejected
+  std::string gate_reason;     ///< reason code of the first of them
+  double rotation_mean_deg = 0.0, rotation_max_deg = 0.0;
+  double translation_mean_m = 0.0, translation_max_m = 0.0;
+  /// Sample standard deviation (n - 1) of error_rpy_deg; NaN below two estimates.
+  Eigen::Vector3d std_rpy_deg = Eigen::Vector3d::Zero();
+  double reprojection_mean_px = 0.0;
+  double grid_median_ms = 0.0, optimise_median_ms = 0.0;
+  double frames_mean = 0.0, camera_boards_mean = 0.0;  ///< over every run
+
+  bool complete() const { return runs > 0 && estimates == runs; }
+};
+
+Summary Summarise(const std::vector<ScoredRun>& runs);
+
+/// Paper §IV-D: `trials` priors, each the truth rotated by roll/pitch/yaw drawn uniformly in
+/// +-max_deg about the LiDAR axes (PerturbExtrinsic) from a fixed seed, calibrated with the default
+/// grid search and without it (range 0, no refinement, no minimum point count: only the prior is
+/// scored, and it associates whatever it aligns, as the paper optimises from the prior directly).
+struct GridTrials {
+  double max_deg = 10.0;
+  double converged_deg = 0.2;  ///< a trial converged when its estimate is this close to the truth
+  std::vector<Eigen::Vector3d> perturbations_deg;
+  std::vector<ScoredRun> with_search, without_search;  ///< one per trial, same priors
+  int converged_with = 0, converged_without = 0;
+};
+
+GridTrials RunGridTrials(const RecordedDrive& drive, const RangeImage& projection, int trials,
+                         uint64_t rng_seed);
+
+/// Table II and Fig. 7 columns, in this order.
+inline constexpr std::array<Method, 3> kMethods{Method::kIndirect, Method::kDirect,
+                                                Method::kDirectRefined};
+using RunsByMethod = std::array<std::vector<ScoredRun>, kMethods.size()>;
+
+/// Everything `calibd-bench calib` measures for one LiDAR model; runs are one per drive.
+struct LidarResults {
+  struct Drive {
+    unsigned long long seed = 0;
+    int frames = 0, camera_boards = 0, lidar_clusters = 0, incomplete_frames = 0;
+    double detect_s = 0.0;
+  };
+  struct AlphaRow {  ///< Table I
+    double alpha_m = 0.0;
+    std::vector<ScoredRun> indirect, direct;
+  };
+  struct BandRow {  ///< Table II
+    std::string name;
+    double min_m = 0.0, max_m = 0.0;  ///< camera-to-board distance band
+    RunsByMethod runs;
+  };
+  struct SamplingRow {  ///< Fig. 7
+    double min_step_m = 0.0;
+    RunsByMethod runs;
+  };
+  std::string lidar;
+  std::vector<Drive> drives;
+  std::vector<ScoredRun> accuracy;  ///< the default engine
+  std::vector<AlphaRow> alphas;
+  std::vector<BandRow> bands;
+  std::vector<SamplingRow> sampling;
+  GridTrials grid;  ///< on the first drive
+};
+
+}  // namespace calibd::bench

@@ -1,0 +1,59 @@
+#include "session_detector.hpp"
+
+#include <chrono>
+
+namespace calibd::bench {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+}  // namespace
+
+sim::SessionOptions BenchSessionOptions(const std::string& lidar, unsigned long long seed,
+                                        int frames) {
+  sim::SessionOptions so;
+  so.seed = seed;
+  so.lidar_model = lidar;
+  so.trajectory.duration_s = frames / so.trajectory.rate_hz;
+  return so;
+}
+
+bool DetectedSession::Init(const sim::SessionOptions& options, std::string* error) {
+  if (!session_.Init(options, error)) return false;
+  const auto& geometries = session_.workshop().geometries;
+  lidar_detector_.emplace(lidar_config_, session_.lidar_model(), geometries);
+  if (!lidar_detector_->ok()) {
+    if (error) *error = "LiDAR detector: " + lidar_detector_->error();
+    return false;
+  }
+  camera_detector_.emplace(CameraDetectorConfig{}, options.camera, geometries);
+  if (!camera_detector_->ok()) {
+    if (error) *error = "camera detector: " + camera_detector_->error();
+    return false;
+  }
+  return true;
+}
+
+void DetectedSession::Detect(int k, bool with_camera, FrameDetections* out) {
+  session_.SimulateFrame(k, with_camera ? &image_ : nullptr, &scan_, &out->truth);
+  const PointCloudView cloud{
+      scan_.x.data(), scan_.y.data(),
+      scan_.z.data(), session_.lidar_model().has_rings ? scan_.ring.data() : nullptr,
+      scan_.size(),   scan_.time_offset_us.data()};
+  const auto t0 = Clock::now();
+  lidar_detector_->Detect(cloud, &out->lidar);
+  out->lidar_ms = MsSince(t0);
+  out->camera_ms = 0.0;
+  if (!with_camera) return;
+  const ImageView view{image_.data, image_.cols, image_.rows, static_cast<int>(image_.step[0])};
+  const auto tc = Clock::now();
+  camera_detector_->Detect(view, &out->camera);
+  out->camera_ms = MsSince(tc);
+}
+
+}  // namespace calibd::bench

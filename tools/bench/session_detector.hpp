@@ -1,0 +1,52 @@
+#pragma once
+/// \file
+/// A simulated session with the real camera and LiDAR detectors built for its boards: the one
+/// place where the benches turn simulated frame pairs into detections.
+
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+
+#include "calibd/core/camera_detector.hpp"
+#include "calibd/core/lidar_detector.hpp"
+#include "session.hpp"
+
+namespace calibd::bench {
+
+/// The default simulated drive (3 boards, clutter, 6-30 m out and back) squeezed into `frames`
+/// frame pairs at the trajectory's rate: fewer frames make a faster drive, not a shorter one.
+sim::SessionOptions BenchSessionOptions(const std::string& lidar, unsigned long long seed,
+                                        int frames);
+
+/// One frame pair's truth and detections; the caller keeps one and reuses it for every frame.
+struct FrameDetections {
+  sim::FrameTruth truth;
+  LidarDetections lidar;
+  CameraDetections camera;  ///< left untouched when the camera was not run
+  double lidar_ms = 0.0;    ///< wall time of LidarDetector::Detect
+  double camera_ms = 0.0;   ///< wall time of CameraDetector::Detect (0 when not run)
+};
+
+class DetectedSession {
+ public:
+  /// Builds the session and both detectors (default configs, the workshop's boards); false with
+  /// `error` saying what failed.
+  bool Init(const sim::SessionOptions& options, std::string* error);
+
+  const sim::SessionSimulator& session() const { return session_; }
+  const LidarDetectorConfig& lidar_config() const { return lidar_config_; }
+
+  /// Simulates frame pair k and runs the LiDAR detector on its sweep; renders the image and runs
+  /// the camera detector only `with_camera` (rendering dominates the time otherwise).
+  void Detect(int k, bool with_camera, FrameDetections* out);
+
+ private:
+  sim::SessionSimulator session_;
+  LidarDetectorConfig lidar_config_;
+  std::optional<LidarDetector> lidar_detector_;
+  std::optional<CameraDetector> camera_detector_;
+  sim::LidarScan scan_;  // reused buffers
+  cv::Mat image_;
+};
+
+}  // namespace calibd::bench
