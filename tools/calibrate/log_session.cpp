@@ -6,6 +6,7 @@
 
 #include "calibd/camera_frame_t.hpp"
 #include "calibd/channels.hpp"
+#include "calibd/core/frame_pairing.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
 #include "calibd/lidar_frame_t.hpp"
@@ -26,7 +27,13 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
   LidarKind kind;
   if (!LidarKindFromName(config.lidar_model, &kind, error)) return false;
   const LidarModel model = MakeLidarModel(kind);
-  const int64_t sweep_us = static_cast<int64_t>(1e6 / model.frame_rate_hz);
+  FramePairingConfig pairing;
+  pairing.pair_tolerance_us = options.pair_tolerance_us;
+  pairing.sweep_us = static_cast<int64_t>(1e6 / model.frame_rate_hz);
+  if (!pairing.IsValid(error)) {
+    if (error) *error = "frame pairing: " + *error;
+    return false;
+  }
   // Detectors are built only when they will run (their references take a few hundred ms).
   std::optional<CameraDetector> camera_detector;
   std::optional<LidarDetector> lidar_detector;
@@ -53,7 +60,8 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
 
   const std::string cam_channel(channels::kCamera.name), lidar_channel(channels::kLidar.name);
   const FrameLimits limits;
-  std::optional<camera_frame_t> pending;  // one camera frame waits for its LiDAR sweep
+  FramePairer pairer(pairing);
+  std::optional<camera_frame_t> pending;  // the pairer's pending camera frame
   lidar_frame_t lidar_msg;
   cv::Mat decoded;
   CameraDetections cd;
@@ -71,8 +79,8 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
         continue;
       }
       if (msg.camera_id != config.camera_id) continue;
-      if (pending) ++stats->unpaired_camera;
-      pending = std::move(msg);
+      if (!pairer.OnCamera(msg.utime).accepted) continue;  // out of order: counted by the pairer
+      pending = std::move(msg);  // a frame it displaces is counted unpaired by the pairer
     } else if (ev->channel == lidar_channel) {
       ++stats->lidar_frames;
       if (lidar_msg.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
@@ -80,12 +88,8 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
         continue;
       }
       if (lidar_msg.lidar_id != config.lidar_id) continue;
-      // The camera is triggered while the sweep crosses its view: its time lies in the sweep.
-      if (!pending || pending->utime < lidar_msg.utime - options.pair_tolerance_us ||
-          pending->utime > lidar_msg.utime + sweep_us + options.pair_tolerance_us) {
-        ++stats->unpaired_lidar;
-        continue;
-      }
+      // Unpaired or out of order: counted by the pairer; the pending camera frame keeps waiting.
+      if (!pairer.OnLidar(lidar_msg.utime).paired) continue;
       ImageView view;
       PointCloudView cloud;
       std::string why;
@@ -121,7 +125,11 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
       if (progress && stats->pairs % 20 == 0) progress(stats->pairs);
     }
   }
-  if (pending) ++stats->unpaired_camera;
+  pairer.Flush();
+  const FramePairingCounters& counts = pairer.counters();
+  stats->unpaired_camera = static_cast<int>(counts.unpaired_camera);
+  stats->unpaired_lidar = static_cast<int>(counts.unpaired_lidar);
+  stats->out_of_order = static_cast<int>(counts.out_of_order_camera + counts.out_of_order_lidar);
   return true;
 }
 

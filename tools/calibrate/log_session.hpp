@@ -31,6 +31,8 @@ struct LogReadStats {
   int bad_messages = 0;                         ///< undecodable or malformed, skipped
   std::string first_bad_message;                ///< what was wrong with the first one
   int frames_over_capacity = 0;
+  /// Dropped: time not after the previous frame of the same sensor (duplicates included).
+  int out_of_order = 0;
   std::vector<double> camera_ms, lidar_ms;  ///< detection time per pair
 };
 
