@@ -1,0 +1,172 @@
+#pragma once
+/// \file
+/// One calibration session as a state machine (issue 5). Pure logic: no I/O, no threads, no clock.
+/// The caller (the agent's poll loop) feeds it requests, recorded frames, solver results and a
+/// monotonic time in microseconds, and acts on what it reports:
+///
+///   kIdle --Start--> kCollecting --target frames | coverage gates | time limit--> kSolving
+///   kCollecting --time limit with too few frames or boards--> kFailed
+///   kSolving --SolveFinished--> kDone (verdict verified / updated / rejected)
+///   kSolving --SolveFailed--> kFailed
+///   kCollecting, kSolving --Stop--> kAborted
+///   kDone, kFailed, kAborted --Start--> kCollecting (a fresh session)
+///
+/// Triggers (an LCM calibration_request_t, `--calibrate-now`, later a CAN diagnostic routine) all
+/// go through Start. While collecting, FrameRecorded and Tick allocate nothing.
+
+#include <cstdint>
+#include <string>
+
+#include "calibd/agent/agent_config.hpp"
+#include "calibd/core/calibration_engine.hpp"
+
+namespace calibd {
+
+enum class SessionState { kIdle, kCollecting, kSolving, kDone, kFailed, kAborted };
+/// "idle", "collecting", "solving", "done", "failed", "aborted".
+const char* SessionStateName(SessionState state);
+
+/// How the boards pass the sensors (calibration_request_t MODE_*): the vehicle drives past them,
+/// or it is parked and the boards are moved. Changes only the operator guidance.
+enum class SessionMode { kMoving, kStatic };
+
+/// What ended the collection of the current session.
+enum class CollectionEnd { kNone, kTargetFrames, kCoverage, kTimeLimit, kStopped };
+/// "none", "target_frames", "coverage", "time_limit", "stopped".
+const char* CollectionEndName(CollectionEnd end);
+
+/// Upper bound of a request's collection time limit, us (the config's own limit is validated to
+/// the same bound).
+inline constexpr int64_t kMaxSessionDurationUs = 3600LL * 1000 * 1000;
+
+struct StartRequest {
+  SessionMode mode = SessionMode::kMoving;
+  int64_t max_duration_us = 0;  ///< collection time limit; 0: the config's
+  /// calibration_request_t ACTION_VERIFY: the session runs as usual but an `updated` result may
+  /// not be committed (the stored calibration is only checked).
+  bool verify_only = false;
+  std::string requester;  ///< free text for logs ("tester", "eol-station-3", "--calibrate-now")
+};
+
+/// Answer to a request that may be refused.
+struct RequestReply {
+  bool accepted = false;
+  std::string reason;  ///< why it was refused, for the requester and the log; empty if accepted
+};
+
+/// Cumulative figures of what the session has recorded so far (the caller's session buffer).
+struct CollectionFigures {
+  int frames_with_boards = 0;  ///< frame pairs with at least one board seen by both sensors
+  int boards = 0;              ///< board observations seen by both sensors
+  uint32_t distance_bins = 0;  ///< bit b set: a board seen in DistanceBin() b
+  uint32_t image_cells = 0;    ///< bit c set: a board centre in ImageCell() c
+};
+
+/// Distance bin (0 .. kDistanceBins - 1) of a camera-to-board distance in m (kDistanceBinEdgesM);
+/// -1 for a negative or NaN distance.
+int DistanceBin(double distance_m);
+/// Image cell (row * kImageGridSide + column) of a pixel of a width x height image; -1 outside.
+int ImageCell(double u_px, double v_px, int width, int height);
+
+/// The part of the agent config the machine uses.
+struct SessionConfig {
+  int target_frames = 200;  ///< collection ends at this many frame pairs with boards
+  int min_frames = 50;      ///< fewer at the time limit: failed (too_few_frames)
+  int min_boards = 20;      ///< fewer at the time limit: failed (too_few_boards)
+  int64_t max_duration_us = 120LL * 1000 * 1000;  ///< collection time limit unless requested
+  int min_distance_bins = 3;                      ///< coverage gates (AgentConfig)
+  int min_image_cells = 4;
+  bool stop_on_coverage = true;  ///< end collection once the gates and min_frames are met
+};
+
+/// From a validated AgentConfig (min_boards is the engine's verdict.min_boards).
+SessionConfig SessionConfigFrom(const AgentConfig& config);
+
+class SessionMachine {
+ public:
+  /// `config` must come from a validated AgentConfig (SessionConfigFrom).
+  explicit SessionMachine(const SessionConfig& config);
+
+  // --- inputs ---
+
+  /// Begins a fresh session (from kIdle, kDone, kFailed or kAborted). Refused while a session is
+  /// collecting or solving ("recalibration in progress ..."), or for a time limit outside
+  /// [0, kMaxSessionDurationUs].
+  RequestReply Start(const StartRequest& request, int64_t now_us);
+  /// Aborts a collecting or solving session (a running solve's result will be ignored). Refused
+  /// when no session is in progress.
+  RequestReply Stop(int64_t now_us);
+  /// A frame pair entered the session buffer; `figures` are the session's totals so far. May end
+  /// the collection (target frames, coverage gates, time limit). False (ignored) when not
+  /// collecting: frames keep arriving after collection ends.
+  bool FrameRecorded(const CollectionFigures& figures, int64_t now_us);
+  /// Advances the time: may end the collection at its time limit.
+  void Tick(int64_t now_us);
+  /// The solve of session `session` (session() when it began) ended with a verdict: kDone.
+  /// `reason` is the engine's reason code (empty unless rejected), `detail` its explanation.
+  /// False (ignored) when that session is no longer solving, e.g. stopped meanwhile.
+  bool SolveFinished(int session, CalibrationOutcome::Verdict verdict, const std::string& reason,
+                     const std::string& detail);
+  /// The solve of session `session` could not run to a verdict: kFailed with `reason`.
+  bool SolveFailed(int session, const std::string& reason, const std::string& detail);
+  /// Accepted only in kDone with an `updated` verdict not yet committed (and not verify-only):
+  /// the caller then writes the result to the store. The session counts as committed from here.
+  RequestReply CommitRequested();
+  /// The caller's store write failed after CommitRequested: the result may be committed again.
+  void CommitFailed(const std::string& detail);
+
+  /// Edge: true exactly once after collection ended in kSolving. The caller then runs the
+  /// engine on the session buffer and reports SolveFinished or SolveFailed with session().
+  bool NeedsSolve();
+
+  // --- outputs ---
+
+  SessionState state() const { return state_; }
+  /// Number of the current session: 0 before the first Start, then 1, 2, ...
+  int session() const { return session_; }
+  /// 0..1, never decreasing within a session: collection covers [0, 0.9] (the larger of frames
+  /// vs target and time vs limit), solving 0.9, kDone 1. kFailed and kAborted keep the value.
+  double progress() const { return progress_; }
+  /// Reason code of the last failure, abort or rejection ("too_few_frames", "stopped", the
+  /// engine's reason...); empty otherwise.
+  const std::string& reason() const { return reason_; }
+  /// Human-readable explanation of reason() with its figures.
+  const std::string& detail() const { return detail_; }
+  /// What the operator should do next: while collecting, the distance bins and image regions
+  /// still lacking boards; after an uncommitted `updated` result, to commit it. Else empty.
+  const std::string& guidance() const { return guidance_; }
+  /// The solve's verdict (meaningful in kDone).
+  CalibrationOutcome::Verdict verdict() const { return verdict_; }
+  bool committed() const { return committed_; }
+  CollectionEnd collection_end() const { return collection_end_; }
+  const CollectionFigures& figures() const { return figures_; }
+  const StartRequest& request() const { return request_; }
+  int64_t started_us() const { return started_us_; }
+  /// Collection time limit of the current session, us.
+  int64_t limit_us() const { return limit_us_; }
+
+ private:
+  /// Ends the collection when one of its conditions holds (target, coverage, time).
+  void CheckCollectionEnd(int64_t now_us);
+  void EnterSolving(CollectionEnd end);
+  void EnterFailed(const char* reason);
+  void UpdateProgress(int64_t now_us);
+  void UpdateGuidance();
+  bool CoverageMet() const;
+
+  SessionConfig config_;
+  SessionState state_ = SessionState::kIdle;
+  int session_ = 0;
+  StartRequest request_;
+  int64_t started_us_ = 0, limit_us_ = 0;
+  CollectionFigures figures_;
+  CollectionEnd collection_end_ = CollectionEnd::kNone;
+  bool solve_pending_ = false;
+  CalibrationOutcome::Verdict verdict_ = CalibrationOutcome::Verdict::kRejected;
+  bool committed_ = false;
+  double progress_ = 0.0;
+  // Reserved once: rewritten while collecting without allocating.
+  std::string reason_, detail_, guidance_;
+};
+
+}  // namespace calibd

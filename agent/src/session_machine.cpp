@@ -1,0 +1,373 @@
+#include "calibd/agent/session_machine.hpp"
+
+#include <algorithm>
+#include <bitset>
+#include <charconv>
+#include <cmath>
+
+namespace calibd {
+
+namespace {
+
+constexpr double kCollectingShare = 0.9;  // of the progress; the solve takes the rest
+constexpr size_t kTextCapacity = 512;     // longest guidance is about 200 characters
+
+// Names of the distance bins between kDistanceBinEdgesM, for the operator.
+constexpr const char* kDistanceBinNames[kDistanceBins] = {"0-8.5 m", "8.5-15 m", "15-25 m",
+                                                          "25+ m"};
+// Image quadrants (row 0 at the top of the image).
+constexpr const char* kQuadrantNames[4] = {"top-left", "top-right", "bottom-left", "bottom-right"};
+
+int CountBits(uint32_t bits) { return static_cast<int>(std::bitset<32>(bits).count()); }
+
+// Appends without allocating while the string has the capacity (std::to_string would allocate).
+void AppendInt(std::string* s, int64_t v) {
+  char buf[24];
+  const auto result = std::to_chars(buf, buf + sizeof(buf), v);
+  s->append(buf, result.ptr);
+}
+
+// Quadrants holding at least one covered cell, bit q = (lower half) * 2 + (right half).
+uint32_t CoveredQuadrants(uint32_t cells) {
+  uint32_t quadrants = 0;
+  for (int cell = 0; cell < kImageCells; ++cell) {
+    if (!(cells & (1u << cell))) continue;
+    const int row = cell / kImageGridSide, col = cell % kImageGridSide;
+    const int q = (2 * row >= kImageGridSide ? 2 : 0) + (2 * col >= kImageGridSide ? 1 : 0);
+    quadrants |= 1u << q;
+  }
+  return quadrants;
+}
+
+}  // namespace
+
+const char* SessionStateName(SessionState state) {
+  switch (state) {
+    case SessionState::kIdle:
+      return "idle";
+    case SessionState::kCollecting:
+      return "collecting";
+    case SessionState::kSolving:
+      return "solving";
+    case SessionState::kDone:
+      return "done";
+    case SessionState::kFailed:
+      return "failed";
+    case SessionState::kAborted:
+      return "aborted";
+  }
+  return "unknown";
+}
+
+const char* CollectionEndName(CollectionEnd end) {
+  switch (end) {
+    case CollectionEnd::kNone:
+      return "none";
+    case CollectionEnd::kTargetFrames:
+      return "target_frames";
+    case CollectionEnd::kCoverage:
+      return "coverage";
+    case CollectionEnd::kTimeLimit:
+      return "time_limit";
+    case CollectionEnd::kStopped:
+      return "stopped";
+  }
+  return "unknown";
+}
+
+int DistanceBin(double distance_m) {
+  if (!(distance_m >= 0.0)) return -1;  // negative or NaN
+  for (size_t b = 0; b < kDistanceBinEdgesM.size(); ++b) {
+    if (distance_m < kDistanceBinEdgesM[b]) return static_cast<int>(b);
+  }
+  return kDistanceBins - 1;
+}
+
+int ImageCell(double u_px, double v_px, int width, int height) {
+  if (!(u_px >= 0.0 && u_px < width && v_px >= 0.0 && v_px < height)) return -1;
+  const int col = static_cast<int>(u_px * kImageGridSide / width);
+  const int row = static_cast<int>(v_px * kImageGridSide / height);
+  return row * kImageGridSide + col;
+}
+
+SessionConfig SessionConfigFrom(const AgentConfig& config) {
+  SessionConfig s;
+  s.target_frames = config.target_frames;
+  s.min_frames = config.min_frames;
+  s.min_boards = config.engine.verdict.min_boards;
+  s.max_duration_us = static_cast<int64_t>(std::llround(config.max_duration_s * 1e6));
+  s.min_distance_bins = config.min_distance_bins;
+  s.min_image_cells = config.min_image_cells;
+  s.stop_on_coverage = config.stop_on_coverage;
+  return s;
+}
+
+SessionMachine::SessionMachine(const SessionConfig& config) : config_(config) {
+  reason_.reserve(kTextCapacity);
+  detail_.reserve(kTextCapacity);
+  guidance_.reserve(kTextCapacity);
+}
+
+RequestReply SessionMachine::Start(const StartRequest& request, int64_t now_us) {
+  RequestReply reply;
+  if (state_ == SessionState::kCollecting || state_ == SessionState::kSolving) {
+    reply.reason = "recalibration in progress (session " + std::to_string(session_) + " " +
+                   SessionStateName(state_) + ", requested by '" + request_.requester + "')";
+    return reply;
+  }
+  if (request.max_duration_us < 0 || request.max_duration_us > kMaxSessionDurationUs) {
+    reply.reason = "time limit must be in [0, " + std::to_string(kMaxSessionDurationUs / 1000) +
+                   "] ms, 0 for the configured one (got " +
+                   std::to_string(request.max_duration_us / 1000) + " ms)";
+    return reply;
+  }
+  ++session_;
+  request_ = request;
+  started_us_ = now_us;
+  limit_us_ = request.max_duration_us > 0 ? request.max_duration_us : config_.max_duration_us;
+  figures_ = CollectionFigures{};
+  collection_end_ = CollectionEnd::kNone;
+  solve_pending_ = false;
+  verdict_ = CalibrationOutcome::Verdict::kRejected;
+  committed_ = false;
+  progress_ = 0.0;
+  reason_.clear();
+  detail_.clear();
+  state_ = SessionState::kCollecting;
+  UpdateGuidance();
+  reply.accepted = true;
+  return reply;
+}
+
+RequestReply SessionMachine::Stop(int64_t now_us) {
+  RequestReply reply;
+  if (state_ != SessionState::kCollecting && state_ != SessionState::kSolving) {
+    reply.reason = std::string("no session in progress (") + SessionStateName(state_) + ")";
+    return reply;
+  }
+  if (state_ == SessionState::kCollecting) {
+    UpdateProgress(now_us);
+    collection_end_ = CollectionEnd::kStopped;
+  }
+  reason_ = "stopped";
+  detail_ = "stopped by request while ";
+  detail_ += SessionStateName(state_);
+  detail_ += " (";
+  AppendInt(&detail_, figures_.frames_with_boards);
+  detail_ += " frame pairs with boards)";
+  solve_pending_ = false;  // a solve already running reports to a session that is gone
+  state_ = SessionState::kAborted;
+  UpdateGuidance();
+  reply.accepted = true;
+  return reply;
+}
+
+bool SessionMachine::FrameRecorded(const CollectionFigures& figures, int64_t now_us) {
+  if (state_ != SessionState::kCollecting) return false;
+  figures_ = figures;
+  CheckCollectionEnd(now_us);
+  if (state_ == SessionState::kCollecting) UpdateGuidance();
+  return true;
+}
+
+void SessionMachine::Tick(int64_t now_us) {
+  if (state_ == SessionState::kCollecting) CheckCollectionEnd(now_us);
+}
+
+bool SessionMachine::CoverageMet() const {
+  return figures_.frames_with_boards >= config_.min_frames &&
+         figures_.boards >= config_.min_boards &&
+         CountBits(figures_.distance_bins) >= config_.min_distance_bins &&
+         CountBits(figures_.image_cells) >= config_.min_image_cells;
+}
+
+void SessionMachine::CheckCollectionEnd(int64_t now_us) {
+  UpdateProgress(now_us);
+  if (figures_.frames_with_boards >= config_.target_frames) {
+    EnterSolving(CollectionEnd::kTargetFrames);
+    return;
+  }
+  if (config_.stop_on_coverage && CoverageMet()) {
+    EnterSolving(CollectionEnd::kCoverage);
+    return;
+  }
+  if (now_us - started_us_ < limit_us_) return;
+  collection_end_ = CollectionEnd::kTimeLimit;
+  const bool frames_short = figures_.frames_with_boards < config_.min_frames;
+  if (!frames_short && figures_.boards >= config_.min_boards) {
+    EnterSolving(CollectionEnd::kTimeLimit);
+    return;
+  }
+  EnterFailed(frames_short ? "too_few_frames" : "too_few_boards");
+  detail_ = "time limit (";
+  const bool whole_seconds = limit_us_ % 1000000 == 0;
+  AppendInt(&detail_, whole_seconds ? limit_us_ / 1000000 : limit_us_ / 1000);
+  detail_ += whole_seconds ? " s) reached with " : " ms) reached with ";
+  AppendInt(&detail_, frames_short ? figures_.frames_with_boards : figures_.boards);
+  detail_ += frames_short ? " frame pairs with boards, " : " board observations, ";
+  AppendInt(&detail_, frames_short ? config_.min_frames : config_.min_boards);
+  detail_ += " needed";
+}
+
+void SessionMachine::EnterSolving(CollectionEnd end) {
+  collection_end_ = end;
+  state_ = SessionState::kSolving;
+  solve_pending_ = true;
+  progress_ = std::max(progress_, kCollectingShare);
+  UpdateGuidance();
+}
+
+void SessionMachine::EnterFailed(const char* reason) {
+  state_ = SessionState::kFailed;
+  solve_pending_ = false;
+  reason_ = reason;
+  detail_.clear();
+  UpdateGuidance();
+}
+
+void SessionMachine::UpdateProgress(int64_t now_us) {
+  const double frames = static_cast<double>(figures_.frames_with_boards) /
+                        static_cast<double>(std::max(1, config_.target_frames));
+  // A clock that steps back (it should not: monotonic) counts as no time passed.
+  const double time = static_cast<double>(std::max<int64_t>(0, now_us - started_us_)) /
+                      static_cast<double>(std::max<int64_t>(1, limit_us_));
+  progress_ = std::max(progress_, kCollectingShare * std::clamp(std::max(frames, time), 0.0, 1.0));
+}
+
+bool SessionMachine::NeedsSolve() {
+  const bool pending = solve_pending_;
+  solve_pending_ = false;
+  return pending;
+}
+
+bool SessionMachine::SolveFinished(int session, CalibrationOutcome::Verdict verdict,
+                                   const std::string& reason, const std::string& detail) {
+  if (session != session_ || state_ != SessionState::kSolving) return false;
+  solve_pending_ = false;
+  verdict_ = verdict;
+  reason_ = reason;
+  detail_ = detail;
+  state_ = SessionState::kDone;
+  progress_ = 1.0;
+  UpdateGuidance();
+  return true;
+}
+
+bool SessionMachine::SolveFailed(int session, const std::string& reason,
+                                 const std::string& detail) {
+  if (session != session_ || state_ != SessionState::kSolving) return false;
+  EnterFailed(reason.c_str());
+  detail_ = detail;
+  return true;
+}
+
+RequestReply SessionMachine::CommitRequested() {
+  RequestReply reply;
+  if (state_ != SessionState::kDone) {
+    reply.reason = std::string("no finished session to commit (") + SessionStateName(state_) + ")";
+  } else if (verdict_ != CalibrationOutcome::Verdict::kUpdated) {
+    reply.reason =
+        std::string("nothing to commit: the verdict was ") + VerdictName(verdict_) +
+        (verdict_ == CalibrationOutcome::Verdict::kVerified ? " (the stored calibration stands)"
+                                                            : " (" + reason_ + ")");
+  } else if (request_.verify_only) {
+    reply.reason = "verify-only session: its result is not committed";
+  } else if (committed_) {
+    reply.reason = "already committed";
+  } else {
+    committed_ = true;
+    reply.accepted = true;
+    UpdateGuidance();
+  }
+  return reply;
+}
+
+void SessionMachine::CommitFailed(const std::string& detail) {
+  if (state_ != SessionState::kDone || !committed_) return;
+  committed_ = false;
+  reason_ = "commit_failed";
+  detail_ = detail;
+  UpdateGuidance();
+}
+
+void SessionMachine::UpdateGuidance() {
+  guidance_.clear();
+  if (state_ == SessionState::kDone) {
+    if (verdict_ == CalibrationOutcome::Verdict::kUpdated && !committed_ && !request_.verify_only)
+      guidance_ = "new calibration ready: send COMMIT to store it";
+    return;
+  }
+  if (state_ != SessionState::kCollecting) return;
+  const bool moving = request_.mode == SessionMode::kMoving;
+  const CollectionFigures& f = figures_;
+  if (f.frames_with_boards == 0) {
+    guidance_ = moving ? "no board seen yet: drive towards the boards"
+                       : "no board seen yet: place the boards in view of both sensors";
+    return;
+  }
+
+  const int bins = CountBits(f.distance_bins);
+  if (bins < config_.min_distance_bins) {
+    guidance_ += moving ? "drive so that boards are seen at " : "move boards to ";
+    bool first = true;
+    for (int b = 0; b < kDistanceBins; ++b) {
+      if (f.distance_bins & (1u << b)) continue;
+      if (!first) guidance_ += ", ";
+      guidance_ += kDistanceBinNames[b];
+      first = false;
+    }
+    guidance_ += " (";
+    AppendInt(&guidance_, bins);
+    guidance_ += " of ";
+    AppendInt(&guidance_, kDistanceBins);
+    guidance_ += " distance bins, ";
+    AppendInt(&guidance_, config_.min_distance_bins);
+    guidance_ += " needed)";
+  }
+
+  const int cells = CountBits(f.image_cells);
+  if (cells < config_.min_image_cells) {
+    if (!guidance_.empty()) guidance_ += "; ";
+    const uint32_t quadrants = CoveredQuadrants(f.image_cells);
+    if (quadrants == 0xfu) {
+      guidance_ += "spread the boards across the image";
+    } else {
+      guidance_ += "boards needed in the image's ";
+      bool first = true;
+      for (int q = 0; q < 4; ++q) {
+        if (quadrants & (1u << q)) continue;
+        if (!first) guidance_ += ", ";
+        guidance_ += kQuadrantNames[q];
+        first = false;
+      }
+    }
+    guidance_ += " (";
+    AppendInt(&guidance_, cells);
+    guidance_ += " of ";
+    AppendInt(&guidance_, kImageCells);
+    guidance_ += " image cells, ";
+    AppendInt(&guidance_, config_.min_image_cells);
+    guidance_ += " needed)";
+  }
+
+  if (!guidance_.empty()) return;
+  if (f.frames_with_boards < config_.min_frames) {
+    guidance_ = "coverage complete: keep collecting (";
+    AppendInt(&guidance_, f.frames_with_boards);
+    guidance_ += " of ";
+    AppendInt(&guidance_, config_.min_frames);
+    guidance_ += " frame pairs)";
+  } else if (f.boards < config_.min_boards) {
+    guidance_ = "coverage complete: keep collecting (";
+    AppendInt(&guidance_, f.boards);
+    guidance_ += " of ";
+    AppendInt(&guidance_, config_.min_boards);
+    guidance_ += " boards)";
+  } else {
+    guidance_ = "coverage complete: collecting up to ";
+    AppendInt(&guidance_, config_.target_frames);
+    guidance_ += " frame pairs";
+  }
+}
+
+}  // namespace calibd
