@@ -1,0 +1,123 @@
+#pragma once
+/// \file
+/// The agent's streaming intake: camera and LiDAR messages from the poll loop are paired by time,
+/// copied into one of a fixed ring of frame slots and detected on two worker threads (camera and
+/// LiDAR detection run in parallel, each detector owned by its thread); the poll loop then drains
+/// the finished pairs, in arrival order, into the session's observations. Only the compact
+/// observations outlive a slot.
+///
+/// Fixed memory: every slot's buffers (encoded image, decoded image, point arrays, detections)
+/// are sized once in Init from the limits; nothing grows with the number of frames. A message
+/// larger than the limits is refused (counted, with the reason in last_error), never grown into.
+///
+/// Drop policy: when every slot is queued or in detection, a newly arriving camera frame (and so
+/// its pair) is dropped: the newest data is dropped, the queued pairs are kept (counted in
+/// dropped_queue_full). A camera frame not followed by a LiDAR sweep that pairs with it is
+/// replaced by the next camera frame (unpaired_camera); a sweep without a camera frame in its
+/// window is skipped (unpaired_lidar).
+
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "calibd/camera_frame_t.hpp"
+#include "calibd/core/camera_detector.hpp"
+#include "calibd/core/config.hpp"
+#include "calibd/core/frame_pairing.hpp"
+#include "calibd/core/lidar_detector.hpp"
+#include "calibd/core/session_observations.hpp"
+#include "calibd/drivers/lcm_frames.hpp"
+#include "calibd/lidar_frame_t.hpp"
+
+namespace calibd {
+
+struct IntakeConfig {
+  /// Frame pairs that may wait for or be in detection at once. More absorb longer stalls of the
+  /// detectors at the cost of one image and one sweep buffer each (about 7 + 7 MB at
+  /// 3840x1920 mono8 and 300k points).
+  int queue_capacity = 4;
+  FrameLimits limits{3840, 2160, 400000};  ///< largest image (pixels) and sweep (points) accepted
+  /// Largest encoded image (bytes): mono8 needs width x height, JPEG less, bgr8 three times.
+  int max_image_bytes = 3840 * 2160;
+  int64_t pair_tolerance_us = 20000;  ///< camera time allowed outside the LiDAR sweep
+  CameraDetectorConfig camera;
+  LidarDetectorConfig lidar;
+
+  bool IsValid(std::string* error) const;
+};
+
+struct IntakeCounters {
+  int64_t camera_frames = 0, lidar_frames = 0;  ///< messages for the configured sensors
+  int64_t pairs_detected = 0;                   ///< pairs drained into the session
+  int64_t dropped_queue_full = 0;               ///< pairs dropped: every slot busy
+  int64_t unpaired_camera = 0, unpaired_lidar = 0;
+  int64_t out_of_order = 0;      ///< timestamps that went backwards or repeated, skipped
+  int64_t bad_messages = 0;      ///< malformed or beyond the limits, skipped
+  int64_t over_capacity = 0;     ///< pairs whose observations did not fit the session store
+  int64_t ignored_inactive = 0;  ///< frames received while not collecting
+  std::string last_error;        ///< what was wrong with the latest bad message
+};
+
+class FrameIntake {
+ public:
+  FrameIntake();
+  ~FrameIntake();  ///< stops and joins the workers
+  FrameIntake(const FrameIntake&) = delete;
+  FrameIntake& operator=(const FrameIntake&) = delete;
+
+  /// Builds both detectors (the LiDAR references take a few hundred ms), the slots and the two
+  /// worker threads. False with `error` naming what is wrong (config, intrinsics, boards, model).
+  bool Init(const IntakeConfig& config, const CalibConfig& calib, std::string* error);
+
+  /// While inactive, messages are only counted (ignored_inactive), nothing is detected. Turning
+  /// it on starts a fresh pairing; turning it off drops a half-filled pair (queued pairs are
+  /// still detected and can be drained).
+  void SetActive(bool active);
+  bool active() const { return active_; }
+
+  /// Poll thread: one decoded message. Messages of other sensor ids are ignored.
+  void OnCamera(const camera_frame_t& msg);
+  void OnLidar(const lidar_frame_t& msg);
+
+  /// Poll thread: moves finished pairs, oldest first, into `session` (AddFrame); returns the
+  /// number moved. Pairs that do not fit are counted in over_capacity.
+  int Drain(SessionObservations* session);
+  /// True when no pair is queued or in detection (everything received has been drained).
+  bool Idle() const;
+
+  const IntakeCounters& counters() const { return counters_; }
+  /// Detection time of the last drained pair, per sensor (ms), for health reports.
+  double last_camera_ms() const { return last_camera_ms_; }
+  double last_lidar_ms() const { return last_lidar_ms_; }
+
+ private:
+  struct Slot;
+  enum class SlotState { kFree, kFilling, kQueued, kDone };
+  void Worker(bool camera);
+  void Bad(const std::string& what);
+  int FreeSlot() const;
+
+  IntakeConfig config_;
+  CalibConfig calib_;
+  std::unique_ptr<CameraDetector> camera_detector_;
+  std::unique_ptr<LidarDetector> lidar_detector_;
+  std::vector<std::unique_ptr<Slot>> slots_;
+  FramePairer pairer_;
+  int filling_ = -1;             ///< slot holding the camera frame waiting for its sweep
+  uint64_t next_sequence_ = 0;   ///< arrival order of queued pairs
+  uint64_t drain_sequence_ = 0;  ///< next pair to drain
+  bool active_ = false;
+  IntakeCounters counters_;
+  double last_camera_ms_ = 0.0, last_lidar_ms_ = 0.0;
+
+  mutable std::mutex mutex_;
+  std::condition_variable work_;
+  bool stop_ = false;
+  std::thread camera_thread_, lidar_thread_;
+};
+
+}  // namespace calibd

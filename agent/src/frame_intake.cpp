@@ -1,0 +1,281 @@
+#include "calibd/agent/frame_intake.hpp"
+
+#include <chrono>
+
+#include "calibd/core/lidar_model.hpp"
+
+namespace calibd {
+
+struct FrameIntake::Slot {
+  SlotState state = SlotState::kFree;
+  uint64_t sequence = 0;
+  camera_frame_t camera;  ///< copy of the message; buffers reserved once
+  lidar_frame_t lidar;
+  cv::Mat decoded;  ///< JPEG / bgr8 frames decoded here (allocated once at the largest size)
+  CameraDetections camera_detections;
+  LidarDetections lidar_detections;
+  bool camera_done = false, lidar_done = false;
+  bool camera_ok = false, lidar_ok = false;
+  std::string camera_error, lidar_error;
+  double camera_ms = 0.0, lidar_ms = 0.0;
+};
+
+namespace {
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Copies a vector into one whose capacity was reserved: assign() reuses the storage.
+template <typename T>
+void CopyInto(const std::vector<T>& from, std::vector<T>* to) {
+  to->assign(from.begin(), from.end());
+}
+
+}  // namespace
+
+bool IntakeConfig::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (queue_capacity < 1 || queue_capacity > 64)
+    return fail("queue_capacity: must be in [1, 64] (got " + std::to_string(queue_capacity) + ")");
+  if (limits.max_width < 16 || limits.max_height < 16)
+    return fail("max image size: must be at least 16x16");
+  if (limits.max_points < 100) return fail("max_points: must be >= 100");
+  if (max_image_bytes < 1024) return fail("max_image_bytes: must be >= 1024");
+  if (pair_tolerance_us < 0) return fail("pair_tolerance: must be >= 0");
+  std::string why;
+  if (!camera.IsValid(&why)) return fail("camera detector: " + why);
+  return true;
+}
+
+FrameIntake::FrameIntake() = default;
+
+FrameIntake::~FrameIntake() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  work_.notify_all();
+  if (camera_thread_.joinable()) camera_thread_.join();
+  if (lidar_thread_.joinable()) lidar_thread_.join();
+}
+
+bool FrameIntake::Init(const IntakeConfig& config, const CalibConfig& calib, std::string* error) {
+  if (!config.IsValid(error)) return false;
+  LidarKind kind;
+  if (!LidarKindFromName(calib.lidar_model, &kind, error)) return false;
+  const LidarModel model = MakeLidarModel(kind);
+  config_ = config;
+  calib_ = calib;
+  camera_detector_ = std::make_unique<CameraDetector>(config.camera, calib.camera, calib.boards);
+  if (!camera_detector_->ok()) {
+    if (error) *error = "camera detector: " + camera_detector_->error();
+    return false;
+  }
+  lidar_detector_ = std::make_unique<LidarDetector>(config.lidar, model, calib.boards);
+  if (!lidar_detector_->ok()) {
+    if (error) *error = "LiDAR detector: " + lidar_detector_->error();
+    return false;
+  }
+  FramePairingConfig pairing;
+  pairing.pair_tolerance_us = config.pair_tolerance_us;
+  pairing.sweep_us = static_cast<int64_t>(1e6 / model.frame_rate_hz);
+  pairer_ = FramePairer(pairing);
+
+  // One slot per queued pair plus the one being filled.
+  const auto points = static_cast<size_t>(config.limits.max_points);
+  slots_.clear();
+  for (int i = 0; i < config.queue_capacity + 1; ++i) {
+    auto slot = std::make_unique<Slot>();
+    slot->camera.data.reserve(static_cast<size_t>(config.max_image_bytes));
+    slot->camera.camera_id.reserve(64);
+    slot->lidar.lidar_id.reserve(64);
+    for (auto* v : {&slot->lidar.x, &slot->lidar.y, &slot->lidar.z, &slot->lidar.intensity})
+      v->reserve(points);
+    slot->lidar.ring.reserve(points);
+    slot->lidar.time_offset_us.reserve(points);
+    slot->decoded.create(config.limits.max_height, config.limits.max_width, CV_8UC1);
+    slots_.push_back(std::move(slot));
+  }
+  camera_thread_ = std::thread(&FrameIntake::Worker, this, true);
+  lidar_thread_ = std::thread(&FrameIntake::Worker, this, false);
+  return true;
+}
+
+void FrameIntake::SetActive(bool active) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (active == active_) return;
+  active_ = active;
+  pairer_.Reset();
+  if (filling_ >= 0) slots_[static_cast<size_t>(filling_)]->state = SlotState::kFree;
+  filling_ = -1;
+}
+
+void FrameIntake::Bad(const std::string& what) {
+  ++counters_.bad_messages;
+  counters_.last_error = what;
+}
+
+int FrameIntake::FreeSlot() const {
+  for (size_t i = 0; i < slots_.size(); ++i)
+    if (slots_[i]->state == SlotState::kFree) return static_cast<int>(i);
+  return -1;
+}
+
+void FrameIntake::OnCamera(const camera_frame_t& msg) {
+  if (msg.camera_id != calib_.camera_id) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++counters_.camera_frames;
+  if (!active_) {
+    ++counters_.ignored_inactive;
+    return;
+  }
+  if (msg.data.size() > static_cast<size_t>(config_.max_image_bytes)) {
+    Bad("camera_frame_t: " + std::to_string(msg.data.size()) +
+        " bytes exceed the configured max_image_bytes " + std::to_string(config_.max_image_bytes));
+    return;
+  }
+  const FramePairer::CameraResult r = pairer_.OnCamera(msg.utime);
+  if (!r.accepted) {
+    ++counters_.out_of_order;
+    return;
+  }
+  if (r.displaced) ++counters_.unpaired_camera;
+  if (filling_ < 0) filling_ = FreeSlot();
+  if (filling_ < 0) {
+    // Every slot is queued or in detection: drop the newest pair, keep the queued ones.
+    ++counters_.dropped_queue_full;
+    pairer_.DropPending();
+    return;
+  }
+  Slot& slot = *slots_[static_cast<size_t>(filling_)];
+  slot.state = SlotState::kFilling;
+  slot.camera.utime = msg.utime;
+  slot.camera.camera_id = msg.camera_id;
+  slot.camera.width = msg.width;
+  slot.camera.height = msg.height;
+  slot.camera.stride = msg.stride;
+  slot.camera.encoding = msg.encoding;
+  slot.camera.size = msg.size;
+  CopyInto(msg.data, &slot.camera.data);
+}
+
+void FrameIntake::OnLidar(const lidar_frame_t& msg) {
+  if (msg.lidar_id != calib_.lidar_id) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++counters_.lidar_frames;
+    if (!active_) {
+      ++counters_.ignored_inactive;
+      return;
+    }
+    if (msg.num_points < 0 || msg.num_points > config_.limits.max_points ||
+        msg.x.size() > static_cast<size_t>(config_.limits.max_points)) {
+      Bad("lidar_frame_t: " + std::to_string(msg.num_points) +
+          " points exceed the configured max_points " + std::to_string(config_.limits.max_points));
+      return;
+    }
+    const FramePairer::LidarResult r = pairer_.OnLidar(msg.utime);
+    if (!r.accepted) {
+      ++counters_.out_of_order;
+      return;
+    }
+    if (!r.paired || filling_ < 0) {
+      ++counters_.unpaired_lidar;
+      return;
+    }
+    Slot& slot = *slots_[static_cast<size_t>(filling_)];
+    slot.lidar.utime = msg.utime;
+    slot.lidar.lidar_id = msg.lidar_id;
+    slot.lidar.num_points = msg.num_points;
+    CopyInto(msg.x, &slot.lidar.x);
+    CopyInto(msg.y, &slot.lidar.y);
+    CopyInto(msg.z, &slot.lidar.z);
+    CopyInto(msg.intensity, &slot.lidar.intensity);
+    CopyInto(msg.ring, &slot.lidar.ring);
+    CopyInto(msg.time_offset_us, &slot.lidar.time_offset_us);
+    slot.camera_done = slot.lidar_done = false;
+    slot.sequence = next_sequence_++;
+    slot.state = SlotState::kQueued;
+    filling_ = -1;
+  }
+  work_.notify_all();
+}
+
+void FrameIntake::Worker(bool camera) {
+  for (;;) {
+    Slot* slot = nullptr;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      // The oldest queued pair whose half for this thread is still to do.
+      work_.wait(lock, [&] {
+        if (stop_) return true;
+        slot = nullptr;
+        for (auto& s : slots_) {
+          if (s->state != SlotState::kQueued || (camera ? s->camera_done : s->lidar_done)) continue;
+          if (slot == nullptr || s->sequence < slot->sequence) slot = s.get();
+        }
+        return slot != nullptr;
+      });
+      if (stop_) return;
+    }
+    // The slot's half is ours alone until we mark it done: no lock while detecting.
+    const auto t0 = std::chrono::steady_clock::now();
+    if (camera) {
+      ImageView view;
+      slot->camera_ok = CameraFrameToView(slot->camera, config_.limits, &slot->decoded, &view,
+                                          &slot->camera_error);
+      if (slot->camera_ok) camera_detector_->Detect(view, &slot->camera_detections);
+      slot->camera_ms = MsSince(t0);
+    } else {
+      PointCloudView cloud;
+      slot->lidar_ok = LidarFrameToView(slot->lidar, config_.limits, &cloud, &slot->lidar_error);
+      if (slot->lidar_ok) lidar_detector_->Detect(cloud, &slot->lidar_detections);
+      slot->lidar_ms = MsSince(t0);
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      (camera ? slot->camera_done : slot->lidar_done) = true;
+      if (slot->camera_done && slot->lidar_done) slot->state = SlotState::kDone;
+    }
+  }
+}
+
+int FrameIntake::Drain(SessionObservations* session) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  int moved = 0;
+  for (bool found = true; found;) {
+    found = false;
+    for (auto& s : slots_) {
+      if (s->state != SlotState::kDone || s->sequence != drain_sequence_) continue;
+      found = true;
+      ++drain_sequence_;
+      s->state = SlotState::kFree;
+      if (!s->camera_ok || !s->lidar_ok) {
+        Bad(!s->camera_ok ? s->camera_error : s->lidar_error);
+        break;
+      }
+      last_camera_ms_ = s->camera_ms;
+      last_lidar_ms_ = s->lidar_ms;
+      if (!session->AddFrame(s->camera_detections, s->lidar_detections, calib_.boards,
+                             FrameTimes{s->camera.utime, s->lidar.utime}))
+        ++counters_.over_capacity;
+      ++counters_.pairs_detected;
+      ++moved;
+      break;
+    }
+  }
+  return moved;
+}
+
+bool FrameIntake::Idle() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& s : slots_)
+    if (s->state == SlotState::kQueued || s->state == SlotState::kDone) return false;
+  return true;
+}
+
+}  // namespace calibd

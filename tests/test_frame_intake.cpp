@@ -1,0 +1,187 @@
+// The agent's streaming intake on real simulated messages: pairs detected on the worker threads
+// match a direct detection of the same frames, a full queue drops the newest pair and keeps the
+// queued ones, and bad, foreign, out-of-order and inactive-time messages are counted and skipped.
+
+#include "calibd/agent/frame_intake.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "lcm_output.hpp"
+#include "session.hpp"
+
+namespace calibd {
+namespace {
+
+struct Messages {
+  std::vector<camera_frame_t> camera;
+  std::vector<lidar_frame_t> lidar;
+  CalibConfig config;
+};
+
+// `count` frame pairs of the default drive (ot128), every 5th frame, as the sensors send them.
+const Messages& SimulatedMessages() {
+  static const Messages m = [] {
+    Messages out;
+    sim::SessionSimulator session;
+    std::string error;
+    EXPECT_TRUE(session.Init(sim::SessionOptions{}, &error)) << error;
+    out.config = session.UserConfig();
+    cv::Mat image;
+    sim::LidarScan scan;
+    sim::FrameTruth truth;
+    for (int k = 0; k < 6; ++k) {
+      session.SimulateFrame(5 * k, &image, &scan, &truth);
+      camera_frame_t c;
+      EXPECT_TRUE(sim::ToCameraMessage(image, truth.camera_utime, out.config.camera_id,
+                                       camera_frame_t::ENCODING_MONO8, 90, &c));
+      lidar_frame_t l;
+      sim::ToLidarMessage(scan, truth.lidar_utime, out.config.lidar_id, &l);
+      out.camera.push_back(std::move(c));
+      out.lidar.push_back(std::move(l));
+    }
+    return out;
+  }();
+  return m;
+}
+
+IntakeConfig SmallIntake(int queue) {
+  IntakeConfig c;
+  c.queue_capacity = queue;
+  return c;
+}
+
+// Drains until `pairs` pairs came out or 20 s passed.
+int DrainAll(FrameIntake* intake, SessionObservations* session, int pairs) {
+  int got = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (got < pairs && std::chrono::steady_clock::now() < deadline) {
+    got += intake->Drain(session);
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return got;
+}
+
+TEST(FrameIntakeTest, DetectsPairsLikeTheDetectorsDirectly) {
+  const Messages& m = SimulatedMessages();
+  FrameIntake intake;
+  std::string error;
+  ASSERT_TRUE(intake.Init(SmallIntake(8), m.config, &error)) << error;
+  intake.SetActive(true);
+  for (size_t k = 0; k < m.camera.size(); ++k) {
+    intake.OnCamera(m.camera[k]);
+    intake.OnLidar(m.lidar[k]);
+  }
+  SessionObservations session;
+  session.Reserve(20, 8, 4096);
+  EXPECT_EQ(DrainAll(&intake, &session, 6), 6);
+  EXPECT_TRUE(intake.Idle());
+  EXPECT_EQ(intake.counters().pairs_detected, 6);
+  EXPECT_EQ(intake.counters().bad_messages, 0) << intake.counters().last_error;
+
+  // The same frames through the detectors directly, in one thread.
+  CameraDetector camera(IntakeConfig{}.camera, m.config.camera, m.config.boards);
+  LidarKind kind;
+  ASSERT_TRUE(LidarKindFromName(m.config.lidar_model, &kind, &error));
+  LidarDetector lidar(IntakeConfig{}.lidar, MakeLidarModel(kind), m.config.boards);
+  SessionObservations direct;
+  direct.Reserve(20, 8, 4096);
+  cv::Mat decoded;
+  for (size_t k = 0; k < m.camera.size(); ++k) {
+    ImageView view;
+    PointCloudView cloud;
+    ASSERT_TRUE(CameraFrameToView(m.camera[k], FrameLimits{}, &decoded, &view, &error));
+    ASSERT_TRUE(LidarFrameToView(m.lidar[k], FrameLimits{}, &cloud, &error));
+    CameraDetections cd;
+    LidarDetections ld;
+    camera.Detect(view, &cd);
+    lidar.Detect(cloud, &ld);
+    direct.AddFrame(cd, ld, m.config.boards, FrameTimes{m.camera[k].utime, m.lidar[k].utime});
+  }
+  ASSERT_EQ(session.num_frames, direct.num_frames);
+  ASSERT_EQ(session.camera.size(), direct.camera.size());
+  ASSERT_EQ(session.lidar.size(), direct.lidar.size());
+  EXPECT_EQ(session.camera.size(), 18u);  // 3 boards in each of 6 frames
+  for (size_t i = 0; i < session.camera.size(); ++i) {
+    EXPECT_EQ(session.camera[i].frame, direct.camera[i].frame);
+    EXPECT_EQ(session.camera[i].board_index, direct.camera[i].board_index);
+    EXPECT_TRUE(session.camera[i].T_camera_board.isApprox(direct.camera[i].T_camera_board, 1e-9));
+  }
+  EXPECT_EQ(session.points, direct.points);
+  EXPECT_EQ(session.frame_times[3].camera_utime, m.camera[3].utime);
+}
+
+TEST(FrameIntakeTest, FullQueueDropsTheNewestPairAndKeepsTheQueuedOnes) {
+  const Messages& m = SimulatedMessages();
+  FrameIntake intake;
+  std::string error;
+  ASSERT_TRUE(intake.Init(SmallIntake(2), m.config, &error)) << error;
+  intake.SetActive(true);
+  // Six pairs at once, nothing drained: 2 queued + 1 filling slot hold 3 pairs; once the slots
+  // are all taken the newer pairs are dropped (how many depends on how fast the workers are, but
+  // never the queued ones, and every pair is either drained or counted as dropped).
+  for (size_t k = 0; k < m.camera.size(); ++k) {
+    intake.OnCamera(m.camera[k]);
+    intake.OnLidar(m.lidar[k]);
+  }
+  const auto& c = intake.counters();
+  EXPECT_GE(c.dropped_queue_full, 3);
+  SessionObservations session;
+  session.Reserve(20, 8, 4096);
+  const int drained = DrainAll(&intake, &session, 6 - static_cast<int>(c.dropped_queue_full));
+  EXPECT_EQ(drained + c.dropped_queue_full, 6);
+  EXPECT_EQ(session.frame_times[0].camera_utime, m.camera[0].utime);  // the oldest were kept
+  EXPECT_EQ(session.frame_times[1].camera_utime, m.camera[1].utime);
+  EXPECT_TRUE(intake.Idle());
+}
+
+TEST(FrameIntakeTest, BadForeignOutOfOrderAndInactiveMessagesAreCountedAndSkipped) {
+  const Messages& m = SimulatedMessages();
+  FrameIntake intake;
+  std::string error;
+  ASSERT_TRUE(intake.Init(SmallIntake(4), m.config, &error)) << error;
+  // Not collecting: counted only.
+  intake.OnCamera(m.camera[0]);
+  intake.OnLidar(m.lidar[0]);
+  EXPECT_EQ(intake.counters().ignored_inactive, 2);
+  intake.SetActive(true);
+
+  camera_frame_t other = m.camera[0];
+  other.camera_id = "rear";  // another camera's frames are not ours
+  intake.OnCamera(other);
+  EXPECT_EQ(intake.counters().camera_frames, 1);
+
+  // A frame whose header lies about its size: detected as malformed in the worker, skipped.
+  camera_frame_t lying = m.camera[1];
+  lying.size = 7;
+  intake.OnCamera(lying);
+  intake.OnLidar(m.lidar[1]);
+  // A duplicate of an earlier sweep: out of order.
+  intake.OnLidar(m.lidar[0]);
+  // A sweep with more points than the limits: refused before it is copied.
+  lidar_frame_t huge = m.lidar[2];
+  huge.num_points = 500000;
+  intake.OnCamera(m.camera[2]);
+  intake.OnLidar(huge);
+  // A good pair still goes through.
+  intake.OnCamera(m.camera[3]);
+  intake.OnLidar(m.lidar[3]);
+
+  SessionObservations session;
+  session.Reserve(20, 8, 4096);
+  DrainAll(&intake, &session, 1);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (!intake.Idle() && std::chrono::steady_clock::now() < deadline) intake.Drain(&session);
+  const auto& c = intake.counters();
+  EXPECT_EQ(c.bad_messages, 2) << c.last_error;
+  EXPECT_EQ(c.out_of_order, 1);
+  EXPECT_EQ(c.unpaired_camera, 1);  // camera[2] lost its sweep
+  EXPECT_EQ(c.pairs_detected, 1);
+  ASSERT_EQ(session.num_frames, 1);
+  EXPECT_EQ(session.frame_times[0].camera_utime, m.camera[3].utime);
+}
+
+}  // namespace
+}  // namespace calibd
