@@ -48,7 +48,11 @@ struct VerdictConfig {
       1e-5;  // measured: 3 spread boards 9e-5, one board 1e-6, parallel 2e-8
   double max_rotation_spread_deg = 0.25;  ///< half-data re-solve gates (stability)
   double max_translation_spread_m = 0.03;
-  double max_reprojection_mean_px = 4.0;
+  /// Paper Table I metric. It measures each board's own LiDAR fit as much as the extrinsic:
+  /// measured means over 5 simulated drives (calibd-bench calib) 3.1 px ot128, 4.9 px m1,
+  /// 2.4 px falcon with correct results; a rotation error of 0.1 deg adds about 6 px at
+  /// fx = 3325 px, so 8 px still catches errors near the verification tolerance.
+  double max_reprojection_mean_px = 8.0;
   double max_residual_rms_m = 0.05;
 };
 

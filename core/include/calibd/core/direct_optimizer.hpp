@@ -17,8 +17,12 @@
 namespace calibd {
 
 struct DirectOptimizerConfig {
-  double alpha_m = 0.0;   ///< half-thickness allowance along the board normal (paper: 0 best)
-  double huber_m = 0.05;  ///< Huber threshold on a point's residual norm; <= 0 disables it
+  double alpha_m = 0.0;  ///< half-thickness allowance along the board normal (paper: 0 best)
+  /// Huber threshold on a point's residual norm, m; <= 0 disables it. About the LiDAR's range
+  /// sigma: mixed ("ghost") returns at board edges then pull linearly, not quadratically.
+  /// Measured on simulated drives (seed 1, 200 pairs): 0.05 -> 0.02 m moved the M1's rotation
+  /// error 0.063 -> 0.035 deg, Falcon 0.017 -> 0.014, OT128 0.011 -> 0.008.
+  double huber_m = 0.02;
   int max_points_per_observation = 256;  ///< larger clusters are strided down to about this
   int max_iterations = 50;
   double function_tolerance = 1e-10;
@@ -42,6 +46,9 @@ struct DirectOptimizerConfig {
   /// Extrinsic / board-pose alternations before the final solve: the alternation converges
   /// slowly towards the joint optimum; each round costs about a third of the solve time.
   int refine_rounds = 2;
+  /// Iterations of each extrinsic solve between refinements (the final solve runs to
+  /// convergence, up to max_iterations).
+  int round_iterations = 4;
 
   bool IsValid(std::string* error) const;
 };
