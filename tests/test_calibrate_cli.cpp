@@ -2,21 +2,19 @@
 // then calibrator reading the LCM log and the config), checked against the simulator's truth.
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
 #include "calibd/drivers/atomic_file.hpp"
+#include "run_command.hpp"
 #include "temp_dir.hpp"
 
 namespace calibd {
 namespace {
 
-int RunCommand(const std::string& cmd) {
-  const int status = std::system((cmd + " >/dev/null 2>&1").c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+// Quietly: the programs' own output is not part of what these tests check.
+int RunCommand(const std::string& cmd) { return testing::RunCommand(cmd + " >/dev/null 2>&1"); }
 
 nlohmann::json ReadJson(const std::string& path) {
   std::string text, error;

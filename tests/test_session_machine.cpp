@@ -219,6 +219,27 @@ TEST(SessionMachineTest, TimeLimitWithTooFewFramesOrBoardsFails) {
   EXPECT_EQ(b.detail(), "time limit (1500 ms) reached with 29 board observations, 30 needed");
 }
 
+TEST(SessionMachineTest, EndOfDataEndsTheCollectionLikeTheTimeLimit) {
+  SessionMachine m(TestConfig());
+  m.EndOfData(kT0);  // ignored while idle
+  EXPECT_EQ(m.state(), SessionState::kIdle);
+  ASSERT_TRUE(m.Start(Request(), kT0).accepted);
+  EXPECT_TRUE(m.FrameRecorded(Figures(25, 40, 0b0001, 0b1), kT0 + 2 * kS));
+  m.EndOfData(kT0 + 3 * kS);
+  EXPECT_EQ(m.state(), SessionState::kSolving);
+  EXPECT_EQ(m.collection_end(), CollectionEnd::kEndOfData);
+  EXPECT_STREQ(CollectionEndName(m.collection_end()), "end_of_data");
+  EXPECT_TRUE(m.NeedsSolve());
+
+  SessionMachine short_log(TestConfig());
+  ASSERT_TRUE(short_log.Start(Request(), kT0).accepted);
+  EXPECT_TRUE(short_log.FrameRecorded(Figures(5, 15, 0b0001, 0b1), kT0 + kS));
+  short_log.EndOfData(kT0 + 2 * kS);
+  EXPECT_EQ(short_log.state(), SessionState::kFailed);
+  EXPECT_EQ(short_log.reason(), "too_few_frames");
+  EXPECT_EQ(short_log.detail(), "input ended with 5 frame pairs with boards, 20 needed");
+}
+
 TEST(SessionMachineTest, StopAbortsCollecting) {
   SessionMachine m(TestConfig());
   EXPECT_FALSE(m.Stop(kT0).accepted) << "nothing to stop";

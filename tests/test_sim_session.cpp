@@ -7,6 +7,7 @@
 #include <cstdlib>
 
 #include "calibd/drivers/config_file.hpp"
+#include "run_command.hpp"
 #include "session.hpp"
 #include "small_camera.hpp"
 #include "temp_dir.hpp"
@@ -100,9 +101,7 @@ TEST(SessionTest, BadOptionsAreRejectedWithTheirName) {
 }
 
 int RunSim(const std::string& args) {
-  const std::string cmd = std::string(CALIBD_SIM_EXE) + " " + args + " >/dev/null 2>&1";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return testing::RunCommand(std::string(CALIBD_SIM_EXE) + " " + args + " >/dev/null 2>&1");
 }
 
 TEST(SimCliTest, HelpSucceedsAndBadOptionsExitWithTwo) {

@@ -92,7 +92,6 @@ bool AgentKeysValid(const AgentConfig& c, std::string* error) {
                     std::to_string(c.max_points_per_board) +
                     " points x 16 B), more than 2 GiB: lower one of them");
   if (!IntIn("agent.intake_queue_capacity", c.intake_queue_capacity, 1, 64, error)) return false;
-  if (!IntIn("agent.detection_threads", c.detection_threads, 1, 64, error)) return false;
 
   if (!PositiveUpTo("agent.max_duration_s", c.max_duration_s, 3600.0, error)) return false;
   if (!IntIn("agent.target_frames", c.target_frames, 1, c.max_frames, error,
@@ -296,7 +295,6 @@ void ParseAgentSection(const YAML::Node& node, AgentConfig* c) {
   s.Read("max_boards_per_frame", &c->max_boards_per_frame);
   s.Read("max_points_per_board", &c->max_points_per_board);
   s.Read("intake_queue_capacity", &c->intake_queue_capacity);
-  s.Read("detection_threads", &c->detection_threads);
   s.Read("max_duration_s", &c->max_duration_s);
   s.Read("target_frames", &c->target_frames);
   s.Read("min_frames", &c->min_frames);

@@ -254,6 +254,7 @@ int FrameIntake::Drain(SessionObservations* session) {
       found = true;
       ++drain_sequence_;
       s->state = SlotState::kFree;
+      if (session == nullptr) break;  // discarded
       if (!s->camera_ok || !s->lidar_ok) {
         Bad(!s->camera_ok ? s->camera_error : s->lidar_error);
         break;
@@ -276,6 +277,11 @@ bool FrameIntake::Idle() const {
   for (const auto& s : slots_)
     if (s->state == SlotState::kQueued || s->state == SlotState::kDone) return false;
   return true;
+}
+
+bool FrameIntake::Full() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return filling_ < 0 && FreeSlot() < 0;
 }
 
 }  // namespace calibd

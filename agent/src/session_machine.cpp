@@ -69,6 +69,8 @@ const char* CollectionEndName(CollectionEnd end) {
       return "coverage";
     case CollectionEnd::kTimeLimit:
       return "time_limit";
+    case CollectionEnd::kEndOfData:
+      return "end_of_data";
     case CollectionEnd::kStopped:
       return "stopped";
   }
@@ -192,17 +194,31 @@ void SessionMachine::CheckCollectionEnd(int64_t now_us) {
     return;
   }
   if (now_us - started_us_ < limit_us_) return;
-  collection_end_ = CollectionEnd::kTimeLimit;
+  FinishCollection(CollectionEnd::kTimeLimit);
+}
+
+void SessionMachine::EndOfData(int64_t now_us) {
+  if (state_ != SessionState::kCollecting) return;
+  UpdateProgress(now_us);
+  FinishCollection(CollectionEnd::kEndOfData);
+}
+
+void SessionMachine::FinishCollection(CollectionEnd end) {
+  collection_end_ = end;
   const bool frames_short = figures_.frames_with_boards < config_.min_frames;
   if (!frames_short && figures_.boards >= config_.min_boards) {
-    EnterSolving(CollectionEnd::kTimeLimit);
+    EnterSolving(end);
     return;
   }
   EnterFailed(frames_short ? "too_few_frames" : "too_few_boards");
-  detail_ = "time limit (";
-  const bool whole_seconds = limit_us_ % 1000000 == 0;
-  AppendInt(&detail_, whole_seconds ? limit_us_ / 1000000 : limit_us_ / 1000);
-  detail_ += whole_seconds ? " s) reached with " : " ms) reached with ";
+  if (end == CollectionEnd::kTimeLimit) {
+    detail_ = "time limit (";
+    const bool whole_seconds = limit_us_ % 1000000 == 0;
+    AppendInt(&detail_, whole_seconds ? limit_us_ / 1000000 : limit_us_ / 1000);
+    detail_ += whole_seconds ? " s) reached with " : " ms) reached with ";
+  } else {
+    detail_ = "input ended with ";
+  }
   AppendInt(&detail_, frames_short ? figures_.frames_with_boards : figures_.boards);
   detail_ += frames_short ? " frame pairs with boards, " : " board observations, ";
   AppendInt(&detail_, frames_short ? config_.min_frames : config_.min_boards);

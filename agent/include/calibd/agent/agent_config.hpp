@@ -55,9 +55,9 @@ struct AgentConfig {
   /// about 50 points on a 0.6 m board at 6 m: the default leaves room for close boards and
   /// denser sensors.
   int max_points_per_board = 4096;
-  /// Frame pairs waiting for detection; a full queue drops the oldest pair and counts it.
+  /// Frame pairs waiting for or in detection (one camera and one LiDAR detection thread); when
+  /// all are taken, the newest pair is dropped and counted (agent/frame_intake.hpp).
   int intake_queue_capacity = 4;
-  int detection_threads = 2;  ///< threads running the camera and LiDAR board detectors
 
   // --- agent: collection (one session) ---
   /// Collection time limit, s, unless the request sets its own (calibration_request_t

@@ -84,10 +84,14 @@ class FrameIntake {
   void OnLidar(const lidar_frame_t& msg);
 
   /// Poll thread: moves finished pairs, oldest first, into `session` (AddFrame); returns the
-  /// number moved. Pairs that do not fit are counted in over_capacity.
+  /// number moved. Pairs that do not fit are counted in over_capacity. With a null `session` the
+  /// finished pairs are discarded (frames still in flight when a collection ended).
   int Drain(SessionObservations* session);
   /// True when no pair is queued or in detection (everything received has been drained).
   bool Idle() const;
+  /// True when a new camera frame would find no free slot (it would be dropped). A replay that
+  /// may wait (file://) holds back its reading while Full(); a live stream does not wait.
+  bool Full() const;
 
   const IntakeCounters& counters() const { return counters_; }
   /// Detection time of the last drained pair, per sensor (ms), for health reports.

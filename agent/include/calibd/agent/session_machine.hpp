@@ -31,8 +31,8 @@ const char* SessionStateName(SessionState state);
 enum class SessionMode { kMoving, kStatic };
 
 /// What ended the collection of the current session.
-enum class CollectionEnd { kNone, kTargetFrames, kCoverage, kTimeLimit, kStopped };
-/// "none", "target_frames", "coverage", "time_limit", "stopped".
+enum class CollectionEnd { kNone, kTargetFrames, kCoverage, kTimeLimit, kEndOfData, kStopped };
+/// "none", "target_frames", "coverage", "time_limit", "end_of_data", "stopped".
 const char* CollectionEndName(CollectionEnd end);
 
 /// Upper bound of a request's collection time limit, us (the config's own limit is validated to
@@ -102,6 +102,10 @@ class SessionMachine {
   bool FrameRecorded(const CollectionFigures& figures, int64_t now_us);
   /// Advances the time: may end the collection at its time limit.
   void Tick(int64_t now_us);
+  /// The input ended (a replayed log was read to its end): the collection ends as at its time
+  /// limit, solving when there are enough frames and boards, else failing. Ignored unless
+  /// collecting.
+  void EndOfData(int64_t now_us);
   /// The solve of session `session` (session() when it began) ended with a verdict: kDone.
   /// `reason` is the engine's reason code (empty unless rejected), `detail` its explanation.
   /// False (ignored) when that session is no longer solving, e.g. stopped meanwhile.
@@ -148,6 +152,9 @@ class SessionMachine {
  private:
   /// Ends the collection when one of its conditions holds (target, coverage, time).
   void CheckCollectionEnd(int64_t now_us);
+  /// Ends the collection before its target (time limit or end of data): solving with enough
+  /// frames and boards, else kFailed naming what was short.
+  void FinishCollection(CollectionEnd end);
   void EnterSolving(CollectionEnd end);
   void EnterFailed(const char* reason);
   void UpdateProgress(int64_t now_us);

@@ -1,0 +1,113 @@
+#pragma once
+/// \file
+/// calibd-agent: the composition root. One poll loop over the LCM file descriptor, a timerfd and
+/// a signalfd runs everything: frames from LCM go to the intake (detection on its two worker
+/// threads), drained observations drive the session machine, the solve runs on its own thread
+/// (so status keeps flowing), and the verdict is applied to the calibration store. Status is
+/// published at status_rate_hz, health at health_rate_hz, a result when a session ends.
+///
+/// Calibration state (health_t.calibration_state): `valid` when the store holds a calibration
+/// for the sensors in use, `not_performed` when it holds none, `recalibration_required` when a
+/// sensor_info message reports a serial number other than the stored calibration's (a replaced
+/// sensor) until a calibration for the new sensors is committed.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "calibd/agent/agent_config.hpp"
+#include "calibd/agent/frame_intake.hpp"
+#include "calibd/agent/session_machine.hpp"
+#include "calibd/calibration_request_t.hpp"
+#include "calibd/calibration_result_t.hpp"
+#include "calibd/core/range_image.hpp"
+#include "calibd/drivers/calibration_store.hpp"
+#include "calibd/drivers/lcm_bus.hpp"
+#include "calibd/health_t.hpp"
+#include "calibd/sensor_info_t.hpp"
+
+namespace calibd {
+
+struct AgentOptions {
+  std::string lcm_url;  ///< overrides agent.lcm_url when not empty
+  /// Where status, health and results go when not on the input bus: required to see them when
+  /// replaying a file:// log (a log read is not writable), e.g. a udpm URL or
+  /// file:///path/out.lcmlog?mode=w. Empty: the input bus (nowhere for a replay).
+  std::string publish_url;
+  bool calibrate_now = false;  ///< start a session at once (as a start request would)
+  /// Exit once the first session has ended (and, with auto_commit, been committed), and at the
+  /// end of a file:// log: for replays and scripts. Exit code: see Agent::Run.
+  bool once = false;
+  bool quiet = false;  ///< no log lines on stderr
+};
+
+class Agent {
+ public:
+  explicit Agent(const AgentConfig& config);
+  ~Agent();
+  Agent(const Agent&) = delete;
+  Agent& operator=(const Agent&) = delete;
+
+  /// Opens the store, builds the detectors and the session buffer, opens LCM and subscribes.
+  /// False with `error` saying what could not be set up.
+  bool Init(const AgentOptions& options, std::string* error);
+
+  /// The poll loop, until SIGTERM/SIGINT (exit code 0) or, with `once`, until the first session
+  /// ended: 0 for verified or updated, 3 for rejected, 4 for failed or aborted. 1 when the loop
+  /// itself fails (LCM transport error).
+  int Run();
+
+ private:
+  void OnCamera(const camera_frame_t& msg);
+  void OnLidar(const lidar_frame_t& msg);
+  void OnSensorInfo(const sensor_info_t& msg);
+  void OnRequest(const calibration_request_t& msg);
+  void Start(const StartRequest& request);
+  void Commit();
+  /// Drains the intake, advances the machine, starts or collects the solve; `now_us` monotonic.
+  void Step(int64_t now_us);
+  void StartSolve();
+  void FinishSolve();
+  void UpdateFigures();
+  void PublishStatus(int64_t now_us);
+  void PublishHealth();
+  void PublishResult();
+  int8_t CalibrationState() const;
+  void Log(const std::string& line) const;
+
+  AgentConfig config_;
+  AgentOptions options_;
+  template <typename Msg>
+  void Publish(std::string_view channel, const Msg& msg);
+
+  LcmBus bus_;
+  LcmBus out_bus_;               ///< opened for AgentOptions::publish_url
+  LcmBus* publisher_ = nullptr;  ///< bus_, out_bus_, or null (replay without publish_url)
+  FrameIntake intake_;
+  SessionMachine machine_;
+  CalibrationStore store_;
+  RangeImage projection_;
+  SessionObservations session_;  ///< sized once from the config
+  CollectionFigures figures_;
+  size_t figures_camera_ = 0, figures_lidar_ = 0;  ///< session entries already counted
+  int figures_frames_ = 0;
+
+  // The solve thread: reads session_ (not written while solving) and writes outcome_.
+  std::thread solver_;
+  std::atomic<bool> solve_done_{false};
+  int solve_session_ = 0;
+  CalibrationOutcome outcome_;
+  bool has_outcome_ = false;
+  bool result_published_ = false;
+
+  std::string lidar_serial_, camera_serial_;  ///< from sensor_info
+  bool sensor_mismatch_ = false;
+  std::string last_error_;
+  int64_t last_status_us_ = 0, last_health_us_ = 0;
+  int64_t rate_camera_frames_ = 0, rate_lidar_frames_ = 0, rate_since_us_ = 0;  ///< health rates
+  bool end_of_log_ = false;
+};
+
+}  // namespace calibd

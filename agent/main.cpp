@@ -1,0 +1,76 @@
+// calibd-agent: the on-vehicle LiDAR-camera calibration daemon (see agent/include/calibd/agent/
+// agent.hpp). Exit codes: 0 stopped by a signal (or --once: verified/updated), 1 could not start
+// or the loop failed, 2 bad option or config, 3 (--once) rejected, 4 (--once) failed or aborted.
+
+#include <iostream>
+#include <string>
+
+#include "calibd/agent/agent.hpp"
+
+namespace {
+
+constexpr const char* kHelp =
+    R"(calibd-agent: on-vehicle LiDAR-camera extrinsic calibration daemon.
+
+Usage: calibd-agent [--config FILE] [options]
+
+Subscribes to calibd's LCM channels (camera and LiDAR frames, sensor info, calibration requests),
+runs a calibration session when one is requested, and publishes status (2 Hz), health (1 Hz) and
+a result per session. The current calibration lives in the store directory of the config.
+
+Options:
+  --config FILE      agent config (default /etc/calibd/calibd.yaml; documented default in
+                     deploy/config/calibd.yaml)
+  --lcm-url URL      LCM provider, overrides agent.lcm_url: udpm://... on the vehicle,
+                     file:///path/session.lcmlog?speed=0 to replay a recording (same code path)
+  --publish-url URL  publish status, health and results there instead of the input bus (needed
+                     when replaying, e.g. file:///tmp/out.lcmlog?mode=w)
+  --calibrate-now    start a session at once, as a start request would
+  --once             exit when the first session has ended (and at the end of a replayed log):
+                     exit code 0 verified/updated, 3 rejected, 4 failed or aborted
+  --quiet            no log lines on stderr
+
+Exit codes: 0 stopped by SIGTERM/SIGINT (or --once: verified/updated), 1 could not start (store,
+LCM, detectors), 2 bad option or config (the message names the key), 3/4 see --once.
+)";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string config_path = "/etc/calibd/calibd.yaml";
+  calibd::AgentOptions options;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--help" || arg == "-h") {
+      std::cout << kHelp;
+      return 0;
+    } else if (arg == "--calibrate-now") {
+      options.calibrate_now = true;
+    } else if (arg == "--once") {
+      options.once = true;
+    } else if (arg == "--quiet") {
+      options.quiet = true;
+    } else if (arg == "--config" && i + 1 < argc) {
+      config_path = argv[++i];
+    } else if (arg == "--lcm-url" && i + 1 < argc) {
+      options.lcm_url = argv[++i];
+    } else if (arg == "--publish-url" && i + 1 < argc) {
+      options.publish_url = argv[++i];
+    } else {
+      std::cerr << "calibd-agent: unknown option or missing value '" << arg << "' (see --help)\n";
+      return 2;
+    }
+  }
+  calibd::AgentConfig config;
+  std::string error;
+  if (!calibd::LoadAgentConfig(config_path, &config, &error)) {
+    std::cerr << "calibd-agent: " << error << "\n";
+    return 2;
+  }
+  calibd::Agent agent(config);
+  if (!agent.Init(options, &error)) {
+    std::cerr << "calibd-agent: cannot start: " << error << "\n";
+    return 1;
+  }
+  return agent.Run();
+}

@@ -1,0 +1,512 @@
+#include "calibd/agent/agent.hpp"
+
+#include <poll.h>
+#include <signal.h>
+#include <sys/signalfd.h>
+#include <sys/timerfd.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+#include <iostream>
+
+#include "calibd/calibration_status_t.hpp"
+#include "calibd/channels.hpp"
+#include "calibd/core/lidar_model.hpp"
+
+namespace calibd {
+
+namespace {
+
+constexpr double kRad2Deg = 180.0 / M_PI;
+constexpr int kTickMs = 50;     ///< poll loop timer: status, health and time limits are checked
+constexpr int kFrameQueue = 2;  ///< LCM messages waiting per sensor channel (udpm drops beyond)
+
+int64_t MonotonicUs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
+}
+
+int64_t WallUs() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
+}
+
+// RAII for the poll loop's own descriptors.
+struct Fd {
+  int fd = -1;
+  ~Fd() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+int8_t StatusState(SessionState s) {
+  switch (s) {
+    case SessionState::kIdle:
+      return calibration_status_t::STATE_IDLE;
+    case SessionState::kCollecting:
+      return calibration_status_t::STATE_COLLECTING;
+    case SessionState::kSolving:
+      return calibration_status_t::STATE_SOLVING;
+    case SessionState::kDone:
+      return calibration_status_t::STATE_DONE;
+    case SessionState::kFailed:
+      return calibration_status_t::STATE_FAILED;
+    case SessionState::kAborted:
+      return calibration_status_t::STATE_ABORTED;
+  }
+  return calibration_status_t::STATE_IDLE;
+}
+
+int8_t ResultVerdict(CalibrationOutcome::Verdict v) {
+  switch (v) {
+    case CalibrationOutcome::Verdict::kVerified:
+      return calibration_result_t::VERDICT_VERIFIED;
+    case CalibrationOutcome::Verdict::kUpdated:
+      return calibration_result_t::VERDICT_UPDATED;
+    case CalibrationOutcome::Verdict::kRejected:
+      return calibration_result_t::VERDICT_REJECTED;
+  }
+  return calibration_result_t::VERDICT_NONE;
+}
+
+bool Terminal(SessionState s) {
+  return s == SessionState::kDone || s == SessionState::kFailed || s == SessionState::kAborted;
+}
+
+}  // namespace
+
+Agent::Agent(const AgentConfig& config) : config_(config), machine_(SessionConfigFrom(config)) {}
+
+Agent::~Agent() {
+  if (solver_.joinable()) solver_.join();
+}
+
+void Agent::Log(const std::string& line) const {
+  if (!options_.quiet) std::cerr << "calibd-agent: " << line << std::endl;
+}
+
+bool Agent::Init(const AgentOptions& options, std::string* error) {
+  options_ = options;
+  if (!store_.Open(config_.store, error)) return false;
+  for (const std::string& w : store_.load_warnings()) Log("store: " + w);
+  if (store_.current() != nullptr)
+    Log("stored calibration version " + std::to_string(store_.current()->version) + " (" +
+        store_.current()->source + ")");
+  else
+    Log("no stored calibration: the config's prior is used");
+
+  IntakeConfig intake;
+  intake.queue_capacity = config_.intake_queue_capacity;
+  intake.limits.max_width = config_.calib.camera.width;
+  intake.limits.max_height = config_.calib.camera.height;
+  intake.max_image_bytes = config_.calib.camera.width * config_.calib.camera.height;
+  intake.pair_tolerance_us = static_cast<int64_t>(config_.pair_tolerance_ms * 1000.0);
+  intake.lidar.max_board_points = config_.max_points_per_board;
+  if (!intake_.Init(intake, config_.calib, error)) return false;
+
+  LidarKind kind;
+  if (!LidarKindFromName(config_.calib.lidar_model, &kind, error)) return false;
+  projection_.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
+  session_.Reserve(config_.max_frames, config_.BoardsPerFrame(), config_.max_points_per_board);
+
+  const std::string url = options.lcm_url.empty() ? config_.lcm_url : options.lcm_url;
+  if (!bus_.Open(url, error)) return false;
+  const bool ok = bus_.Subscribe<camera_frame_t>(
+                      channels::kCamera.name, kFrameQueue,
+                      [this](const camera_frame_t& m, int64_t) { OnCamera(m); }, error) &&
+                  bus_.Subscribe<lidar_frame_t>(
+                      channels::kLidar.name, kFrameQueue,
+                      [this](const lidar_frame_t& m, int64_t) { OnLidar(m); }, error) &&
+                  bus_.Subscribe<sensor_info_t>(
+                      channels::kSensorInfo.name, 16,
+                      [this](const sensor_info_t& m, int64_t) { OnSensorInfo(m); }, error) &&
+                  bus_.Subscribe<calibration_request_t>(
+                      channels::kRequest.name, 16,
+                      [this](const calibration_request_t& m, int64_t) { OnRequest(m); }, error);
+  if (!ok) return false;
+  const bool replay = bus_.url().rfind("file://", 0) == 0;
+  if (!options.publish_url.empty()) {
+    if (!out_bus_.Open(options.publish_url, error)) return false;
+    publisher_ = &out_bus_;
+  } else if (!replay) {
+    publisher_ = &bus_;
+  } else {
+    Log("replaying a log without --publish-url: status, health and results are not published");
+  }
+  Log("ready on " + bus_.url() + " (camera '" + config_.calib.camera_id + "', LiDAR '" +
+      config_.calib.lidar_id + "' " + config_.calib.lidar_model + ")");
+  if (options.calibrate_now) {
+    StartRequest r;
+    r.requester = "--calibrate-now";
+    Start(r);
+  }
+  return true;
+}
+
+template <typename Msg>
+void Agent::Publish(std::string_view channel, const Msg& msg) {
+  std::string error;
+  if (publisher_ != nullptr && !publisher_->Publish(channel, msg, &error)) Log(error);
+}
+
+void Agent::OnCamera(const camera_frame_t& msg) { intake_.OnCamera(msg); }
+void Agent::OnLidar(const lidar_frame_t& msg) { intake_.OnLidar(msg); }
+
+void Agent::OnSensorInfo(const sensor_info_t& msg) {
+  const bool lidar =
+      msg.kind == sensor_info_t::KIND_LIDAR && msg.sensor_id == config_.calib.lidar_id;
+  const bool camera =
+      msg.kind == sensor_info_t::KIND_CAMERA && msg.sensor_id == config_.calib.camera_id;
+  if (!lidar && !camera) return;
+  std::string& serial = lidar ? lidar_serial_ : camera_serial_;
+  if (serial == msg.serial_number) return;
+  serial = msg.serial_number;
+  const StoredCalibration* current = store_.current();
+  if (current == nullptr) return;
+  const std::string& stored = lidar ? current->lidar_serial : current->camera_serial;
+  // "unknown": committed before any sensor_info was seen, nothing to compare with.
+  if (!serial.empty() && stored != "unknown" && serial != stored && !sensor_mismatch_) {
+    sensor_mismatch_ = true;
+    Log(std::string(lidar ? "LiDAR" : "camera") + " serial " + serial +
+        " differs from the stored calibration's " + stored + ": recalibration required");
+  }
+}
+
+void Agent::OnRequest(const calibration_request_t& msg) {
+  Log("request " + std::to_string(msg.action) + " from '" + msg.requester + "'");
+  if (msg.action == calibration_request_t::ACTION_START ||
+      msg.action == calibration_request_t::ACTION_VERIFY) {
+    StartRequest r;
+    r.mode = msg.mode == calibration_request_t::MODE_STATIC ? SessionMode::kStatic
+                                                            : SessionMode::kMoving;
+    r.max_duration_us = static_cast<int64_t>(std::max(0, msg.max_duration_ms)) * 1000;
+    r.verify_only = msg.action == calibration_request_t::ACTION_VERIFY;
+    r.requester = msg.requester;
+    Start(r);
+  } else if (msg.action == calibration_request_t::ACTION_STOP) {
+    const RequestReply reply = machine_.Stop(MonotonicUs());
+    if (!reply.accepted) last_error_ = "stop refused: " + reply.reason;
+    intake_.SetActive(false);
+  } else if (msg.action == calibration_request_t::ACTION_COMMIT) {
+    Commit();
+  } else {
+    last_error_ = "calibration_request_t: unknown action " + std::to_string(msg.action);
+    Log(last_error_);
+  }
+}
+
+void Agent::Start(const StartRequest& request) {
+  if (solver_.joinable() && !solve_done_) {
+    last_error_ = "start refused: the previous session's solve is still finishing";
+    Log(last_error_);
+    return;
+  }
+  if (solver_.joinable()) solver_.join();  // an aborted session's finished solve
+  const RequestReply reply = machine_.Start(request, MonotonicUs());
+  if (!reply.accepted) {
+    last_error_ = "start refused: " + reply.reason;
+    Log(last_error_);
+    return;
+  }
+  session_.Clear();
+  figures_ = CollectionFigures{};
+  figures_camera_ = figures_lidar_ = 0;
+  figures_frames_ = 0;
+  has_outcome_ = result_published_ = false;
+  last_error_.clear();
+  intake_.SetActive(true);
+  Log("session " + std::to_string(machine_.session()) + " started by '" + request.requester + "'");
+}
+
+void Agent::UpdateFigures() {
+  const int width = config_.calib.camera.width, height = config_.calib.camera.height;
+  for (; figures_frames_ < session_.num_frames; ++figures_frames_) {
+    int cameras = 0, lidars = 0;
+    for (; figures_camera_ < session_.camera.size() &&
+           session_.camera[figures_camera_].frame == figures_frames_;
+         ++figures_camera_) {
+      const auto& c = session_.camera[figures_camera_];
+      ++cameras;
+      const int bin = DistanceBin(c.T_camera_board.translation().norm());
+      if (bin >= 0) figures_.distance_bins |= 1u << bin;
+      Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+      for (const auto& p : c.corners_px) centre += p / 4.0;
+      const int cell = ImageCell(centre.x(), centre.y(), width, height);
+      if (cell >= 0) figures_.image_cells |= 1u << cell;
+    }
+    for (; figures_lidar_ < session_.lidar.size() &&
+           session_.lidar[figures_lidar_].frame == figures_frames_;
+         ++figures_lidar_)
+      ++lidars;
+    if (cameras > 0 && lidars > 0) {
+      ++figures_.frames_with_boards;
+      figures_.boards += std::min(cameras, lidars);
+    }
+  }
+}
+
+void Agent::StartSolve() {
+  CalibConfig calib = config_.calib;
+  if (store_.current() != nullptr) calib.prior_T_camera_lidar = store_.current()->T_camera_lidar;
+  solve_session_ = machine_.session();
+  solve_done_ = false;
+  Log("solving session " + std::to_string(solve_session_) + ": " +
+      std::to_string(figures_.frames_with_boards) + " frame pairs, " +
+      std::to_string(figures_.boards) + " boards (" + CollectionEndName(machine_.collection_end()) +
+      ")");
+  solver_ = std::thread([this, calib] {
+    outcome_ = Calibrate(calib, session_, projection_, config_.engine);
+    solve_done_ = true;
+  });
+}
+
+void Agent::FinishSolve() {
+  solver_.join();
+  has_outcome_ = true;
+  const CalibrationOutcome& o = outcome_;
+  if (!machine_.SolveFinished(solve_session_, o.verdict, o.reason, o.detail)) return;  // stopped
+  Log(std::string("verdict ") + VerdictName(o.verdict) +
+      (o.reason.empty() ? "" : " (" + o.reason + ")") + ": " + o.detail);
+  if (o.verdict == CalibrationOutcome::Verdict::kVerified && store_.current() != nullptr) {
+    std::string error;
+    if (!store_.MarkVerified(WallUs() / 1000000, &error)) {
+      last_error_ = "store: " + error;
+      Log(last_error_);
+    }
+  }
+  PublishResult();
+  if (o.verdict == CalibrationOutcome::Verdict::kUpdated && config_.auto_commit &&
+      !machine_.request().verify_only)
+    Commit();
+}
+
+void Agent::Commit() {
+  const RequestReply reply = machine_.CommitRequested();
+  if (!reply.accepted) {
+    last_error_ = "commit refused: " + reply.reason;
+    Log(last_error_);
+    return;
+  }
+  const CalibrationOutcome& o = outcome_;
+  StoredCalibration c;
+  c.created_unix_s = WallUs() / 1000000;
+  c.T_camera_lidar = o.T_camera_lidar;
+  c.lidar_serial = lidar_serial_.empty() ? "unknown" : lidar_serial_;
+  c.camera_serial = camera_serial_.empty() ? "unknown" : camera_serial_;
+  c.source = "agent:" + machine_.request().requester;
+  c.verdict = VerdictName(o.verdict);
+  c.reprojection_mean_px = o.quality.reprojection_mean_px;
+  c.residual_rms_m = o.quality.residual_rms_m;
+  c.rotation_sigma_deg = o.quality.rotation_sigma_deg;
+  c.translation_sigma_m = o.quality.translation_sigma_m;
+  c.frames_used = o.quality.frames_used;
+  c.boards_used = o.quality.boards_used;
+  std::string error;
+  if (!store_.Commit(c, &error)) {
+    machine_.CommitFailed(error);
+    last_error_ = "store: " + error;
+    Log(last_error_ + " (the previous calibration stays in use)");
+    return;
+  }
+  sensor_mismatch_ = false;
+  Log("committed calibration version " + std::to_string(store_.current()->version));
+}
+
+void Agent::Step(int64_t now_us) {
+  const bool collecting = machine_.state() == SessionState::kCollecting;
+  if (collecting) {
+    if (intake_.Drain(&session_) > 0) {
+      UpdateFigures();
+      machine_.FrameRecorded(figures_, now_us);
+    }
+    machine_.Tick(now_us);
+    if (end_of_log_ && intake_.Idle()) machine_.EndOfData(now_us);
+  } else {
+    intake_.Drain(nullptr);  // pairs still in flight when the collection ended
+  }
+  if (machine_.state() != SessionState::kCollecting && intake_.active()) {
+    intake_.SetActive(false);
+    const IntakeCounters& c = intake_.counters();
+    Log("collection ended (" + std::string(CollectionEndName(machine_.collection_end())) +
+        "): " + std::to_string(c.camera_frames) + " camera and " + std::to_string(c.lidar_frames) +
+        " LiDAR frames, " + std::to_string(c.pairs_detected) + " pairs detected, " +
+        std::to_string(c.dropped_queue_full) + " dropped (queue full), " +
+        std::to_string(c.unpaired_camera) + "/" + std::to_string(c.unpaired_lidar) +
+        " unpaired camera/LiDAR, " + std::to_string(c.out_of_order) + " out of order, " +
+        std::to_string(c.bad_messages) + " bad" +
+        (c.last_error.empty() ? "" : " (last: " + c.last_error + ")"));
+  }
+  if (machine_.NeedsSolve()) StartSolve();
+  if (solver_.joinable() && solve_done_) FinishSolve();
+  if (now_us - last_status_us_ >= static_cast<int64_t>(1e6 / config_.status_rate_hz)) {
+    PublishStatus(now_us);
+    last_status_us_ = now_us;
+  }
+  if (now_us - last_health_us_ >= static_cast<int64_t>(1e6 / config_.health_rate_hz)) {
+    PublishHealth();
+    last_health_us_ = now_us;
+  }
+}
+
+void Agent::PublishStatus(int64_t now_us) {
+  (void)now_us;
+  calibration_status_t s;
+  s.utime = WallUs();
+  s.state = StatusState(machine_.state());
+  s.progress = static_cast<float>(machine_.progress());
+  s.frames_used = figures_.frames_with_boards;
+  s.boards_observed = figures_.boards;
+  const IntakeCounters& c = intake_.counters();
+  s.frames_dropped = static_cast<int32_t>(c.dropped_queue_full);
+  if (!machine_.reason().empty())
+    s.last_error = machine_.reason() + (machine_.detail().empty() ? "" : ": " + machine_.detail());
+  else if (!last_error_.empty())
+    s.last_error = last_error_;
+  else
+    s.last_error = c.last_error;
+  s.guidance = machine_.guidance();
+  Publish(channels::kStatus.name, s);
+}
+
+int8_t Agent::CalibrationState() const {
+  if (store_.current() == nullptr) return health_t::CALIB_NOT_PERFORMED;
+  if (sensor_mismatch_) return health_t::CALIB_RECALIBRATION_REQUIRED;
+  return health_t::CALIB_VALID;
+}
+
+void Agent::PublishHealth() {
+  health_t h;
+  h.utime = WallUs();
+  h.software_version = config_.SoftwareVersion();
+  h.calibration_state = CalibrationState();
+  const StoredCalibration* current = store_.current();
+  h.calibration_age_s = current == nullptr ? 0
+                                           : h.utime / 1000000 - std::max(current->created_unix_s,
+                                                                          current->verified_unix_s);
+  h.last_verdict =
+      has_outcome_ ? ResultVerdict(outcome_.verdict) : calibration_result_t::VERDICT_NONE;
+  h.last_reason = has_outcome_ ? outcome_.reason : "";
+  h.last_delta_rotation_deg = has_outcome_ ? outcome_.delta_rotation_deg : 0.0;
+  h.last_delta_translation_m = has_outcome_ ? outcome_.delta_translation_m : 0.0;
+  h.last_reprojection_mean_px = has_outcome_ ? outcome_.quality.reprojection_mean_px : 0.0;
+  // Frame rates over the last health period.
+  const IntakeCounters& c = intake_.counters();
+  const int64_t now = MonotonicUs();
+  const double dt = rate_since_us_ > 0 ? static_cast<double>(now - rate_since_us_) * 1e-6 : 0.0;
+  auto rate = [dt](int64_t frames, int64_t before) {
+    return dt > 0.0 ? static_cast<float>(static_cast<double>(frames - before) / dt) : 0.f;
+  };
+  h.camera_rate_hz = rate(c.camera_frames, rate_camera_frames_);
+  h.lidar_rate_hz = rate(c.lidar_frames, rate_lidar_frames_);
+  rate_camera_frames_ = c.camera_frames;
+  rate_lidar_frames_ = c.lidar_frames;
+  rate_since_us_ = now;
+  h.camera_frames_dropped = static_cast<int32_t>(c.dropped_queue_full);
+  h.lidar_frames_dropped = static_cast<int32_t>(c.dropped_queue_full);
+  h.camera_serial = camera_serial_;
+  h.lidar_serial = lidar_serial_;
+  Publish(channels::kHealth.name, h);
+}
+
+void Agent::PublishResult() {
+  const CalibrationOutcome& o = outcome_;
+  calibration_result_t r;
+  r.utime = WallUs();
+  r.camera_id = config_.calib.camera_id;
+  r.lidar_id = config_.calib.lidar_id;
+  r.verdict = ResultVerdict(o.verdict);
+  r.reason = o.reason;
+  const Eigen::Matrix4d T = o.T_camera_lidar.matrix();
+  for (int i = 0; i < 16; ++i) r.T_camera_lidar[i] = T(i / 4, i % 4);
+  const Eigen::Vector3d t = o.T_camera_lidar.translation();
+  for (int i = 0; i < 3; ++i) r.xyz_m[i] = t[i];
+  const Eigen::Vector3d rpy = RpyFromRotation(o.T_camera_lidar.linear()) * kRad2Deg;
+  for (int i = 0; i < 3; ++i) r.rpy_deg[i] = rpy[i];
+  r.delta_rotation_deg = o.delta_rotation_deg;
+  r.delta_translation_m = o.delta_translation_m;
+  r.reprojection_mean_px = o.quality.reprojection_mean_px;
+  r.reprojection_p95_px = o.quality.reprojection_p95_px;
+  r.residual_rms_m = o.quality.residual_rms_m;
+  r.frames_used = o.quality.frames_used;
+  r.boards_used = o.quality.boards_used;
+  r.min_information_eigenvalue = o.quality.min_information_eigenvalue;
+  Publish(channels::kResult.name, r);
+  result_published_ = true;
+}
+
+int Agent::Run() {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  Fd signal_fd{signalfd(-1, &signals, SFD_CLOEXEC)};
+  Fd timer_fd{timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC)};
+  if (signal_fd.fd < 0 || timer_fd.fd < 0) {
+    Log(std::string("cannot create the loop's descriptors: ") + std::strerror(errno));
+    return 1;
+  }
+  itimerspec period{};
+  period.it_interval.tv_nsec = kTickMs * 1000000L;
+  period.it_value = period.it_interval;
+  timerfd_settime(timer_fd.fd, 0, &period, nullptr);
+  const bool replay = bus_.url().rfind("file://", 0) == 0;
+
+  for (;;) {
+    // A replay waits for the detectors instead of dropping frames: its bus is not polled while
+    // the intake is full. A live stream is always read (the intake drops and counts instead).
+    const bool read_bus = !end_of_log_ && !(replay && intake_.Full());
+    pollfd fds[3] = {
+        {signal_fd.fd, POLLIN, 0}, {timer_fd.fd, POLLIN, 0}, {bus_.fileno(), POLLIN, 0}};
+    const int n = ::poll(fds, read_bus ? 3 : 2, read_bus ? -1 : kTickMs);
+    if (n < 0 && errno != EINTR) {
+      Log(std::string("poll: ") + std::strerror(errno));
+      return 1;
+    }
+    if (fds[0].revents & POLLIN) {
+      signalfd_siginfo info{};
+      if (::read(signal_fd.fd, &info, sizeof(info)) > 0)
+        Log(std::string("signal ") + strsignal(static_cast<int>(info.ssi_signo)) + ": stopping");
+      machine_.Stop(MonotonicUs());
+      return 0;
+    }
+    if (fds[1].revents & POLLIN) {
+      uint64_t expirations = 0;
+      if (::read(timer_fd.fd, &expirations, sizeof(expirations)) < 0) expirations = 0;
+    }
+    if (read_bus && (fds[2].revents & POLLIN)) {
+      // A replay hands over one message at a time so that Full() is looked at between frames.
+      if (bus_.Handle(0, replay ? 1 : 64) < 0) {
+        if (!bus_.end_of_log()) {
+          Log("LCM transport failed on " + bus_.url());
+          return 1;
+        }
+        end_of_log_ = true;
+        Log("end of the replayed log");
+      }
+    }
+    Step(MonotonicUs());
+    if (options_.once) {
+      const SessionState s = machine_.state();
+      const bool session_over = machine_.session() > 0 && Terminal(s) && !solver_.joinable();
+      if (session_over) {
+        PublishStatus(MonotonicUs());
+        if (s == SessionState::kDone)
+          return machine_.verdict() == CalibrationOutcome::Verdict::kRejected ? 3 : 0;
+        return 4;
+      }
+      if (end_of_log_ && machine_.session() == 0) {
+        Log("the log ended before any session was started");
+        return 4;
+      }
+    }
+  }
+}
+
+}  // namespace calibd

@@ -1,0 +1,163 @@
+// Replay tests (issue 5): simulated logs through the real calibd-agent process over LCM's file
+// provider, for each LiDAR model: the verdict, the stored calibration against the truth, and the
+// status, result and health messages the agent published (recorded with a file:// writer).
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "calibd/calibration_result_t.hpp"
+#include "calibd/calibration_status_t.hpp"
+#include "calibd/channels.hpp"
+#include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/calibration_store.hpp"
+#include "calibd/health_t.hpp"
+#include "run_command.hpp"
+#include "temp_dir.hpp"
+
+namespace calibd {
+namespace {
+
+using testing::RunCommand;
+constexpr double kRad2Deg = 180.0 / M_PI;
+
+Pose TruthExtrinsic(const std::string& path) {
+  std::string text, error;
+  EXPECT_TRUE(ReadWholeFile(path, &text, &error)) << error;
+  const auto j = nlohmann::json::parse(text);
+  Pose T = Pose::Identity();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) T.matrix()(r, c) = j["T_camera_lidar"][r][c].get<double>();
+  return T;
+}
+
+struct Published {
+  int status = 0, health = 0, results = 0;
+  calibration_status_t last_status;
+  calibration_result_t last_result;
+  health_t last_health;
+};
+
+Published ReadPublished(const std::string& path) {
+  Published p;
+  lcm::LogFile log(path, "r");
+  EXPECT_TRUE(log.good()) << path;
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    const int size = static_cast<int>(ev->datalen);
+    if (ev->channel == channels::kStatus.name) {
+      EXPECT_EQ(p.last_status.decode(ev->data, 0, size), size);
+      ++p.status;
+    } else if (ev->channel == channels::kResult.name) {
+      EXPECT_EQ(p.last_result.decode(ev->data, 0, size), size);
+      ++p.results;
+    } else if (ev->channel == channels::kHealth.name) {
+      EXPECT_EQ(p.last_health.decode(ev->data, 0, size), size);
+      ++p.health;
+    }
+  }
+  return p;
+}
+
+class AgentReplayTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(AgentReplayTest, CalibratesCommitsAndThenVerifies) {
+  const std::string lidar = GetParam();
+  testing::TempDir dir;
+  // The default drive (6-30 m and back in 20 s) at 4 Hz with JPEG images: 80 frame pairs; the
+  // prior is 3 deg / 3 cm off.
+  ASSERT_EQ(
+      RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --seed 7 --lidar " + lidar +
+                 " --rate 4 --image-encoding jpeg --prior-rot-deg 3 --prior-trans-m 0.03 --out " +
+                 dir.file("s.lcmlog") + " --truth " + dir.file("truth.json") + " --config-out " +
+                 dir.file("agent.yaml")),
+      0);
+  {
+    std::string yaml, error;
+    ASSERT_TRUE(ReadWholeFile(dir.file("agent.yaml"), &yaml, &error)) << error;
+    yaml += "agent:\n  auto_commit: true\n  store:\n    directory: " + dir.file("store") + "\n";
+    ASSERT_TRUE(WriteFileAtomic(dir.file("agent.yaml"), yaml, &error)) << error;
+  }
+  auto agent = [&](const std::string& out) {
+    return RunCommand(std::string(CALIBD_AGENT_EXE) + " --quiet --once --calibrate-now --config " +
+                      dir.file("agent.yaml") + " --lcm-url 'file://" + dir.file("s.lcmlog") +
+                      "?speed=0' --publish-url 'file://" + dir.file(out) + "?mode=w'");
+  };
+
+  // First run: no stored calibration, the config's prior is 3 deg off: updated and committed.
+  ASSERT_EQ(agent("out1.lcmlog"), 0);
+  CalibrationStoreConfig store_config;
+  store_config.directory = dir.file("store");
+  CalibrationStore store;
+  std::string error;
+  ASSERT_TRUE(store.Open(store_config, &error)) << error;
+  ASSERT_NE(store.current(), nullptr);
+  const StoredCalibration stored = *store.current();
+  const Pose truth = TruthExtrinsic(dir.file("truth.json"));
+  const double rot_err = RotationAngle(stored.T_camera_lidar.linear(), truth.linear()) * kRad2Deg;
+  const double trans_err = (stored.T_camera_lidar.translation() - truth.translation()).norm();
+  std::printf("%s: stored calibration error %.4f deg, %.4f m, %d frames, %d boards\n",
+              lidar.c_str(), rot_err, trans_err, stored.frames_used, stored.boards_used);
+  EXPECT_LT(rot_err, 0.1);
+  EXPECT_LT(trans_err, 0.015);
+  EXPECT_EQ(stored.version, 1);
+  EXPECT_EQ(stored.verdict, "updated");
+  EXPECT_EQ(stored.lidar_serial.rfind("LDR-", 0), 0u) << "serials come from sensor_info";
+
+  const Published first = ReadPublished(dir.file("out1.lcmlog"));
+  EXPECT_GE(first.status, 2);
+  EXPECT_EQ(first.results, 1);
+  EXPECT_EQ(first.last_result.verdict, +calibration_result_t::VERDICT_UPDATED);
+  EXPECT_NEAR(first.last_result.delta_rotation_deg, 3.0, 0.2);
+  EXPECT_NEAR(first.last_result.T_camera_lidar[3], stored.T_camera_lidar.translation().x(), 1e-9);
+  EXPECT_EQ(first.last_status.state, +calibration_status_t::STATE_DONE);
+  EXPECT_FLOAT_EQ(first.last_status.progress, 1.0f);
+  EXPECT_GE(first.last_status.frames_used, 50);
+  EXPECT_GE(first.health, 1);
+
+  // Second run on the same data: the stored calibration is the prior now and is confirmed.
+  ASSERT_EQ(agent("out2.lcmlog"), 0);
+  ASSERT_TRUE(store.Open(store_config, &error)) << error;
+  ASSERT_NE(store.current(), nullptr);
+  EXPECT_EQ(store.current()->version, 1);  // kept, not replaced
+  EXPECT_GT(store.current()->verified_unix_s, 0);
+  const Published second = ReadPublished(dir.file("out2.lcmlog"));
+  EXPECT_EQ(second.last_result.verdict, +calibration_result_t::VERDICT_VERIFIED);
+  EXPECT_EQ(second.last_health.calibration_state, +health_t::CALIB_VALID);
+}
+
+INSTANTIATE_TEST_SUITE_P(EachLidar, AgentReplayTest, ::testing::Values("ot128", "m1", "falcon"));
+
+TEST(AgentCliTest, BadConfigExitsWithTwoAndNamesTheKey) {
+  testing::TempDir dir;
+  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --frames 1 --out " +
+                       dir.file("one.lcmlog") + " --config-out " + dir.file("good.yaml")),
+            0);
+  std::string yaml, error;
+  ASSERT_TRUE(ReadWholeFile(dir.file("good.yaml"), &yaml, &error)) << error;
+  const std::string log = dir.file("err.txt");
+  auto agent_exit = [&](const std::string& extra) {
+    EXPECT_TRUE(WriteFileAtomic(dir.file("bad.yaml"), yaml + extra, &error)) << error;
+    return RunCommand(std::string(CALIBD_AGENT_EXE) + " --config " + dir.file("bad.yaml") + " 2> " +
+                      log);
+  };
+  auto message = [&] {
+    std::string text;
+    EXPECT_TRUE(ReadWholeFile(log, &text, &error)) << error;
+    return text;
+  };
+  EXPECT_EQ(agent_exit("agent:\n  max_frames: 3\n"), 2);
+  EXPECT_NE(message().find("agent.max_frames"), std::string::npos) << message();
+  EXPECT_EQ(agent_exit("agent:\n  max_frame: 300\n"), 2);  // a typo is named, not ignored
+  EXPECT_NE(message().find("agent.max_frame"), std::string::npos) << message();
+  // A store directory that cannot be created: refuses to start (exit 1), saying which.
+  EXPECT_EQ(agent_exit("agent:\n  store:\n    directory: " + dir.file("one.lcmlog") + "/x\n"), 1);
+  EXPECT_NE(message().find("one.lcmlog"), std::string::npos) << message();
+  EXPECT_EQ(RunCommand(std::string(CALIBD_AGENT_EXE) + " --no-such-option 2>/dev/null"), 2);
+  EXPECT_EQ(RunCommand(std::string(CALIBD_AGENT_EXE) + " --help >/dev/null"), 0);
+}
+
+}  // namespace
+}  // namespace calibd
