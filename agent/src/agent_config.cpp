@@ -392,13 +392,7 @@ bool ParseAgentConfigYaml(const std::string& text, AgentConfig* config, std::str
 }
 
 bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* error) {
-  std::string text, why;
-  if (!ReadWholeFile(path, &text, error)) return false;
-  if (!ParseAgentConfigYaml(text, config, &why)) {
-    if (error) *error = path + ": " + why;
-    return false;
-  }
-  return true;
+  return LoadTextFile(path, &ParseAgentConfigYaml, config, error);
 }
 
 }  // namespace calibd

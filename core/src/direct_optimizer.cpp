@@ -129,15 +129,19 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
   ceres::Problem problem(problem_options);
   problem.AddParameterBlock(params, 7, new PoseManifold);
 
+  // A solve between board-pose refinements only steers the alternation: half the points do.
+  const int points_per_observation = statistics
+                                         ? config.max_points_per_observation
+                                         : std::max(3, config.max_points_per_observation / 2);
   std::vector<const BoardBoxCost*> costs;
   for (size_t k = 0; k < set.observations.size(); ++k) {
     if (!Used(boards, set, use, k)) continue;
     const BoardObservation& o = set.observations[k];
     const BoardGeometry& g = boards[o.board_index];
-    auto* cost = new BoardBoxCost(set.points.data() + o.first_point, o.num_points,
-                                  StrideOf(o, config.max_points_per_observation),
-                                  T_camera_board[k].inverse(), g.width_m / 2.0, g.height_m / 2.0,
-                                  config.alpha_m, config.huber_m);
+    auto* cost =
+        new BoardBoxCost(set.points.data() + o.first_point, o.num_points,
+                         StrideOf(o, points_per_observation), T_camera_board[k].inverse(),
+                         g.width_m / 2.0, g.height_m / 2.0, config.alpha_m, config.huber_m);
     problem.AddResidualBlock(cost, nullptr, params);
     costs.push_back(cost);
     ++result.observations;
@@ -146,8 +150,7 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
 
   ceres::Solver::Options options = SolverOptions(config);
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // 6 unknowns, many residuals
-  // A solve between board-pose refinements only has to move towards the joint optimum: a few
-  // steps do, and the final solve converges fully.
+  // and a few steps towards the joint optimum; the final solve converges fully.
   if (!statistics) options.max_num_iterations = config.round_iterations;
   if (solve) {
     ceres::Solver::Summary summary;

@@ -177,13 +177,7 @@ bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* 
 }
 
 bool LoadConfigFile(const std::string& path, CalibConfig* config, std::string* error) {
-  std::string text, why;
-  if (!ReadWholeFile(path, &text, error)) return false;
-  if (!ParseConfigYaml(text, config, &why)) {
-    if (error) *error = path + ": " + why;
-    return false;
-  }
-  return true;
+  return LoadTextFile(path, &ParseConfigYaml, config, error);
 }
 
 std::string ConfigToYaml(const CalibConfig& c) {

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "calibd/core/config.hpp"
+#include "calibd/drivers/atomic_file.hpp"
 
 namespace calibd {
 
@@ -14,6 +15,21 @@ bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* 
 
 /// Loads and validates `path`. On failure `error` starts with the path.
 bool LoadConfigFile(const std::string& path, CalibConfig* config, std::string* error);
+
+/// Reads `path` and parses its text with `parse` (e.g. ParseConfigYaml); on failure `error`
+/// starts with the path (or is the read error, which names it).
+template <typename Config>
+bool LoadTextFile(const std::string& path,
+                  bool (*parse)(const std::string& text, Config* config, std::string* error),
+                  Config* config, std::string* error) {
+  std::string text, why;
+  if (!ReadWholeFile(path, &text, error)) return false;
+  if (!parse(text, config, &why)) {
+    if (error) *error = path + ": " + why;
+    return false;
+  }
+  return true;
+}
 
 /// YAML text of a config (round-trips through ParseConfigYaml).
 std::string ConfigToYaml(const CalibConfig& config);
