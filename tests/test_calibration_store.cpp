@@ -702,24 +702,11 @@ TEST(CalibrationStoreTest, RestoreReferenceMakesItCurrentAsANewVersion) {
 // and history hold exactly what was committed under those versions.
 TEST(CalibrationStoreTest, SurvivesSigkillAtAnyMoment) {
   testing::TempDir dir;
-  // Kill moments spread over about two commits: a commit is a few fsyncs, whose cost depends on
-  // the disk, so it is measured here on a scratch store first.
-  int64_t commit_us = 0;
-  {
-    testing::TempDir scratch;
-    CalibrationStore store;
-    std::string error;
-    ASSERT_TRUE(store.Open(Config(scratch), &error)) << error;
-    const auto start = std::chrono::steady_clock::now();
-    for (int i = 1; i <= 3; ++i) ASSERT_TRUE(store.Commit(Example(i), &error)) << error;
-    commit_us = std::chrono::duration_cast<std::chrono::microseconds>(
-                    std::chrono::steady_clock::now() - start)
-                    .count() /
-                3;
-  }
+  // Kill moments spread over about two commits. A commit is a few fsyncs whose cost depends on
+  // the disk and on the build (a forked AddressSanitizer process pays for copying its shadow
+  // memory), so the writer measures its own first commit of the round and reports it.
   const CalibrationStoreConfig config = Config(dir, 3);
   std::mt19937 rng(7);
-  std::uniform_int_distribution<int64_t> delay_us(0, 2 * commit_us + 100);
   constexpr int kRounds = 40;
   int64_t acknowledged = 0;
   for (int round = 0; round < kRounds; ++round) {
@@ -732,8 +719,14 @@ TEST(CalibrationStoreTest, SurvivesSigkillAtAnyMoment) {
       CalibrationStore store;
       std::string error;
       if (!store.Open(config, &error)) ::_exit(2);
-      const int64_t ready = 0;
-      if (::write(fds[1], &ready, sizeof(ready)) != sizeof(ready)) ::_exit(4);
+      const auto start = std::chrono::steady_clock::now();
+      const int64_t first = store.current() ? store.current()->version + 1 : 1;
+      if (!store.Commit(Example(static_cast<int>(first)), &error)) ::_exit(3);
+      const int64_t took_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                                  std::chrono::steady_clock::now() - start)
+                                  .count();
+      if (::write(fds[1], &took_us, sizeof(took_us)) != sizeof(took_us)) ::_exit(4);
+      if (::write(fds[1], &first, sizeof(first)) != sizeof(first)) ::_exit(4);
       for (;;) {
         const int64_t next = store.current() ? store.current()->version + 1 : 1;
         if (!store.Commit(Example(static_cast<int>(next)), &error)) ::_exit(3);
@@ -741,8 +734,10 @@ TEST(CalibrationStoreTest, SurvivesSigkillAtAnyMoment) {
       }
     }
     ::close(fds[1]);
-    int64_t v = -1;
-    ASSERT_EQ(::read(fds[0], &v, sizeof(v)), static_cast<ssize_t>(sizeof(v)));  // opened
+    int64_t commit_us = 0, v = -1;
+    ASSERT_EQ(::read(fds[0], &commit_us, sizeof(commit_us)),
+              static_cast<ssize_t>(sizeof(commit_us)));  // opened and committed once
+    std::uniform_int_distribution<int64_t> delay_us(0, 2 * commit_us + 100);
     std::this_thread::sleep_for(std::chrono::microseconds(delay_us(rng)));
     ::kill(child, SIGKILL);
     int status = 0;
@@ -754,7 +749,6 @@ TEST(CalibrationStoreTest, SurvivesSigkillAtAnyMoment) {
     CalibrationStore store;
     std::string error;
     ASSERT_TRUE(store.Open(config, &error)) << error;
-    if (acknowledged == 0 && store.current() == nullptr) continue;  // killed in the first commit
     ASSERT_NE(store.current(), nullptr) << "round " << round << "\n" << JoinWarnings(store);
     const int64_t version = store.current()->version;
     EXPECT_GE(version, acknowledged) << "round " << round;
@@ -769,8 +763,9 @@ TEST(CalibrationStoreTest, SurvivesSigkillAtAnyMoment) {
     acknowledged = version;
     if (::testing::Test::HasFailure()) FAIL() << "round " << round;
   }
-  // About one commit per round is expected; far fewer would mean the kills missed the commits.
-  EXPECT_GE(acknowledged, kRounds / 4) << "commit takes " << commit_us << " us";
+  // At least one commit per round (the measured one), about two expected: the kills landed
+  // during commits, not after the writer had stopped.
+  EXPECT_GE(acknowledged, kRounds);
 }
 
 }  // namespace
