@@ -345,7 +345,7 @@ void Agent::Step(int64_t now_us) {
   if (machine_.NeedsSolve()) StartSolve();
   if (solver_.joinable() && solve_done_) FinishSolve();
   if (now_us - last_status_us_ >= static_cast<int64_t>(1e6 / config_.status_rate_hz)) {
-    PublishStatus(now_us);
+    PublishStatus();
     last_status_us_ = now_us;
   }
   if (now_us - last_health_us_ >= static_cast<int64_t>(1e6 / config_.health_rate_hz)) {
@@ -354,8 +354,7 @@ void Agent::Step(int64_t now_us) {
   }
 }
 
-void Agent::PublishStatus(int64_t now_us) {
-  (void)now_us;
+void Agent::PublishStatus() {
   calibration_status_t s;
   s.utime = WallUs();
   s.state = StatusState(machine_.state());
@@ -496,7 +495,7 @@ int Agent::Run() {
       const SessionState s = machine_.state();
       const bool session_over = machine_.session() > 0 && Terminal(s) && !solver_.joinable();
       if (session_over) {
-        PublishStatus(MonotonicUs());
+        PublishStatus();
         if (s == SessionState::kDone)
           return machine_.verdict() == CalibrationOutcome::Verdict::kRejected ? 3 : 0;
         return 4;

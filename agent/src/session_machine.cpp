@@ -85,13 +85,6 @@ int DistanceBin(double distance_m) {
   return kDistanceBins - 1;
 }
 
-int ImageCell(double u_px, double v_px, int width, int height) {
-  if (!(u_px >= 0.0 && u_px < width && v_px >= 0.0 && v_px < height)) return -1;
-  const int col = static_cast<int>(u_px * kImageGridSide / width);
-  const int row = static_cast<int>(v_px * kImageGridSide / height);
-  return row * kImageGridSide + col;
-}
-
 SessionConfig SessionConfigFrom(const AgentConfig& config) {
   SessionConfig s;
   s.target_frames = config.target_frames;

@@ -69,15 +69,18 @@ void CoverageFigures(const CalibConfig& config, const ObservationSet& set, Quali
     q->max_distance_m = std::max(q->max_distance_m, d);
     Eigen::Vector2d uv;
     if (camera.Project(o.T_camera_board.translation(), &uv, 1e6)) {
-      const int cx = std::clamp(static_cast<int>(4.0 * uv.x() / config.camera.width), 0, 3);
-      const int cy = std::clamp(static_cast<int>(4.0 * uv.y() / config.camera.height), 0, 3);
-      cells.insert(cy * 4 + cx);
+      // A centre projected just outside the image counts in the nearest border cell.
+      const double w = config.camera.width, h = config.camera.height;
+      cells.insert(ImageCell(std::clamp(uv.x(), 0.0, std::nextafter(w, 0.0)),
+                             std::clamp(uv.y(), 0.0, std::nextafter(h, 0.0)), config.camera.width,
+                             config.camera.height));
     }
   }
   if (set.observations.empty()) q->min_distance_m = 0.0;
   q->frames_used = static_cast<int>(frames.size());
   q->boards_used = static_cast<int>(set.observations.size());
-  q->image_coverage = static_cast<double>(cells.size()) / 16.0;
+  q->image_coverage =
+      static_cast<double>(cells.size()) / static_cast<double>(kImageGridSide * kImageGridSide);
 }
 
 // Formal standard deviations: covariance = sigma^2 (J^T J)^-1 with sigma the residual RMS, in the
@@ -111,6 +114,13 @@ bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeomet
       (*px)[c] = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   }
   return true;
+}
+
+int ImageCell(double u_px, double v_px, int width, int height) {
+  if (!(u_px >= 0.0 && u_px < width && v_px >= 0.0 && v_px < height)) return -1;
+  const int col = static_cast<int>(u_px * kImageGridSide / width);
+  const int row = static_cast<int>(v_px * kImageGridSide / height);
+  return row * kImageGridSide + col;
 }
 
 const char* VerdictName(CalibrationOutcome::Verdict v) {

@@ -71,7 +71,7 @@ class Agent {
   void StartSolve();
   void FinishSolve();
   void UpdateFigures();
-  void PublishStatus(int64_t now_us);
+  void PublishStatus();
   void PublishHealth();
   void PublishResult();
   int8_t CalibrationState() const;

@@ -29,7 +29,6 @@ inline constexpr std::array<double, 3> kDistanceBinEdgesM{8.5, 15.0, 25.0};
 inline constexpr int kDistanceBins = 4;
 /// The image coverage gate counts board centres in a kImageGridSide x kImageGridSide grid (the
 /// same grid as QualityFigures::image_coverage).
-inline constexpr int kImageGridSide = 4;
 inline constexpr int kImageCells = kImageGridSide * kImageGridSide;
 
 struct AgentConfig {

@@ -65,8 +65,6 @@ struct CollectionFigures {
 /// Distance bin (0 .. kDistanceBins - 1) of a camera-to-board distance in m (kDistanceBinEdgesM);
 /// -1 for a negative or NaN distance.
 int DistanceBin(double distance_m);
-/// Image cell (row * kImageGridSide + column) of a pixel of a width x height image; -1 outside.
-int ImageCell(double u_px, double v_px, int width, int height);
 
 /// The part of the agent config the machine uses.
 struct SessionConfig {

@@ -102,6 +102,12 @@ struct CalibrationOutcome {
 
 const char* VerdictName(CalibrationOutcome::Verdict v);
 
+/// The image coverage grid (QualityFigures::image_coverage, the agent's coverage gate): the image
+/// in kImageGridSide x kImageGridSide cells.
+inline constexpr int kImageGridSide = 4;
+/// Cell (row * kImageGridSide + column) of a pixel of a width x height image; -1 outside.
+int ImageCell(double u_px, double v_px, int width, int height);
+
 /// Paper Table I metric for one observation: fit its board alone in the LiDAR frame (Eq. 2-3,
 /// from the camera's board pose through T_camera_lidar) and map the fitted tag corners into the
 /// image. Corners that do not project are NaN. False when the fit fails.
