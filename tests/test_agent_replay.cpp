@@ -5,61 +5,23 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
-#include <lcm/lcm-cpp.hpp>
-#include <nlohmann/json.hpp>
 #include <string>
 
+#include "agent_outputs.hpp"
 #include "calibd/calibration_result_t.hpp"
-#include "calibd/calibration_status_t.hpp"
-#include "calibd/channels.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_store.hpp"
-#include "calibd/health_t.hpp"
 #include "run_command.hpp"
 #include "temp_dir.hpp"
 
 namespace calibd {
 namespace {
 
+using testing::Published;
+using testing::ReadPublished;
 using testing::RunCommand;
+using testing::TruthExtrinsic;
 constexpr double kRad2Deg = 180.0 / M_PI;
-
-Pose TruthExtrinsic(const std::string& path) {
-  std::string text, error;
-  EXPECT_TRUE(ReadWholeFile(path, &text, &error)) << error;
-  const auto j = nlohmann::json::parse(text);
-  Pose T = Pose::Identity();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) T.matrix()(r, c) = j["T_camera_lidar"][r][c].get<double>();
-  return T;
-}
-
-struct Published {
-  int status = 0, health = 0, results = 0;
-  calibration_status_t last_status;
-  calibration_result_t last_result;
-  health_t last_health;
-};
-
-Published ReadPublished(const std::string& path) {
-  Published p;
-  lcm::LogFile log(path, "r");
-  EXPECT_TRUE(log.good()) << path;
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
-    const int size = static_cast<int>(ev->datalen);
-    if (ev->channel == channels::kStatus.name) {
-      EXPECT_EQ(p.last_status.decode(ev->data, 0, size), size);
-      ++p.status;
-    } else if (ev->channel == channels::kResult.name) {
-      EXPECT_EQ(p.last_result.decode(ev->data, 0, size), size);
-      ++p.results;
-    } else if (ev->channel == channels::kHealth.name) {
-      EXPECT_EQ(p.last_health.decode(ev->data, 0, size), size);
-      ++p.health;
-    }
-  }
-  return p;
-}
 
 class AgentReplayTest : public ::testing::TestWithParam<const char*> {};
 

@@ -132,9 +132,29 @@ TEST(FrameIntakeTest, FullQueueDropsTheNewestPairAndKeepsTheQueuedOnes) {
   session.Reserve(20, 8, 4096);
   const int drained = DrainAll(&intake, &session, 6 - static_cast<int>(c.dropped_queue_full));
   EXPECT_EQ(drained + c.dropped_queue_full, 6);
+  // Per sensor: each dropped camera frame took its sweep with it; no sweep went unpaired.
+  EXPECT_EQ(c.lidar_dropped_queue_full, c.dropped_queue_full);
+  EXPECT_EQ(c.unpaired_lidar, 0);
+  EXPECT_EQ(c.unpaired_camera, 0);
   EXPECT_EQ(session.frame_times[0].camera_utime, m.camera[0].utime);  // the oldest were kept
   EXPECT_EQ(session.frame_times[1].camera_utime, m.camera[1].utime);
   EXPECT_TRUE(intake.Idle());
+}
+
+TEST(FrameIntakeTest, FramesMissingFromAStreamAreCountedPerSensor) {
+  const Messages& m = SimulatedMessages();
+  FrameIntake intake;
+  std::string error;
+  ASSERT_TRUE(intake.Init(SmallIntake(2), m.config, &error)) << error;
+  // Counted while not collecting too (health reports them all the time). Camera frame 4 never
+  // arrives (lost in the network); every sweep does.
+  for (size_t k = 0; k < m.camera.size(); ++k) {
+    if (k != 4) intake.OnCamera(m.camera[k]);
+    intake.OnLidar(m.lidar[k]);
+  }
+  EXPECT_EQ(intake.counters().camera_missed, 1);
+  EXPECT_EQ(intake.counters().lidar_missed, 0);
+  EXPECT_EQ(intake.counters().camera_frames, 5);
 }
 
 TEST(FrameIntakeTest, BadForeignOutOfOrderAndInactiveMessagesAreCountedAndSkipped) {

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <iostream>
@@ -79,6 +80,15 @@ bool Terminal(SessionState s) {
   return s == SessionState::kDone || s == SessionState::kFailed || s == SessionState::kAborted;
 }
 
+// SIGTERM and SIGINT: read from Run's signalfd, so blocked in every thread.
+sigset_t StopSignals() {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  return signals;
+}
+
 }  // namespace
 
 Agent::Agent(const AgentConfig& config) : config_(config), machine_(SessionConfigFrom(config)) {}
@@ -93,6 +103,11 @@ void Agent::Log(const std::string& line) const {
 
 bool Agent::Init(const AgentOptions& options, std::string* error) {
   options_ = options;
+  // Blocked before the detector and LCM threads start, so that they inherit the mask: a stop
+  // signal delivered to one of them would otherwise kill the process (default action) instead of
+  // reaching Run's signalfd. One arriving during start-up waits, pending, for the loop.
+  const sigset_t stop_signals = StopSignals();
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
   if (!store_.Open(config_.store, error)) return false;
   for (const std::string& w : store_.load_warnings()) Log("store: " + w);
   if (store_.current() != nullptr)
@@ -439,11 +454,36 @@ void Agent::PublishResult() {
   result_published_ = true;
 }
 
+void Agent::NotifyStatus() {
+  if (!notifier_.enabled()) return;
+  const SessionState s = machine_.state();
+  const int percent =
+      s == SessionState::kCollecting ? static_cast<int>(machine_.progress() * 10.0) * 10 : 0;
+  if (static_cast<int>(s) == notified_state_ && machine_.session() == notified_session_ &&
+      percent == notified_percent_)
+    return;
+  notified_state_ = static_cast<int>(s);
+  notified_session_ = machine_.session();
+  notified_percent_ = percent;
+  char text[SystemdNotifier::kMaxStatusChars + 1];
+  const std::string& reason = machine_.reason();
+  if (s == SessionState::kIdle)
+    std::snprintf(text, sizeof(text), "idle");
+  else if (s == SessionState::kCollecting)
+    std::snprintf(text, sizeof(text), "session %d: collecting %d%%", machine_.session(), percent);
+  else if (s == SessionState::kDone)
+    std::snprintf(text, sizeof(text), "session %d: done, %s%s%s%s", machine_.session(),
+                  VerdictName(machine_.verdict()), reason.empty() ? "" : " (", reason.c_str(),
+                  reason.empty() ? "" : ")");
+  else
+    std::snprintf(text, sizeof(text), "session %d: %s%s%s%s", machine_.session(),
+                  SessionStateName(s), reason.empty() ? "" : " (", reason.c_str(),
+                  reason.empty() ? "" : ")");
+  notifier_.Status(text);
+}
+
 int Agent::Run() {
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
+  const sigset_t signals = StopSignals();
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   Fd signal_fd{signalfd(-1, &signals, SFD_CLOEXEC)};
   Fd timer_fd{timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC)};
@@ -451,11 +491,20 @@ int Agent::Run() {
     Log(std::string("cannot create the loop's descriptors: ") + std::strerror(errno));
     return 1;
   }
+  // systemd watchdog (WatchdogSec=): WATCHDOG=1 every half interval (sd_watchdog_enabled(3)), at
+  // the tick nearest to it, sent from this loop's timer only, so a stuck loop stops pinging and
+  // systemd restarts it. The timer ticks at least 4 times per ping period.
+  const int64_t ping_period_us = static_cast<int64_t>(notifier_.watchdog_interval_us() / 2);
+  int64_t last_ping_us = 0;
+  int64_t tick_ns = int64_t{kTickMs} * 1000000;
+  if (ping_period_us > 0) tick_ns = std::clamp<int64_t>(ping_period_us * 250, 1000000, tick_ns);
   itimerspec period{};
-  period.it_interval.tv_nsec = kTickMs * 1000000L;
+  period.it_interval.tv_nsec = static_cast<long>(tick_ns);
   period.it_value = period.it_interval;
   timerfd_settime(timer_fd.fd, 0, &period, nullptr);
   const bool replay = bus_.url().rfind("file://", 0) == 0;
+  notifier_.Ready();
+  NotifyStatus();
 
   for (;;) {
     // A replay waits for the detectors instead of dropping frames: its bus is not polled while
@@ -472,12 +521,18 @@ int Agent::Run() {
       signalfd_siginfo info{};
       if (::read(signal_fd.fd, &info, sizeof(info)) > 0)
         Log(std::string("signal ") + strsignal(static_cast<int>(info.ssi_signo)) + ": stopping");
+      notifier_.Stopping();
       machine_.Stop(MonotonicUs());
       return 0;
     }
     if (fds[1].revents & POLLIN) {
       uint64_t expirations = 0;
       if (::read(timer_fd.fd, &expirations, sizeof(expirations)) < 0) expirations = 0;
+      const int64_t now_us = MonotonicUs();
+      if (ping_period_us > 0 && now_us - last_ping_us >= ping_period_us - tick_ns / 2000) {
+        notifier_.WatchdogPing();
+        last_ping_us = now_us;
+      }
     }
     if (read_bus && (fds[2].revents & POLLIN)) {
       // A replay hands over one message at a time so that Full() is looked at between frames.
@@ -491,6 +546,7 @@ int Agent::Run() {
       }
     }
     Step(MonotonicUs());
+    NotifyStatus();
     if (options_.once) {
       const SessionState s = machine_.state();
       const bool session_over = machine_.session() > 0 && Terminal(s) && !solver_.joinable();

@@ -110,6 +110,7 @@ void FrameIntake::SetActive(bool active) {
   if (active == active_) return;
   active_ = active;
   pairer_.Reset();
+  pair_dropped_ = false;
   if (filling_ >= 0) slots_[static_cast<size_t>(filling_)]->state = SlotState::kFree;
   filling_ = -1;
 }
@@ -129,6 +130,7 @@ void FrameIntake::OnCamera(const camera_frame_t& msg) {
   if (msg.camera_id != calib_.camera_id) return;
   std::lock_guard<std::mutex> lock(mutex_);
   ++counters_.camera_frames;
+  counters_.camera_missed += camera_gaps_.Observe(msg.utime);
   if (!active_) {
     ++counters_.ignored_inactive;
     return;
@@ -144,11 +146,13 @@ void FrameIntake::OnCamera(const camera_frame_t& msg) {
     return;
   }
   if (r.displaced) ++counters_.unpaired_camera;
+  pair_dropped_ = false;
   if (filling_ < 0) filling_ = FreeSlot();
   if (filling_ < 0) {
     // Every slot is queued or in detection: drop the newest pair, keep the queued ones.
     ++counters_.dropped_queue_full;
     pairer_.DropPending();
+    pair_dropped_ = true;
     return;
   }
   Slot& slot = *slots_[static_cast<size_t>(filling_)];
@@ -168,6 +172,7 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.lidar_frames;
+    counters_.lidar_missed += lidar_gaps_.Observe(msg.utime);
     if (!active_) {
       ++counters_.ignored_inactive;
       return;
@@ -184,7 +189,12 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
       return;
     }
     if (!r.paired || filling_ < 0) {
-      ++counters_.unpaired_lidar;
+      if (pair_dropped_) {
+        ++counters_.lidar_dropped_queue_full;
+        pair_dropped_ = false;
+      } else {
+        ++counters_.unpaired_lidar;
+      }
       return;
     }
     Slot& slot = *slots_[static_cast<size_t>(filling_)];

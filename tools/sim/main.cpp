@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "live_publisher.hpp"
 #include "run.hpp"
 
 namespace {
@@ -24,6 +25,7 @@ Writes an LCM log of camera and LiDAR frames (the channels of calibd's registry)
 the ground truth (for evaluation only) and the calibration config a user would write.
 
 Usage: calibd-sim --out session.lcmlog [--truth truth.json] [--config-out calib.yaml] [options]
+       calibd-sim --replay session.lcmlog --publish-url URL [--loops N] [--speed X]
 
 Output:
   --out FILE               LCM log to write (required). Event timestamps are capture times.
@@ -34,6 +36,13 @@ Output:
   --overlay-frame N        frame for --overlay-png (default 0)
   --overlay-scale S        size of that picture relative to the image (default 0.5)
   --quiet                  no progress or summary
+Live publishing (instead of simulating; as the sensor drivers would publish):
+  --replay FILE            LCM log to publish (written by --out)
+  --publish-url URL        LCM URL, e.g. 'udpm://239.255.76.67:7667?ttl=0&recv_buf_size=16777216'
+  --loops N                play the log N times, capture times shifted so that time keeps going
+                           forward (a 200-frame log 10 times: a 2000-frame session) (default 1)
+  --speed X                1 = real time (default 1)
+  --start-delay S          wait S seconds before the first event (default 0.5)
 Session:
   --seed N                 random seed; same seed, same output (default 1)
   --lidar MODEL            ot128 | m1 | falcon (default ot128)
@@ -108,6 +117,8 @@ int main(int argc, char** argv) {
   SimOutputs out;
   bool quiet = false, help = false, cx_set = false, cy_set = false;
   int frames = -1;
+  calibd::sim::LivePublishOptions live;
+  live.start_delay_s = 0.5;
   std::string bad;  // what was wrong with the current value
 
   auto number = [&](double* dst, double lo, double hi) {
@@ -164,6 +175,11 @@ int main(int argc, char** argv) {
   Parser p;
   p.with_value = {
       {"--out", text(&out.log_path)},
+      {"--replay", text(&live.log_path)},
+      {"--publish-url", text(&live.url)},
+      {"--loops", integer(&live.loops, 1, 1e6)},
+      {"--speed", number(&live.speed, 0.01, 100)},
+      {"--start-delay", number(&live.start_delay_s, 0, 60)},
       {"--truth", text(&out.truth_path)},
       {"--config-out", text(&out.config_path)},
       {"--overlay-png", text(&out.overlay_path)},
@@ -283,6 +299,24 @@ int main(int argc, char** argv) {
   }
   if (help) {
     std::cout << kHelp;
+    return 0;
+  }
+  if (!live.log_path.empty() || !live.url.empty()) {
+    if (live.log_path.empty() || live.url.empty()) {
+      std::cerr << "calibd-sim: --replay and --publish-url go together (see --help)\n";
+      return 2;
+    }
+    calibd::sim::LivePublishSummary s;
+    std::string error;
+    if (!calibd::sim::PublishLive(live, &s, quiet ? nullptr : &std::cerr, &error)) {
+      std::cerr << "calibd-sim: " << error << "\n";
+      return 1;
+    }
+    if (!quiet)
+      std::cout << "calibd-sim: published " << s.camera << " camera and " << s.lidar
+                << " LiDAR frames, " << s.other << " other events (" << s.bytes / 1000000
+                << " MB) in " << s.duration_s << " s; " << s.late
+                << " events more than a frame period late (max " << s.max_lateness_ms << " ms)\n";
     return 0;
   }
   if (!cx_set) o.camera.cx = (o.camera.width - 1) / 2.0;

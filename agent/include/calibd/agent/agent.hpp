@@ -25,6 +25,7 @@
 #include "calibd/core/range_image.hpp"
 #include "calibd/drivers/calibration_store.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
+#include "calibd/drivers/systemd_notify.hpp"
 #include "calibd/health_t.hpp"
 #include "calibd/sensor_info_t.hpp"
 
@@ -75,6 +76,9 @@ class Agent {
   void PublishHealth();
   void PublishResult();
   int8_t CalibrationState() const;
+  /// STATUS= for systemd ("idle", "session 2: collecting 40%", ...) when the state, the session
+  /// or the collection progress (10% steps) changed since the last one: not every tick.
+  void NotifyStatus();
   void Log(const std::string& line) const;
 
   AgentConfig config_;
@@ -108,6 +112,10 @@ class Agent {
   int64_t last_status_us_ = 0, last_health_us_ = 0;
   int64_t rate_camera_frames_ = 0, rate_lidar_frames_ = 0, rate_since_us_ = 0;  ///< health rates
   bool end_of_log_ = false;
+
+  /// Type=notify unit: READY=1, STATUS=, WATCHDOG=1 from the loop's timer, STOPPING=1.
+  SystemdNotifier notifier_;
+  int notified_state_ = -1, notified_session_ = -1, notified_percent_ = -1;
 };
 
 }  // namespace calibd

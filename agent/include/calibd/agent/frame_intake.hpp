@@ -30,6 +30,7 @@
 #include "calibd/core/frame_pairing.hpp"
 #include "calibd/core/lidar_detector.hpp"
 #include "calibd/core/session_observations.hpp"
+#include "calibd/core/stream_gaps.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
 #include "calibd/lidar_frame_t.hpp"
 
@@ -54,6 +55,11 @@ struct IntakeCounters {
   int64_t camera_frames = 0, lidar_frames = 0;  ///< messages for the configured sensors
   int64_t pairs_detected = 0;                   ///< pairs drained into the session
   int64_t dropped_queue_full = 0;               ///< pairs dropped: every slot busy
+  /// Sweeps lost with their pair: the camera frame they would pair with was dropped (queue full).
+  int64_t lidar_dropped_queue_full = 0;
+  /// Frames missing from each stream before the agent (network, LCM queue), from the gaps in
+  /// their capture times (stream_gaps.hpp); counted whether collecting or not.
+  int64_t camera_missed = 0, lidar_missed = 0;
   int64_t unpaired_camera = 0, unpaired_lidar = 0;
   int64_t out_of_order = 0;      ///< timestamps that went backwards or repeated, skipped
   int64_t bad_messages = 0;      ///< malformed or beyond the limits, skipped
@@ -111,6 +117,8 @@ class FrameIntake {
   std::unique_ptr<LidarDetector> lidar_detector_;
   std::vector<std::unique_ptr<Slot>> slots_;
   FramePairer pairer_;
+  StreamGaps camera_gaps_, lidar_gaps_;
+  bool pair_dropped_ = false;    ///< the pending camera frame was dropped: its sweep goes too
   int filling_ = -1;             ///< slot holding the camera frame waiting for its sweep
   uint64_t next_sequence_ = 0;   ///< arrival order of queued pairs
   uint64_t drain_sequence_ = 0;  ///< next pair to drain
