@@ -6,7 +6,12 @@ PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 
-.PHONY: all deps configure build test check demo docs-picture format clean
+# `make install`: installs the release build under PREFIX, staged under DESTDIR when set
+# (cmake/CalibdInstall.cmake lists the files). PREFIX defaults to /usr, a vehicle image's layout:
+# /usr/bin/calibd-agent, /etc/calibd/calibd.yaml, /usr/lib/systemd/system/calibd.service.
+PREFIX ?= /usr
+
+.PHONY: all deps configure build test check demo docs-picture format clean install
 
 all: build
 
@@ -25,6 +30,10 @@ check: build
 test: deps
 	@$(MAKE) --no-print-directory check PRESET=release
 	@$(MAKE) --no-print-directory check PRESET=asan CTEST_ARGS="-LE slow"
+
+install:
+	@$(MAKE) --no-print-directory build PRESET=release
+	@DESTDIR="$(DESTDIR)" cmake --install build/release --prefix "$(PREFIX)"
 
 demo: build
 	@bash tools/demo.sh $(BUILD)
