@@ -55,6 +55,7 @@ void ExpectAgentAndEngineDefaults(const AgentConfig& c) {
   EXPECT_EQ(e.direct.refine_board_poses, de.direct.refine_board_poses);
   EXPECT_EQ(e.direct.threads, de.direct.threads);
   EXPECT_EQ(e.stability_runs, de.stability_runs);
+  EXPECT_EQ(e.max_solve_frames, de.max_solve_frames);
   EXPECT_EQ(e.grid.range_deg, de.grid.range_deg);
   EXPECT_EQ(e.grid.step_deg, de.grid.step_deg);
   const VerdictConfig& v = e.verdict;
@@ -336,6 +337,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"  method: direct\n", "  method: newton\n", "engine.method"},
         BadCase{"solver_threads: 2\n", "solver_threads: 0\n", "engine.solver_threads"},
         BadCase{"stability_runs: 4\n", "stability_runs: -4\n", "engine.stability_runs"},
+        BadCase{"max_solve_frames: 200\n", "max_solve_frames: -1\n", "engine.max_solve_frames"},
         BadCase{"motion_compensation: true\n", "motion_compensation: 1\n",
                 "engine.motion_compensation"},
         BadCase{"range_deg: 9\n", "range_deg: 45\n", "engine.grid.range_deg"},

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
+#include <set>
 
 #include "calibd/core/camera_detector.hpp"
 #include "calibd/core/direct_optimizer.hpp"
@@ -41,6 +43,47 @@ TEST(GridSearchTest, FastCountEqualsBruteForce) {
     nonzero += brute > 0 ? 1 : 0;
   }
   EXPECT_GT(nonzero, 5);  // the oracle was exercised on candidates that see boards
+}
+
+TEST(GridSearchTest, SpreadFrameSelectionPicksExactlyTheBudgetEvenly) {
+  for (const int n : {1, 7, 200, 201, 2000, 2003}) {
+    for (const int m : {0, 1, 3, 200, 5000}) {
+      int picked = 0, last = -1, widest = 0;
+      for (int f = 0; f < n; ++f) {
+        if (!SpreadFrameSelected(f, n, m)) continue;
+        ++picked;
+        widest = std::max(widest, f - last);
+        last = f;
+      }
+      const int want = m <= 0 ? n : std::min(n, m);
+      EXPECT_EQ(picked, want) << n << " frames, budget " << m;
+      EXPECT_LE(widest, (n + want - 1) / want) << "evenly spread: " << n << " frames, budget " << m;
+    }
+  }
+}
+
+TEST(GridSearchTest, CorrespondencesComeFromTheFrameBudgetOnly) {
+  auto r = Record("ot128", 6);
+  ObservationSet all, some;
+  all.Reserve(200, 200 * 4096);
+  some.Reserve(200, 200 * 4096);
+  GridSearch search(GridSearchConfig{}, r->projection, r->config.boards);
+  ASSERT_EQ(search.Run(r->obs, r->session.prior_T_camera_lidar(), &all).status,
+            GridSearchResult::Status::kOk);
+  ASSERT_EQ(search.Run(r->obs, r->session.prior_T_camera_lidar(), &some, 3).status,
+            GridSearchResult::Status::kOk);
+  std::set<int> frames_all, frames_some;
+  for (const auto& o : all.observations) frames_all.insert(o.frame);
+  for (const auto& o : some.observations) frames_some.insert(o.frame);
+  ASSERT_EQ(frames_all.size(), 6u);
+  EXPECT_EQ(frames_some, (std::set<int>{1, 3, 5}));
+  for (const auto& o : some.observations)  // the same correspondences, for those frames
+    EXPECT_EQ(std::count_if(all.observations.begin(), all.observations.end(),
+                            [&](const BoardObservation& a) {
+                              return a.frame == o.frame && a.board_index == o.board_index &&
+                                     a.num_points == o.num_points;
+                            }),
+              1);
 }
 
 class GridSearchRecoveryTest : public ::testing::TestWithParam<std::string> {};

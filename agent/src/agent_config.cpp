@@ -122,6 +122,7 @@ bool EngineKeysValid(const EngineConfig& e, std::string* error) {
   std::string why;
   if (!IntIn("engine.solver_threads", e.direct.threads, 1, 64, error)) return false;
   if (!IntIn("engine.stability_runs", e.stability_runs, 0, 32, error)) return false;
+  if (!IntIn("engine.max_solve_frames", e.max_solve_frames, 0, 100000, error)) return false;
   if (!DoubleIn("engine.grid.range_deg", e.grid.range_deg, 0.0, 30.0, error)) return false;
   if (!PositiveUpTo("engine.grid.step_deg", e.grid.step_deg, 10.0, error)) return false;
   // (2 range / step + 1)^3 candidates: 40 steps a side is already 531441 candidates.
@@ -325,6 +326,7 @@ void ParseEngineSection(const YAML::Node& node, EngineConfig* e) {
   s.Read("board_pose_refinement", &e->direct.refine_board_poses);
   s.Read("solver_threads", &e->direct.threads);
   s.Read("stability_runs", &e->stability_runs);
+  s.Read("max_solve_frames", &e->max_solve_frames);
   Section grid = s.Child("grid");
   grid.Read("range_deg", &e->grid.range_deg);
   grid.Read("step_deg", &e->grid.step_deg);

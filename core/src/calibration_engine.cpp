@@ -154,7 +154,7 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   ObservationSet local;
   ObservationSet& corr = correspondences ? *correspondences : local;
   corr.Reserve(static_cast<int>(session.camera.size()), static_cast<int>(session.points.size()));
-  out.grid = grid.Run(session, config.prior_T_camera_lidar, &corr);
+  out.grid = grid.Run(session, config.prior_T_camera_lidar, &corr, engine.max_solve_frames);
   if (out.grid.status != GridSearchResult::Status::kOk)
     return Reject(out, "no_grid_candidate", out.grid.reason);
   out.T_camera_lidar = out.grid.T_camera_lidar;

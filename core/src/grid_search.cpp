@@ -96,9 +96,11 @@ void GridSearch::Prepare(const SessionObservations& s) {
         c.frame,         std::numeric_limits<int>::max(), std::numeric_limits<int>::max(), 0, 0,
         integral_.size()};
     int row_hi = std::numeric_limits<int>::min(), col_hi = std::numeric_limits<int>::min();
-    std::vector<std::pair<int, int>> cells;
-    cells.reserve(static_cast<size_t>(c.num_points));
-    for (int i = 0; i < c.num_points; ++i) {
+    std::vector<std::pair<int, int>>& cells = cells_;
+    cells.clear();
+    // A frame not taking part keeps an empty grid (counts 0).
+    const int points = Rank(c.frame, s.num_frames) >= 0 ? c.num_points : 0;
+    for (int i = 0; i < points; ++i) {
       int row = 0, col = 0;
       if (!CellOfPoint(projection_, s.points[c.first_point + i].cast<double>(), &row, &col))
         continue;
@@ -152,7 +154,8 @@ long GridSearch::CountFast(const SessionObservations& s, const Pose& T_camera_li
   for (size_t b = 0; b < s.camera.size(); ++b) {
     const auto& cam = s.camera[b];
     if (best_cluster) (*best_cluster)[b] = -1;
-    if (cam.frame % frame_stride != 0) continue;
+    const int rank = Rank(cam.frame, s.num_frames);
+    if (rank < 0 || rank % frame_stride != 0) continue;
     Roi roi;
     if (!BoardRegion(cam, T_lidar_camera, &roi)) continue;
     long best = 0;
@@ -190,7 +193,7 @@ long GridSearch::CountBruteForce(const SessionObservations& s, const Pose& T_cam
 }
 
 GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_prior,
-                                 ObservationSet* correspondences) {
+                                 ObservationSet* correspondences, int max_frames) {
   const auto t0 = std::chrono::steady_clock::now();
   GridSearchResult result;
   result.T_camera_lidar = T_prior;
@@ -204,13 +207,16 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
     result.reason = s.camera.empty() ? "no camera board detections" : "no LiDAR board clusters";
     return result;
   }
+  max_frames_ = max_frames;
   Prepare(s);
-  for (const auto& c : s.lidar) result.total_points += c.num_points;
+  for (const auto& c : s.lidar)
+    if (Rank(c.frame, s.num_frames) >= 0) result.total_points += c.num_points;
   result.prior_count = CountFast(s, T_prior, nullptr);
-  const int stride = config_.max_scoring_frames > 0
-                         ? std::max(1, (s.num_frames + config_.max_scoring_frames - 1) /
-                                           config_.max_scoring_frames)
-                         : 1;
+  const int taking_part = max_frames > 0 && max_frames < s.num_frames ? max_frames : s.num_frames;
+  const int stride =
+      config_.max_scoring_frames > 0
+          ? std::max(1, (taking_part + config_.max_scoring_frames - 1) / config_.max_scoring_frames)
+          : 1;
 
   // One pass over a cube of perturbations centred on `centre`; candidates in a fixed order, a tie
   // keeps the one closest to the centre (then the earlier one): deterministic, biased to the prior.
@@ -263,7 +269,7 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
       std::vector<bool> used(grids_.size(), false);
       for (size_t b = 0; b < s.camera.size(); ++b) {
         const int k = best_cluster[b];
-        if (k < 0 || used[k]) continue;
+        if (k < 0 || used[k]) continue;  // frames not taking part have no best cluster
         used[k] = true;
         BoardObservation o;
         o.frame = s.camera[b].frame;

@@ -64,6 +64,11 @@ struct EngineConfig {
   IndirectOptimizerConfig indirect;
   VerdictConfig verdict;
   int stability_runs = 4;  ///< re-solves on random halves of the correspondences (0: skip)
+  /// The solve uses the correspondences of at most this many frame pairs, spread evenly over the
+  /// session (0: all). Bounds the solve's time and memory whatever the session's length: a
+  /// 2000-pair session solves like a 200-pair one drawn from all of it (motion compensation
+  /// still sees every frame).
+  int max_solve_frames = 200;
 };
 
 struct QualityFigures {

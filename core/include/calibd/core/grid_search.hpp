@@ -8,6 +8,7 @@
 /// Beyond the paper: a second, finer pass around the best coarse candidate, and an explicit
 /// "no candidate" result when even the best one sees too few points (instead of a silent guess).
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,23 @@ struct GridSearchResult {
 /// near pitch = -90 deg, docs/conventions.md#euler); the LiDAR origin keeps its camera position.
 Pose PerturbExtrinsic(const Pose& T_camera_lidar, const Eigen::Vector3d& rpy_rad);
 
+/// Whether frame `frame` of `num_frames` is among `max_frames` picked evenly over them (all when
+/// max_frames is 0 or >= num_frames): exactly min(num_frames, max_frames) frames are picked.
+inline bool SpreadFrameSelected(int frame, int num_frames, int max_frames) {
+  if (max_frames <= 0 || max_frames >= num_frames) return true;
+  const auto m = static_cast<int64_t>(max_frames);
+  return (static_cast<int64_t>(frame) + 1) * m / num_frames >
+         static_cast<int64_t>(frame) * m / num_frames;
+}
+
+/// The rank of `frame` among the frames SpreadFrameSelected picks (0, 1, ...), -1 when it is
+/// not picked.
+inline int SpreadFrameRank(int frame, int num_frames, int max_frames) {
+  if (max_frames <= 0 || max_frames >= num_frames) return frame;
+  if (!SpreadFrameSelected(frame, num_frames, max_frames)) return -1;
+  return static_cast<int>((static_cast<int64_t>(frame) + 1) * max_frames / num_frames - 1);
+}
+
 class GridSearch {
  public:
   /// `projection` must be configured for the session's LiDAR model (its CellOf is used).
@@ -61,9 +79,11 @@ class GridSearch {
 
   /// Runs both passes over `session`. When the result is kOk and `correspondences` is non-null,
   /// it receives one observation per camera board matched to the LiDAR cluster with the most
-  /// points in its region (each cluster used once).
+  /// points in its region (each cluster used once). Only `max_frames` frame pairs spread evenly
+  /// over the session take part, in the search and in the correspondences (0: every frame; see
+  /// SpreadFrameSelected): its memory and time do not grow with a longer session.
   GridSearchResult Run(const SessionObservations& session, const Pose& T_camera_lidar_prior,
-                       ObservationSet* correspondences);
+                       ObservationSet* correspondences, int max_frames = 0);
 
   /// Points of `session` inside the regions for one extrinsic, by brute force over every point
   /// (an oracle for tests; Run uses per-cluster integral images).
@@ -88,14 +108,20 @@ class GridSearch {
   long CountFast(const SessionObservations& session, const Pose& T_camera_lidar,
                  std::vector<int>* best_cluster, int frame_stride = 1) const;
   long ClusterCount(const ClusterGrid& g, const Roi& roi) const;
+  /// Integral images of the clusters of the frames taking part (max_frames_).
   void Prepare(const SessionObservations& session);
+  int Rank(int frame, int num_frames) const {
+    return SpreadFrameRank(frame, num_frames, max_frames_);
+  }
 
   GridSearchConfig config_;
   const RangeImage& projection_;
   std::vector<BoardGeometry> boards_;
-  std::vector<ClusterGrid> grids_;        // one per session cluster
-  std::vector<int32_t> integral_;         // all clusters' integral images
-  std::vector<int> frame_first_cluster_;  // per frame: first index into grids_ (size frames + 1)
+  std::vector<ClusterGrid> grids_;          // one per session cluster
+  std::vector<int32_t> integral_;           // all clusters' integral images
+  std::vector<int> frame_first_cluster_;    // per frame: first index into grids_ (size frames + 1)
+  std::vector<std::pair<int, int>> cells_;  // Prepare's scratch: one cluster's cells
+  int max_frames_ = 0;                      // of the current Run
 };
 
 }  // namespace calibd
