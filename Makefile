@@ -1,7 +1,8 @@
 # Thin wrapper over CMake presets. `make demo` and `make test` install missing Debian packages,
 # configure, build and run. `make test` runs the suite twice: optimised (release) and under
 # AddressSanitizer + UndefinedBehaviorSanitizer (asan), the latter without the whole-session
-# suites labelled `slow`. `make check PRESET=debug|release|asan` runs one build's suite.
+# suites labelled `slow` and the VM tests labelled `vm` (tests/vm/: kernel I/O, not memory).
+# `make check PRESET=debug|release|asan` runs one build's suite.
 PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
@@ -29,7 +30,7 @@ check: build
 
 test: deps
 	@$(MAKE) --no-print-directory check PRESET=release
-	@$(MAKE) --no-print-directory check PRESET=asan CTEST_ARGS="-LE slow"
+	@$(MAKE) --no-print-directory check PRESET=asan CTEST_ARGS="-LE 'slow|vm'"
 
 install:
 	@$(MAKE) --no-print-directory build PRESET=release

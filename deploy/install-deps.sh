@@ -13,6 +13,12 @@ PACKAGES=(
   libyaml-cpp-dev nlohmann-json3-dev zlib1g-dev libsystemd-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # VM tests (tests/vm/): qemu boots Debian's kernel with an initramfs of busybox and modules;
+  # gpio-sim.ko is built out of tree against the headers of linux-image-amd64's current ABI (the
+  # kernel image and source are fetched into the cache with apt-get download, not installed);
+  # the jobs use the host's can-utils, gpiod tools and iproute2 through the shared root
+  qemu-system-x86 busybox-static cpio kmod xz-utils linux-headers-amd64
+  can-utils gpiod iproute2
 )
 
 missing=()
