@@ -98,6 +98,10 @@ bool FrameIntake::Init(const IntakeConfig& config, const CalibConfig& calib, std
     slot->lidar.ring.reserve(points);
     slot->lidar.time_offset_us.reserve(points);
     slot->decoded.create(config.limits.max_height, config.limits.max_width, CV_8UC1);
+    // The detections at their largest too: a slot first used late in a session (when the
+    // detectors fall behind for once) must not allocate then.
+    camera_detector_->ReserveOutput(&slot->camera_detections);
+    lidar_detector_->ReserveOutput(&slot->lidar_detections);
     slots_.push_back(std::move(slot));
   }
   camera_thread_ = std::thread(&FrameIntake::Worker, this, true);

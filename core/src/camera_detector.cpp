@@ -397,6 +397,9 @@ struct CameraDetector::Impl {
   // ---- One frame ----
 
   void Detect(const ImageView& im, CameraDetections* out) {
+    // Reserved on the first use of `out` (at most one detection per configured board); later
+    // frames only clear and refill.
+    if (out->boards.capacity() < boards.size()) out->boards.reserve(boards.size());
     out->boards.clear();
     out->full_frame_search = false;
     out->rejected = 0;
@@ -452,6 +455,10 @@ const std::string& CameraDetector::error() const { return impl_->error; }
 
 void CameraDetector::Detect(const ImageView& image, CameraDetections* out) {
   impl_->Detect(image, out);
+}
+
+void CameraDetector::ReserveOutput(CameraDetections* out) const {
+  if (out->boards.capacity() < impl_->boards.size()) out->boards.reserve(impl_->boards.size());
 }
 
 void CameraDetector::ResetTracking() {

@@ -379,10 +379,8 @@ double LidarDetector::ScoreCluster(const std::vector<Eigen::Vector3f>& points) {
   return d.BestScore();
 }
 
-void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
-  Impl& d = *impl_;
-  const LidarDetectorConfig& c = d.config;
-  // Capacities are reserved on the first use of `out`; later calls only clear and refill.
+void LidarDetector::ReserveOutput(LidarDetections* out) const {
+  const LidarDetectorConfig& c = impl_->config;
   const size_t point_capacity = static_cast<size_t>(c.max_boards) * c.max_board_points;
   if (out->boards.capacity() < static_cast<size_t>(c.max_boards)) out->boards.reserve(c.max_boards);
   if (out->points.capacity() < point_capacity) out->points.reserve(point_capacity);
@@ -390,6 +388,14 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
   if (out->point_time_s.capacity() < point_capacity) out->point_time_s.reserve(point_capacity);
   if (out->candidates.capacity() < static_cast<size_t>(c.max_clusters))
     out->candidates.reserve(c.max_clusters);
+}
+
+void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
+  Impl& d = *impl_;
+  const LidarDetectorConfig& c = d.config;
+  // Capacities are reserved on the first use of `out` (unless ReserveOutput did it); later calls
+  // only clear and refill.
+  ReserveOutput(out);
   out->boards.clear();
   out->points.clear();
   out->point_indices.clear();

@@ -97,6 +97,9 @@ class CameraDetector {
   /// Detects the configured boards. A frame with no boards (or an empty/null image) gives an empty
   /// result, not an error.
   void Detect(const ImageView& image, CameraDetections* out);
+  /// Reserves `out` for any frame (one detection per configured board), so that its first
+  /// Detect() does not allocate either: for output buffers made at start-up.
+  void ReserveOutput(CameraDetections* out) const;
 
   /// Forgets tracked regions (next frame searches the full image).
   void ResetTracking();

@@ -186,8 +186,13 @@ class LidarDetector {
   const std::string& error() const;
 
   /// Detects boards in one sweep. No boards gives an empty result; NaN/inf points are skipped.
-  /// Allocates nothing once `out` has been used once. A detector that is not ok() clears `out`.
+  /// Allocates nothing once `out` has been used once or reserved (ReserveOutput). A detector that
+  /// is not ok() clears `out`.
   void Detect(const PointCloudView& cloud, LidarDetections* out);
+  /// Reserves `out` for any frame (max_boards boards of max_board_points points, max_clusters
+  /// candidates), so that its first Detect() does not allocate either: for output buffers made
+  /// at start-up (the agent's intake slots).
+  void ReserveOutput(LidarDetections* out) const;
 
   int num_references() const;
   /// Descriptor of a point cluster (LiDAR frame) and its best score against the references, every
