@@ -19,21 +19,33 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// The log's first and last event times (us): the length of one loop.
-bool LogSpan(const std::string& path, int64_t* first, int64_t* last, std::string* error) {
+struct LogSpan {
+  int64_t first = 0;                          ///< the first event's time, us
+  int64_t camera_first = 0, camera_last = 0;  ///< the first and last camera frame's
+  int64_t camera_frames = 0;
+};
+
+// The times that set the length of one loop.
+bool ReadSpan(const std::string& path, LogSpan* span, std::string* error) {
   lcm::LogFile log(path, "r");
   if (!log.good()) {
     if (error) *error = "cannot open the LCM log '" + path + "'";
     return false;
   }
-  bool any = false;
+  bool any = false, camera = false;
   while (const lcm::LogEvent* ev = log.readNextEvent()) {
-    if (!any) *first = ev->timestamp;
-    *last = ev->timestamp;
+    if (!any) span->first = ev->timestamp;
     any = true;
+    if (ev->channel != channels::kCamera.name) continue;
+    if (!camera) span->camera_first = ev->timestamp;
+    span->camera_last = ev->timestamp;
+    ++span->camera_frames;
+    camera = true;
   }
-  if (!any && error) *error = "the LCM log '" + path + "' holds no event";
-  return any;
+  if (!camera && error)
+    *error = "the LCM log '" + path + "' holds no camera frame (" +
+             std::string(channels::kCamera.name) + ")";
+  return camera;
 }
 
 // Re-encodes `msg` with its capture time moved by `shift_us` into `buffer`.
@@ -56,12 +68,15 @@ bool PublishLive(const LivePublishOptions& options, LivePublishSummary* summary,
     if (error) *error = "speed must be > 0 and loops >= 1";
     return false;
   }
-  int64_t first = 0, last = 0;
-  if (!LogSpan(options.log_path, &first, &last, error)) return false;
-  // One loop lasts the log's span plus one frame period, so capture times keep their spacing
-  // across the seam.
-  const int64_t period_us = static_cast<int64_t>(1e6 / channels::kCamera.rate_hz);
-  const int64_t loop_us = last - first + period_us;
+  LogSpan span;
+  if (!ReadSpan(options.log_path, &span, error)) return false;
+  const int64_t first = span.first;
+  // One loop lasts the camera frames' span plus one frame period (their mean spacing), so the
+  // streams keep their spacing across the seam.
+  const int64_t period_us = span.camera_frames > 1
+                                ? (span.camera_last - span.camera_first) / (span.camera_frames - 1)
+                                : static_cast<int64_t>(1e6 / channels::kCamera.rate_hz);
+  const int64_t loop_us = span.camera_last - span.camera_first + period_us;
 
   LcmBus bus;
   if (!bus.Open(options.url, error)) return false;
