@@ -241,14 +241,13 @@ TEST(AgentConfigTest, FileErrorsStartWithThePath) {
   testing::TempDir dir;
   std::string yaml = ReadText(kDefaultConfigPath);
   const std::string line = "  target_frames: 200\n";
-  yaml.replace(yaml.find(line), line.size(), "  target_frames: 201\n");
+  yaml.replace(yaml.find(line), line.size(), "  target_frames: 0\n");
   WriteText(dir.file("calibd.yaml"), yaml);
   AgentConfig c;
   std::string error;
   EXPECT_FALSE(LoadAgentConfig(dir.file("calibd.yaml"), &c, &error));
-  EXPECT_EQ(error, dir.file("calibd.yaml") +
-                       ": agent.target_frames: must be in [1, 200] (got 201): at most "
-                       "agent.max_frames");
+  EXPECT_EQ(error,
+            dir.file("calibd.yaml") + ": agent.target_frames: must be in [1, 100000] (got 0)");
   EXPECT_FALSE(LoadAgentConfig(dir.file("missing.yaml"), &c, &error));
   EXPECT_NE(error.find(dir.file("missing.yaml")), std::string::npos) << error;
 }
@@ -281,6 +280,17 @@ TEST(AgentConfigTest, CodeBuiltConfigsAreValidatedToo) {
   EXPECT_FALSE(big.IsValid(&error));
   EXPECT_EQ(error.rfind("agent.max_points_per_board: the session buffer would take", 0), 0u)
       << error;
+
+  AgentConfig longer = c;  // a session longer than the store is thinned, not refused
+  longer.target_frames = 2000;
+  EXPECT_TRUE(longer.IsValid(&error)) << error;
+  AgentConfig small = c;  // but the store must hold what one drain brings, twice over
+  small.max_frames = 10;
+  small.intake_queue_capacity = 8;
+  EXPECT_FALSE(small.IsValid(&error));
+  EXPECT_EQ(
+      error,
+      "agent.max_frames: must be at least 2 x (agent.intake_queue_capacity + 1) = 18 (got 10)");
 
   AgentConfig grid = c;
   grid.engine.grid.refine_step_deg = 0.0;  // not in the file: the core's own check still runs

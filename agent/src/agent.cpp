@@ -129,6 +129,7 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
   if (!LidarKindFromName(config_.calib.lidar_model, &kind, error)) return false;
   projection_.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
   session_.Reserve(config_.max_frames, config_.BoardsPerFrame(), config_.max_points_per_board);
+  ResetThinning();
 
   const std::string url = options.lcm_url.empty() ? config_.lcm_url : options.lcm_url;
   if (!bus_.Open(url, error)) return false;
@@ -230,6 +231,7 @@ void Agent::Start(const StartRequest& request) {
     return;
   }
   session_.Clear();
+  ResetThinning();
   figures_ = CollectionFigures{};
   figures_camera_ = figures_lidar_ = 0;
   figures_frames_ = 0;
@@ -237,6 +239,13 @@ void Agent::Start(const StartRequest& request) {
   last_error_.clear();
   intake_.SetActive(true);
   Log("session " + std::to_string(machine_.session()) + " started by '" + request.requester + "'");
+}
+
+void Agent::ResetThinning() {
+  thinning_.Reset(config_.max_frames,
+                  static_cast<size_t>(config_.BoardsPerFrame()) *
+                      static_cast<size_t>(config_.max_points_per_board),
+                  config_.intake_queue_capacity + 1);
 }
 
 void Agent::UpdateFigures() {
@@ -274,7 +283,10 @@ void Agent::StartSolve() {
   Log("solving session " + std::to_string(solve_session_) + ": " +
       std::to_string(figures_.frames_with_boards) + " frame pairs, " +
       std::to_string(figures_.boards) + " boards (" + CollectionEndName(machine_.collection_end()) +
-      ")");
+      "), " + std::to_string(session_.num_frames) + " pairs kept" +
+      (thinning_.stride() > 1 ? " (1 run of " + std::to_string(SessionThinning::kRun) + " in " +
+                                    std::to_string(thinning_.stride()) + ")"
+                              : std::string()));
   solver_ = std::thread([this, calib] {
     outcome_ = Calibrate(calib, session_, projection_, config_.engine);
     solve_done_ = true;
@@ -336,8 +348,13 @@ void Agent::Commit() {
 void Agent::Step(int64_t now_us) {
   const bool collecting = machine_.state() == SessionState::kCollecting;
   if (collecting) {
+    const int first_new = session_.num_frames;
     if (intake_.Drain(&session_) > 0) {
-      UpdateFigures();
+      UpdateFigures();  // every pair counts towards the figures, kept or not
+      thinning_.Apply(first_new, &session_);
+      figures_frames_ = session_.num_frames;
+      figures_camera_ = session_.camera.size();
+      figures_lidar_ = session_.lidar.size();
       machine_.FrameRecorded(figures_, now_us);
     }
     machine_.Tick(now_us);
@@ -352,10 +369,11 @@ void Agent::Step(int64_t now_us) {
         "): " + std::to_string(c.camera_frames) + " camera and " + std::to_string(c.lidar_frames) +
         " LiDAR frames, " + std::to_string(c.pairs_detected) + " pairs detected, " +
         std::to_string(c.dropped_queue_full) + " dropped (queue full), " +
-        std::to_string(c.unpaired_camera) + "/" + std::to_string(c.unpaired_lidar) +
-        " unpaired camera/LiDAR, " + std::to_string(c.out_of_order) + " out of order, " +
-        std::to_string(c.bad_messages) + " bad" +
-        (c.last_error.empty() ? "" : " (last: " + c.last_error + ")"));
+        std::to_string(c.camera_missed) + "/" + std::to_string(c.lidar_missed) +
+        " camera/LiDAR missing from the streams, " + std::to_string(c.unpaired_camera) + "/" +
+        std::to_string(c.unpaired_lidar) + " unpaired camera/LiDAR, " +
+        std::to_string(c.out_of_order) + " out of order, " + std::to_string(c.bad_messages) +
+        " bad" + (c.last_error.empty() ? "" : " (last: " + c.last_error + ")"));
   }
   if (machine_.NeedsSolve()) StartSolve();
   if (solver_.joinable() && solve_done_) FinishSolve();
@@ -421,8 +439,12 @@ void Agent::PublishHealth() {
   rate_camera_frames_ = c.camera_frames;
   rate_lidar_frames_ = c.lidar_frames;
   rate_since_us_ = now;
+  h.camera_frames_received = c.camera_frames;
+  h.lidar_frames_received = c.lidar_frames;
   h.camera_frames_dropped = static_cast<int32_t>(c.dropped_queue_full);
-  h.lidar_frames_dropped = static_cast<int32_t>(c.dropped_queue_full);
+  h.lidar_frames_dropped = static_cast<int32_t>(c.lidar_dropped_queue_full);
+  h.camera_frames_missed = static_cast<int32_t>(c.camera_missed);
+  h.lidar_frames_missed = static_cast<int32_t>(c.lidar_missed);
   h.camera_serial = camera_serial_;
   h.lidar_serial = lidar_serial_;
   Publish(channels::kHealth.name, h);
@@ -552,6 +574,7 @@ int Agent::Run() {
       const bool session_over = machine_.session() > 0 && Terminal(s) && !solver_.joinable();
       if (session_over) {
         PublishStatus();
+        PublishHealth();  // the final counts, for the fleet and for replays
         if (s == SessionState::kDone)
           return machine_.verdict() == CalibrationOutcome::Verdict::kRejected ? 3 : 0;
         return 4;

@@ -92,11 +92,15 @@ bool AgentKeysValid(const AgentConfig& c, std::string* error) {
                     std::to_string(c.max_points_per_board) +
                     " points x 16 B), more than 2 GiB: lower one of them");
   if (!IntIn("agent.intake_queue_capacity", c.intake_queue_capacity, 1, 64, error)) return false;
+  // Room for the pairs one drain can bring, twice over (session_thinning.hpp).
+  if (c.max_frames < 2 * (c.intake_queue_capacity + 1))
+    return Fail(error, "agent.max_frames",
+                "must be at least 2 x (agent.intake_queue_capacity + 1) = " +
+                    std::to_string(2 * (c.intake_queue_capacity + 1)) + " (got " +
+                    std::to_string(c.max_frames) + ")");
 
   if (!PositiveUpTo("agent.max_duration_s", c.max_duration_s, 3600.0, error)) return false;
-  if (!IntIn("agent.target_frames", c.target_frames, 1, c.max_frames, error,
-             "at most agent.max_frames"))
-    return false;
+  if (!IntIn("agent.target_frames", c.target_frames, 1, 100000, error)) return false;
   if (!IntIn("agent.min_frames", c.min_frames, c.engine.verdict.min_frames, c.target_frames, error,
              "at least engine.verdict.min_frames, at most agent.target_frames"))
     return false;

@@ -5,6 +5,7 @@
 #include <sstream>
 #include <string>
 
+#include "agent_memory_bench.hpp"
 #include "calib_bench.hpp"
 #include "detect_bench.hpp"
 
@@ -15,6 +16,7 @@ constexpr const char* kHelp =
 
 Usage: calibd-bench detect [options]
        calibd-bench calib [options]
+       calibd-bench agent-memory [options]
 
 detect   camera and LiDAR board detection over the default simulated session (3 boards, clutter,
          driving 6-30 m): precision, recall (a LiDAR detection is a true positive within 0.2 m of
@@ -45,6 +47,23 @@ calib    calibration over simulated drives, each detected once with the real det
   --trials N          grid-search trials with and without the search (default 100; 0 skips)
   --json FILE         also write the figures as JSON
 
+agent-memory
+         the agent's fixed memory on the real process: one simulated drive published live over
+         LCM udpm at 10 Hz in a private network namespace (needs root), once per session and
+         looped (capture times shifted) for the longer ones, to calibd-agent with one config;
+         per session: frames received / missing / dropped per sensor, pairs used by the solve,
+         the verdict and the agent's peak RSS (ru_maxrss) against the first session's (target:
+         within 5%). Real time: 200 + 2000 pairs take about 4 min.
+  --agent PATH        calibd-agent to run (default: this build's)
+  --lidar MODEL       ot128 | m1 | falcon (default ot128)
+  --frames N          frame pairs of the drive (default 200)
+  --loops LIST        comma-separated: one session per entry, the drive published that many
+                      times (default 1,10: sessions of 200 and 2000 pairs)
+  --seed N            simulation seed (default 1)
+  --work-dir DIR      keep the log, configs, stores and outputs there (default: a temporary
+                      directory, removed)
+  --json FILE         also write the figures as JSON
+
 Exit codes: 0 done, 1 failed, 2 bad option.
 )";
 
@@ -65,12 +84,15 @@ int main(int argc, char** argv) {
   }
   const std::string command = argv[1];
   const bool calib = command == "calib";
-  if (command != "detect" && !calib) {
+  const bool memory = command == "agent-memory";
+  if (command != "detect" && !calib && !memory) {
     std::cerr << "calibd-bench: unknown command '" << command << "' (see --help)\n";
     return 2;
   }
   calibd::bench::DetectBenchOptions d;
   calibd::bench::CalibBenchOptions c;
+  calibd::bench::AgentMemoryBenchOptions m;
+  m.agent_path = CALIBD_AGENT_EXE;
   for (int i = 2; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--help" || arg == "-h") {
@@ -83,6 +105,38 @@ int main(int argc, char** argv) {
     }
     const std::string value = argv[++i];
     long long n = 0;
+    if (memory) {
+      if (arg == "--agent") {
+        m.agent_path = value;
+      } else if (arg == "--lidar" && (value == "ot128" || value == "m1" || value == "falcon")) {
+        m.lidar = value;
+      } else if (arg == "--frames" && ParseInt(value, 10, 100000, &n)) {
+        m.frames = static_cast<int>(n);
+      } else if (arg == "--seed" && ParseInt(value, 0, 1LL << 53, &n)) {
+        m.seed = static_cast<unsigned long long>(n);
+      } else if (arg == "--work-dir") {
+        m.work_dir = value;
+      } else if (arg == "--json") {
+        m.json_path = value;
+      } else if (arg == "--loops") {
+        m.loops.clear();
+        std::stringstream ss(value);
+        std::string item;
+        while (std::getline(ss, item, ',')) {
+          if (!ParseInt(item, 1, 1000, &n)) {
+            std::cerr << "calibd-bench: --loops takes integers in [1, 1000] (got '" << item
+                      << "')\n";
+            return 2;
+          }
+          m.loops.push_back(static_cast<int>(n));
+        }
+      } else {
+        std::cerr << "calibd-bench: bad option or value '" << arg << " " << value
+                  << "' (see --help)\n";
+        return 2;
+      }
+      continue;
+    }
     if (arg == "--lidar") {
       d.lidars.clear();
       std::stringstream ss(value);
@@ -113,8 +167,9 @@ int main(int argc, char** argv) {
     }
   }
   std::string error;
-  const bool ok = calib ? calibd::bench::RunCalibBench(c, std::cout, &std::cerr, &error)
-                        : calibd::bench::RunDetectBench(d, std::cout, &std::cerr, &error);
+  const bool ok = memory  ? calibd::bench::RunAgentMemoryBench(m, std::cout, &std::cerr, &error)
+                  : calib ? calibd::bench::RunCalibBench(c, std::cout, &std::cerr, &error)
+                          : calibd::bench::RunDetectBench(d, std::cout, &std::cerr, &error);
   if (!ok) {
     std::cerr << "calibd-bench: " << error << "\n";
     return 1;

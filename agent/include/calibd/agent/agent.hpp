@@ -23,6 +23,7 @@
 #include "calibd/calibration_request_t.hpp"
 #include "calibd/calibration_result_t.hpp"
 #include "calibd/core/range_image.hpp"
+#include "calibd/core/session_thinning.hpp"
 #include "calibd/drivers/calibration_store.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
 #include "calibd/drivers/systemd_notify.hpp"
@@ -72,6 +73,7 @@ class Agent {
   void StartSolve();
   void FinishSolve();
   void UpdateFigures();
+  void ResetThinning();
   void PublishStatus();
   void PublishHealth();
   void PublishResult();
@@ -94,6 +96,7 @@ class Agent {
   CalibrationStore store_;
   RangeImage projection_;
   SessionObservations session_;  ///< sized once from the config
+  SessionThinning thinning_;     ///< keeps a long session within session_
   CollectionFigures figures_;
   size_t figures_camera_ = 0, figures_lidar_ = 0;  ///< session entries already counted
   int figures_frames_ = 0;

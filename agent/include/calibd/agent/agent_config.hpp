@@ -43,8 +43,9 @@ struct AgentConfig {
   CalibrationStoreConfig store = {"/var/lib/calibd"};
 
   // --- agent: buffers, sized once at start-up (fixed memory) ---
-  /// Frame pairs with boards kept for the solve. The session buffer takes about max_frames x
-  /// BoardsPerFrame() x max_points_per_board x 16 bytes (see SessionBufferBytes()).
+  /// Frame pairs kept for the solve. The session buffer takes about max_frames x
+  /// BoardsPerFrame() x max_points_per_board x 16 bytes (see SessionBufferBytes()). A longer
+  /// session is thinned to fit (core/session_thinning.hpp): the memory stays fixed.
   int max_frames = 200;
   /// Camera boards and LiDAR board clusters kept per frame pair; 0: the configured boards + 4
   /// (room for LiDAR clusters that pass the board gates without being boards). Use
@@ -63,7 +64,8 @@ struct AgentConfig {
   /// max_duration_ms). At the limit the session solves with what it has, or fails with
   /// `too_few_frames` / `too_few_boards`.
   double max_duration_s = 120.0;
-  /// Collection ends once this many frame pairs with boards are recorded (<= max_frames).
+  /// Collection ends once this many frame pairs with boards are recorded; more than max_frames
+  /// keeps the store thinned to pairs spread over the whole session.
   int target_frames = 200;
   /// Fewest frame pairs with boards a session solves with: fewer at the time limit fails the
   /// session; the coverage gates end collection only from this many on. At least
