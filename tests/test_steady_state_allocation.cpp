@@ -1,11 +1,11 @@
 // Issue 5: the per-frame path of our own code allocates nothing in steady state. A simulated drive
 // goes through the agent's per-frame path as calibd-agent composes it (agent/src/agent.cpp: Init,
-// OnCamera/OnLidar, Step, UpdateFigures): raw LCM events published on an in-process memq:// bus,
-// decoded by LcmBus into its reused messages, copied by FrameIntake into its slots, detected on
-// its camera and LiDAR threads, drained into the pre-reserved SessionObservations and reported to
-// the SessionMachine. Every `operator new` of the process (all threads) is counted while frame
-// pairs 50-149 go through; frames 0-49 warm up (each intake slot, the tracker and the detectors'
-// scratch reach their steady size). Expected: 0.
+// OnCamera/OnLidar, Step with its SessionRecorder): raw LCM events published on an in-process
+// memq:// bus, decoded by LcmBus into its reused messages, copied by FrameIntake into its slots,
+// detected on its camera and LiDAR threads, drained into the pre-reserved SessionObservations and
+// reported to the SessionMachine. Every `operator new` of the process (all threads) is counted
+// while frame pairs 50-149 go through; frames 0-49 warm up (each intake slot, the tracker and the
+// detectors' scratch reach their steady size). Expected: 0.
 //
 // Not counted, on purpose:
 //  - The test's own work (simulating and encoding the frames, publishing them as the sensor
@@ -47,6 +47,7 @@
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/frame_intake.hpp"
 #include "calibd/agent/session_machine.hpp"
+#include "calibd/agent/session_recorder.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/core/calibration_engine.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
@@ -166,16 +167,8 @@ int64_t NowUs() {
 class PerFramePath {
  public:
   bool Init(const AgentConfig& config, std::string* error) {
-    config_ = config;
-    IntakeConfig intake;  // as Agent::Init
-    intake.queue_capacity = config.intake_queue_capacity;
-    intake.limits.max_width = config.calib.camera.width;
-    intake.limits.max_height = config.calib.camera.height;
-    intake.max_image_bytes = config.calib.camera.width * config.calib.camera.height;
-    intake.pair_tolerance_us = static_cast<int64_t>(config.pair_tolerance_ms * 1000.0);
-    intake.lidar.max_board_points = config.max_points_per_board;
-    if (!intake_.Init(intake, config.calib, error)) return false;
-    session_.Reserve(config.max_frames, config.BoardsPerFrame(), config.max_points_per_board);
+    if (!intake_.Init(IntakeConfigFrom(config), config.calib, error)) return false;
+    recorder_.Init(config);
     if (!bus_.Open("memq://", error)) return false;
     if (!bus_.Subscribe<camera_frame_t>(
             channels::kCamera.name, kFrameQueue,
@@ -188,24 +181,21 @@ class PerFramePath {
     StartRequest request;
     request.requester = "test_steady_state_allocation";
     if (!machine_.Start(request, NowUs()).accepted) return false;
-    session_.Clear();
+    recorder_.Clear();
     intake_.SetActive(true);
     return true;
   }
 
   LcmBus& bus() { return bus_; }
   FrameIntake& intake() { return intake_; }
-  const SessionObservations& session() const { return session_; }
+  const SessionObservations& session() const { return recorder_.session(); }
   const SessionMachine& machine() const { return machine_; }
-  const CollectionFigures& figures() const { return figures_; }
+  const CollectionFigures& figures() const { return recorder_.figures(); }
 
   // The collecting part of Agent::Step.
   void Step() {
     const int64_t now = NowUs();
-    if (intake_.Drain(&session_) > 0) {
-      UpdateFigures();
-      machine_.FrameRecorded(figures_, now);
-    }
+    if (recorder_.DrainFrom(&intake_) > 0) machine_.FrameRecorded(recorder_.figures(), now);
     machine_.Tick(now);
   }
 
@@ -219,42 +209,10 @@ class PerFramePath {
   }
 
  private:
-  // Agent::UpdateFigures.
-  void UpdateFigures() {
-    const int width = config_.calib.camera.width, height = config_.calib.camera.height;
-    for (; figures_frames_ < session_.num_frames; ++figures_frames_) {
-      int cameras = 0, lidars = 0;
-      for (; figures_camera_ < session_.camera.size() &&
-             session_.camera[figures_camera_].frame == figures_frames_;
-           ++figures_camera_) {
-        const auto& c = session_.camera[figures_camera_];
-        ++cameras;
-        const int bin = DistanceBin(c.T_camera_board.translation().norm());
-        if (bin >= 0) figures_.distance_bins |= 1u << bin;
-        Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-        for (const auto& p : c.corners_px) centre += p / 4.0;
-        const int cell = ImageCell(centre.x(), centre.y(), width, height);
-        if (cell >= 0) figures_.image_cells |= 1u << cell;
-      }
-      for (; figures_lidar_ < session_.lidar.size() &&
-             session_.lidar[figures_lidar_].frame == figures_frames_;
-           ++figures_lidar_)
-        ++lidars;
-      if (cameras > 0 && lidars > 0) {
-        ++figures_.frames_with_boards;
-        figures_.boards += std::min(cameras, lidars);
-      }
-    }
-  }
-
-  AgentConfig config_;
   FrameIntake intake_;
-  SessionObservations session_;
+  SessionRecorder recorder_;
   SessionMachine machine_{SessionConfig{}};
   LcmBus bus_;
-  CollectionFigures figures_;
-  size_t figures_camera_ = 0, figures_lidar_ = 0;
-  int figures_frames_ = 0;
 };
 
 struct Case {

@@ -116,20 +116,12 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
   else
     Log("no stored calibration: the config's prior is used");
 
-  IntakeConfig intake;
-  intake.queue_capacity = config_.intake_queue_capacity;
-  intake.limits.max_width = config_.calib.camera.width;
-  intake.limits.max_height = config_.calib.camera.height;
-  intake.max_image_bytes = config_.calib.camera.width * config_.calib.camera.height;
-  intake.pair_tolerance_us = static_cast<int64_t>(config_.pair_tolerance_ms * 1000.0);
-  intake.lidar.max_board_points = config_.max_points_per_board;
-  if (!intake_.Init(intake, config_.calib, error)) return false;
+  if (!intake_.Init(IntakeConfigFrom(config_), config_.calib, error)) return false;
 
   LidarKind kind;
   if (!LidarKindFromName(config_.calib.lidar_model, &kind, error)) return false;
   projection_.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
-  session_.Reserve(config_.max_frames, config_.BoardsPerFrame(), config_.max_points_per_board);
-  ResetThinning();
+  recorder_.Init(config_);
 
   const std::string url = options.lcm_url.empty() ? config_.lcm_url : options.lcm_url;
   if (!bus_.Open(url, error)) return false;
@@ -230,49 +222,11 @@ void Agent::Start(const StartRequest& request) {
     Log(last_error_);
     return;
   }
-  session_.Clear();
-  ResetThinning();
-  figures_ = CollectionFigures{};
-  figures_camera_ = figures_lidar_ = 0;
-  figures_frames_ = 0;
+  recorder_.Clear();
   has_outcome_ = result_published_ = false;
   last_error_.clear();
   intake_.SetActive(true);
   Log("session " + std::to_string(machine_.session()) + " started by '" + request.requester + "'");
-}
-
-void Agent::ResetThinning() {
-  thinning_.Reset(config_.max_frames,
-                  static_cast<size_t>(config_.BoardsPerFrame()) *
-                      static_cast<size_t>(config_.max_points_per_board),
-                  config_.intake_queue_capacity + 1);
-}
-
-void Agent::UpdateFigures() {
-  const int width = config_.calib.camera.width, height = config_.calib.camera.height;
-  for (; figures_frames_ < session_.num_frames; ++figures_frames_) {
-    int cameras = 0, lidars = 0;
-    for (; figures_camera_ < session_.camera.size() &&
-           session_.camera[figures_camera_].frame == figures_frames_;
-         ++figures_camera_) {
-      const auto& c = session_.camera[figures_camera_];
-      ++cameras;
-      const int bin = DistanceBin(c.T_camera_board.translation().norm());
-      if (bin >= 0) figures_.distance_bins |= 1u << bin;
-      Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-      for (const auto& p : c.corners_px) centre += p / 4.0;
-      const int cell = ImageCell(centre.x(), centre.y(), width, height);
-      if (cell >= 0) figures_.image_cells |= 1u << cell;
-    }
-    for (; figures_lidar_ < session_.lidar.size() &&
-           session_.lidar[figures_lidar_].frame == figures_frames_;
-         ++figures_lidar_)
-      ++lidars;
-    if (cameras > 0 && lidars > 0) {
-      ++figures_.frames_with_boards;
-      figures_.boards += std::min(cameras, lidars);
-    }
-  }
 }
 
 void Agent::StartSolve() {
@@ -281,14 +235,16 @@ void Agent::StartSolve() {
   solve_session_ = machine_.session();
   solve_done_ = false;
   Log("solving session " + std::to_string(solve_session_) + ": " +
-      std::to_string(figures_.frames_with_boards) + " frame pairs, " +
-      std::to_string(figures_.boards) + " boards (" + CollectionEndName(machine_.collection_end()) +
-      "), " + std::to_string(session_.num_frames) + " pairs kept" +
-      (thinning_.stride() > 1 ? " (1 run of " + std::to_string(SessionThinning::kRun) + " in " +
-                                    std::to_string(thinning_.stride()) + ")"
-                              : std::string()));
+      std::to_string(recorder_.figures().frames_with_boards) + " frame pairs, " +
+      std::to_string(recorder_.figures().boards) + " boards (" +
+      CollectionEndName(machine_.collection_end()) + "), " +
+      std::to_string(recorder_.session().num_frames) + " pairs kept" +
+      (recorder_.thinning().stride() > 1
+           ? " (1 run of " + std::to_string(SessionThinning::kRun) + " in " +
+                 std::to_string(recorder_.thinning().stride()) + ")"
+           : std::string()));
   solver_ = std::thread([this, calib] {
-    outcome_ = Calibrate(calib, session_, projection_, config_.engine);
+    outcome_ = Calibrate(calib, recorder_.session(), projection_, config_.engine);
     solve_done_ = true;
   });
 }
@@ -348,15 +304,7 @@ void Agent::Commit() {
 void Agent::Step(int64_t now_us) {
   const bool collecting = machine_.state() == SessionState::kCollecting;
   if (collecting) {
-    const int first_new = session_.num_frames;
-    if (intake_.Drain(&session_) > 0) {
-      UpdateFigures();  // every pair counts towards the figures, kept or not
-      thinning_.Apply(first_new, &session_);
-      figures_frames_ = session_.num_frames;
-      figures_camera_ = session_.camera.size();
-      figures_lidar_ = session_.lidar.size();
-      machine_.FrameRecorded(figures_, now_us);
-    }
+    if (recorder_.DrainFrom(&intake_) > 0) machine_.FrameRecorded(recorder_.figures(), now_us);
     machine_.Tick(now_us);
     if (end_of_log_ && intake_.Idle()) machine_.EndOfData(now_us);
   } else {
@@ -392,8 +340,8 @@ void Agent::PublishStatus() {
   s.utime = WallUs();
   s.state = StatusState(machine_.state());
   s.progress = static_cast<float>(machine_.progress());
-  s.frames_used = figures_.frames_with_boards;
-  s.boards_observed = figures_.boards;
+  s.frames_used = recorder_.figures().frames_with_boards;
+  s.boards_observed = recorder_.figures().boards;
   const IntakeCounters& c = intake_.counters();
   s.frames_dropped = static_cast<int32_t>(c.dropped_queue_full);
   if (!machine_.reason().empty())

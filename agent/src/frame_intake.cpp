@@ -90,14 +90,22 @@ bool FrameIntake::Init(const IntakeConfig& config, const CalibConfig& calib, std
   slots_.clear();
   for (int i = 0; i < config.queue_capacity + 1; ++i) {
     auto slot = std::make_unique<Slot>();
-    slot->camera.data.reserve(static_cast<size_t>(config.max_image_bytes));
+    // Every buffer is touched once here (resize, then clear: the capacity stays), so that the
+    // first frames through a slot do not page-fault their way into it while the stream runs,
+    // and the agent's resident memory is its steady one from the start.
+    auto prefault = [](auto* v, size_t n) {
+      v->resize(n);
+      v->clear();
+    };
+    prefault(&slot->camera.data, static_cast<size_t>(config.max_image_bytes));
     slot->camera.camera_id.reserve(64);
     slot->lidar.lidar_id.reserve(64);
     for (auto* v : {&slot->lidar.x, &slot->lidar.y, &slot->lidar.z, &slot->lidar.intensity})
-      v->reserve(points);
-    slot->lidar.ring.reserve(points);
-    slot->lidar.time_offset_us.reserve(points);
+      prefault(v, points);
+    prefault(&slot->lidar.ring, points);
+    prefault(&slot->lidar.time_offset_us, points);
     slot->decoded.create(config.limits.max_height, config.limits.max_width, CV_8UC1);
+    slot->decoded.setTo(0);
     // The detections at their largest too: a slot first used late in a session (when the
     // detectors fall behind for once) must not allocate then.
     camera_detector_->ReserveOutput(&slot->camera_detections);

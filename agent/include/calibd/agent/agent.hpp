@@ -20,10 +20,10 @@
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/frame_intake.hpp"
 #include "calibd/agent/session_machine.hpp"
+#include "calibd/agent/session_recorder.hpp"
 #include "calibd/calibration_request_t.hpp"
 #include "calibd/calibration_result_t.hpp"
 #include "calibd/core/range_image.hpp"
-#include "calibd/core/session_thinning.hpp"
 #include "calibd/drivers/calibration_store.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
 #include "calibd/drivers/systemd_notify.hpp"
@@ -72,8 +72,6 @@ class Agent {
   void Step(int64_t now_us);
   void StartSolve();
   void FinishSolve();
-  void UpdateFigures();
-  void ResetThinning();
   void PublishStatus();
   void PublishHealth();
   void PublishResult();
@@ -95,13 +93,9 @@ class Agent {
   SessionMachine machine_;
   CalibrationStore store_;
   RangeImage projection_;
-  SessionObservations session_;  ///< sized once from the config
-  SessionThinning thinning_;     ///< keeps a long session within session_
-  CollectionFigures figures_;
-  size_t figures_camera_ = 0, figures_lidar_ = 0;  ///< session entries already counted
-  int figures_frames_ = 0;
+  SessionRecorder recorder_;  ///< the session store (sized once from the config) and figures
 
-  // The solve thread: reads session_ (not written while solving) and writes outcome_.
+  // The solve thread: reads recorder_.session() (not written while solving), writes outcome_.
   std::thread solver_;
   std::atomic<bool> solve_done_{false};
   int solve_session_ = 0;

@@ -1,0 +1,73 @@
+#include "calibd/agent/session_recorder.hpp"
+
+#include <algorithm>
+
+#include "calibd/core/calibration_engine.hpp"
+
+namespace calibd {
+
+IntakeConfig IntakeConfigFrom(const AgentConfig& config) {
+  IntakeConfig intake;
+  intake.queue_capacity = config.intake_queue_capacity;
+  intake.limits.max_width = config.calib.camera.width;
+  intake.limits.max_height = config.calib.camera.height;
+  intake.max_image_bytes = config.calib.camera.width * config.calib.camera.height;
+  intake.pair_tolerance_us = static_cast<int64_t>(config.pair_tolerance_ms * 1000.0);
+  intake.lidar.max_board_points = config.max_points_per_board;
+  return intake;
+}
+
+void SessionRecorder::Init(const AgentConfig& config) {
+  image_width_ = config.calib.camera.width;
+  image_height_ = config.calib.camera.height;
+  max_frames_ = config.max_frames;
+  max_frame_points_ = static_cast<size_t>(config.BoardsPerFrame()) *
+                      static_cast<size_t>(config.max_points_per_board);
+  // One drain brings at most every intake slot.
+  headroom_frames_ = config.intake_queue_capacity + 1;
+  session_.Reserve(config.max_frames, config.BoardsPerFrame(), config.max_points_per_board);
+  Clear();
+}
+
+void SessionRecorder::Clear() {
+  session_.Clear();
+  thinning_.Reset(max_frames_, max_frame_points_, headroom_frames_);
+  figures_ = CollectionFigures{};
+}
+
+int SessionRecorder::DrainFrom(FrameIntake* intake) {
+  const int first = session_.num_frames;
+  const int pairs = intake->Drain(&session_);
+  if (pairs > 0) {
+    CountFrames(first);  // every pair counts, kept or not
+    thinning_.Apply(first, &session_);
+  }
+  return pairs;
+}
+
+void SessionRecorder::CountFrames(int first) {
+  // The new frames' entries are at the end of the store, in frame order.
+  size_t c = session_.camera.size(), l = session_.lidar.size();
+  while (c > 0 && session_.camera[c - 1].frame >= first) --c;
+  while (l > 0 && session_.lidar[l - 1].frame >= first) --l;
+  for (int f = first; f < session_.num_frames; ++f) {
+    int cameras = 0, lidars = 0;
+    for (; c < session_.camera.size() && session_.camera[c].frame == f; ++c) {
+      const auto& cam = session_.camera[c];
+      ++cameras;
+      const int bin = DistanceBin(cam.T_camera_board.translation().norm());
+      if (bin >= 0) figures_.distance_bins |= 1u << bin;
+      Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+      for (const auto& p : cam.corners_px) centre += p / 4.0;
+      const int cell = ImageCell(centre.x(), centre.y(), image_width_, image_height_);
+      if (cell >= 0) figures_.image_cells |= 1u << cell;
+    }
+    for (; l < session_.lidar.size() && session_.lidar[l].frame == f; ++l) ++lidars;
+    if (cameras > 0 && lidars > 0) {
+      ++figures_.frames_with_boards;
+      figures_.boards += std::min(cameras, lidars);
+    }
+  }
+}
+
+}  // namespace calibd
