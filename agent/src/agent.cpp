@@ -233,6 +233,7 @@ void Agent::StartSolve() {
   CalibConfig calib = config_.calib;
   if (store_.current() != nullptr) calib.prior_T_camera_lidar = store_.current()->T_camera_lidar;
   solve_session_ = machine_.session();
+  solve_started_us_ = MonotonicUs();
   solve_done_ = false;
   Log("solving session " + std::to_string(solve_session_) + ": " +
       std::to_string(recorder_.figures().frames_with_boards) + " frame pairs, " +
@@ -255,7 +256,11 @@ void Agent::FinishSolve() {
   const CalibrationOutcome& o = outcome_;
   if (!machine_.SolveFinished(solve_session_, o.verdict, o.reason, o.detail)) return;  // stopped
   Log(std::string("verdict ") + VerdictName(o.verdict) +
-      (o.reason.empty() ? "" : " (" + o.reason + ")") + ": " + o.detail);
+      (o.reason.empty() ? "" : " (" + o.reason + ")") + ": " + o.detail + "; solved in " +
+      std::to_string(static_cast<int>((MonotonicUs() - solve_started_us_) / 1000)) +
+      " ms (grid search " + std::to_string(static_cast<int>(o.grid.search_ms)) + ", optimisation " +
+      std::to_string(static_cast<int>(o.optimise_ms)) + ", quality " +
+      std::to_string(static_cast<int>(o.quality_ms)) + ")");
   if (o.verdict == CalibrationOutcome::Verdict::kVerified && store_.current() != nullptr) {
     std::string error;
     if (!store_.MarkVerified(WallUs() / 1000000, &error)) {

@@ -20,12 +20,13 @@ IntakeConfig IntakeConfigFrom(const AgentConfig& config) {
 void SessionRecorder::Init(const AgentConfig& config) {
   image_width_ = config.calib.camera.width;
   image_height_ = config.calib.camera.height;
-  max_frames_ = config.max_frames;
   max_frame_points_ = static_cast<size_t>(config.BoardsPerFrame()) *
                       static_cast<size_t>(config.max_points_per_board);
-  // One drain brings at most every intake slot.
+  // One drain brings at most every intake slot: the store has room for that beyond max_frames,
+  // so that a session of up to max_frames pairs is never thinned.
   headroom_frames_ = config.intake_queue_capacity + 1;
-  session_.Reserve(config.max_frames, config.BoardsPerFrame(), config.max_points_per_board);
+  max_frames_ = config.max_frames + headroom_frames_;
+  session_.Reserve(max_frames_, config.BoardsPerFrame(), config.max_points_per_board);
   Clear();
 }
 

@@ -99,6 +99,7 @@ class Agent {
   std::thread solver_;
   std::atomic<bool> solve_done_{false};
   int solve_session_ = 0;
+  int64_t solve_started_us_ = 0;  ///< when the last solve started (monotonic)
   CalibrationOutcome outcome_;
   bool has_outcome_ = false;
   bool result_published_ = false;
