@@ -10,7 +10,7 @@ if [ $# -lt 2 ]; then
   echo "usage: $0 BINARY SHARED_DIR [TIMEOUT_S] [-- GTEST_ARGS...]" >&2
   exit 2
 fi
-binary=$1 shared=$2 timeout=${3:-300}
+binary=$(realpath "$1") shared=$2 timeout=${3:-300}
 shift 2
 [ $# -gt 0 ] && [ "$1" != "--" ] && shift
 [ "${1:-}" = "--" ] && shift
@@ -23,7 +23,7 @@ job=$shared/gtest-job.sh
 {
   echo '#!/bin/bash'
   printf 'exec %q --gtest_color=no' "$binary"
-  printf ' %q' "$@"
+  [ $# -gt 0 ] && printf ' %q' "$@"
   echo
 } >"$job"
 exec "$here/vm_run.sh" "$job" "$shared" "$timeout"
