@@ -179,8 +179,7 @@ void TransportBase::TickBase(int64_t now_us) {
     if (socket->fd() < 0 || ::getsockopt(socket->fd(), SOL_SOCKET, SO_ERROR, &err, &len) != 0 ||
         err == 0)
       continue;
-    if (Fail(err, "pending socket error") == IsoTpIo::kLinkDown) return;
-    ++link_.counters().rx_errors;
+    if (Fail(err, "pending socket error", false) == IsoTpIo::kLinkDown) return;
   }
 }
 
@@ -209,7 +208,7 @@ void TransportBase::TryOpen() {
   link_.Opened();
 }
 
-IsoTpIo TransportBase::Fail(int err, const char* what) {
+IsoTpIo TransportBase::Fail(int err, const char* what, bool sending) {
   if (IsLinkErrno(err)) {
     CloseSockets();
     link_.Lost(
@@ -217,6 +216,13 @@ IsoTpIo TransportBase::Fail(int err, const char* what) {
         "ISO-TP on " + config_.interface + ": " + what + ": " + std::strerror(err));
     return IsoTpIo::kLinkDown;
   }
+  // ECOMM: an earlier transfer of ours got no flow control within N_Bs (1 s); ETIMEDOUT: a
+  // message being received stopped (no consecutive frame within N_Cr, 1 s); EILSEQ: wrong
+  // sequence number; EBADMSG: bad padding or PCI. The link stays up.
+  if (sending || err == ECOMM)
+    ++link_.counters().tx_errors;
+  else
+    ++link_.counters().rx_errors;
   link_.SetError("ISO-TP on " + config_.interface + ": " + what + ": " + std::strerror(err));
   return IsoTpIo::kError;
 }
@@ -236,9 +242,7 @@ IsoTpIo TransportBase::SendOn(IsoTpSocket& socket, const uint8_t* data, size_t s
   }
   const int err = sent < 0 ? errno : EIO;
   if (err == EAGAIN || err == EBUSY) return IsoTpIo::kBusy;
-  const IsoTpIo io = Fail(err, "send");
-  if (io == IsoTpIo::kError) ++link_.counters().tx_errors;
-  return io;
+  return Fail(err, "send", true);
 }
 
 IsoTpIo TransportBase::ReceiveOn(IsoTpSocket& socket, IsoTpMessage* out) {
@@ -247,9 +251,7 @@ IsoTpIo TransportBase::ReceiveOn(IsoTpSocket& socket, IsoTpMessage* out) {
   if (got < 0) {
     const int err = errno;
     if (err == EAGAIN || err == EINTR) return IsoTpIo::kNone;
-    const IsoTpIo io = Fail(err, "recv");
-    if (io == IsoTpIo::kError) ++link_.counters().rx_errors;
-    return io;
+    return Fail(err, "recv", false);
   }
   if (got == 0 || static_cast<size_t>(got) > kIsoTpMaxMessage) {
     ++link_.counters().rx_errors;

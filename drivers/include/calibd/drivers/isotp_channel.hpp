@@ -18,8 +18,10 @@
 ///
 /// Sockets are non-blocking. Send() hands a message to the kernel and returns; the kernel sends
 /// its consecutive frames from a timer, so a second Send() before the first finished reports
-/// kBusy. A transfer that fails afterwards (no flow control within N_Bs) is reported by the
-/// next Send() or Receive() as kError with the kernel's ECOMM text.
+/// kBusy. A transfer that fails afterwards (no flow control within N_Bs = 1 s) is reported by
+/// the next Receive() (or collected by Tick()) as kError with the kernel's ECOMM text and counted
+/// in tx_errors; a message whose reception stops (no consecutive frame within N_Cr = 1 s) as
+/// kError with ETIMEDOUT, counted in rx_errors. Neither takes the link down.
 ///
 /// Link failures (interface down or gone) are handled as can_link.hpp describes: the sockets are
 /// closed, the fds become -1, and Tick(now_us) reopens them with backoff. The poll loop must
@@ -135,8 +137,9 @@ class TransportBase {
   IsoTpIo SendOn(IsoTpSocket& socket, const uint8_t* data, size_t size);
   /// Reads one message from `socket` into buffer_ (non-blocking).
   IsoTpIo ReceiveOn(IsoTpSocket& socket, IsoTpMessage* out);
-  /// Handles errno `err` of a call on an up link: link error -> close all, kLinkDown; else kError.
-  IsoTpIo Fail(int err, const char* what);
+  /// Handles errno `err` of a call on an up link: link error -> close all, kLinkDown; else
+  /// kError, counted as a tx error when `sending` or ECOMM (our transfer failed), else rx.
+  IsoTpIo Fail(int err, const char* what, bool sending);
   void CloseSockets();
   virtual bool OpenSockets(int ifindex, std::string* error, int* err) = 0;
   bool StartBase(const IsoTpConfig& config, int64_t now_us, std::string* error);
