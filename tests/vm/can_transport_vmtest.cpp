@@ -520,6 +520,55 @@ TEST(CanTransportVmTest, RawStatusFrameWithFilter) {
   EXPECT_EQ(rx.status().counters.rx_messages, 2);
 }
 
+TEST(CanTransportVmTest, RawSocketSurvivesInterfaceDownUp) {
+  CanRawConfig tx_config;
+  tx_config.interface = "vcan1";
+  CanRawConfig rx_config = tx_config;
+  rx_config.filters[0] = {0x3A0, 0x7FF, false};
+  rx_config.num_filters = 1;
+  CanRawSocket tx;
+  CanRawSocket rx;
+  std::string error;
+  ASSERT_TRUE(tx.Start(tx_config, NowUs(), &error)) << error;
+  ASSERT_TRUE(rx.Start(rx_config, NowUs(), &error)) << error;
+  ASSERT_EQ(tx.status().state, CanLinkState::kUp) << tx.status().last_error;
+  ASSERT_EQ(std::system("ip link set vcan1 down"), 0);
+  // The sender finds out from Tick() alone (SO_ERROR), the receiver from Receive().
+  tx.Tick(NowUs());
+  EXPECT_EQ(tx.status().state, CanLinkState::kDown) << tx.status().last_error;
+  EXPECT_EQ(tx.fd(), -1);
+  CanFrame frame;
+  EXPECT_EQ(rx.Receive(&frame), CanIo::kLinkDown);
+  EXPECT_EQ(rx.status().state, CanLinkState::kDown);
+  const uint8_t status[8] = {1, 2, 3, 4, 5, 6, 7, 8};
+  EXPECT_EQ(tx.Send(0x3A0, false, status, 8), CanIo::kLinkDown);
+  const int64_t t0 = NowUs();
+  while (NowUs() - t0 < 400000) {
+    tx.Tick(NowUs());
+    rx.Tick(NowUs());
+    ::usleep(10000);
+  }
+  EXPECT_EQ(tx.status().state, CanLinkState::kDown);
+  EXPECT_EQ(tx.status().counters.reopen_attempts, 2);  // +100 ms, +300 ms
+  ASSERT_EQ(std::system("ip link set vcan1 up"), 0);
+  const int64_t t1 = NowUs();
+  while (NowUs() - t1 < 2000000 &&
+         (tx.status().state != CanLinkState::kUp || rx.status().state != CanLinkState::kUp)) {
+    tx.Tick(NowUs());
+    rx.Tick(NowUs());
+    ::usleep(10000);
+  }
+  ASSERT_EQ(tx.status().state, CanLinkState::kUp);
+  ASSERT_EQ(rx.status().state, CanLinkState::kUp);
+  ASSERT_EQ(tx.Send(0x3A0, false, status, 8), CanIo::kOk);
+  ASSERT_TRUE(WaitReadable(rx.fd(), 1000));
+  ASSERT_EQ(rx.Receive(&frame), CanIo::kOk);
+  EXPECT_EQ(frame.id, 0x3A0u);
+  EXPECT_TRUE(std::equal(status, status + 8, frame.data.begin()));
+  EXPECT_EQ(tx.status().counters.link_losses, 1);
+  EXPECT_EQ(tx.status().counters.reopens, 1);
+}
+
 TEST(CanTransportVmTest, InjectedBusOffErrorFrameIsReported) {
   // vcan has no controller to go bus-off; a raw socket can send a frame with CAN_ERR_FLAG set,
   // which vcan loops back to the sockets whose error mask matches.

@@ -3,7 +3,8 @@
 /// Raw SocketCAN (CAN_RAW) socket for classic frames: the cyclic status frame (send), receive
 /// filters (tests, monitoring) and the controller's error frames (CAN_RAW_ERR_FILTER), which is
 /// how a bus-off becomes visible to the agent. Link loss and reopening as can_link.hpp describes.
-/// No <linux/can*> type appears here; nothing allocates per frame.
+/// No <linux/can*> type appears here; nothing allocates per data frame (an error frame or a link
+/// loss formats status().last_error).
 
 #include <array>
 #include <cstddef>

@@ -27,6 +27,10 @@
 /// closed, the fds become -1, and Tick(now_us) reopens them with backoff. The poll loop must
 /// therefore read physical_fd()/functional_fd() afresh on every iteration.
 ///
+/// Bus-off: ISO-TP sockets receive no error frames; the agent sees a bus-off on its CanRawSocket
+/// (status frame, error_frames on). Meanwhile ISO-TP sends fail (ENOBUFS: kError) or time out
+/// (ECOMM); the link stays up.
+///
 /// Memory: one fixed kIsoTpMaxMessage-byte receive buffer per transport, allocated at
 /// construction; Send/Receive/Tick allocate nothing while the link is up (a link loss formats an
 /// error string).
@@ -130,6 +134,7 @@ namespace isotp_detail {
 /// Shared by the two transports: the link supervision and the receive buffer.
 class TransportBase {
  public:
+  virtual ~TransportBase() = default;
   const CanLinkStatus& status() const { return link_.status(); }
   const IsoTpConfig& config() const { return config_; }
 
@@ -151,9 +156,6 @@ class TransportBase {
   IsoTpSocket physical_;
   IsoTpSocket functional_;
   std::array<uint8_t, kIsoTpMaxMessage + 1> buffer_{};  ///< +1: an over-long message shows
-
- public:
-  virtual ~TransportBase() = default;
 };
 }  // namespace isotp_detail
 
