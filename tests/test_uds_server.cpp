@@ -141,6 +141,7 @@ TEST_F(UdsServerTest, S3TimeoutReturnsToDefaultAbortsAndRelocks) {
   Unlock();
   ASSERT_EQ(Tx({0x31, 0x01, 0xF0, 0xA0, 0x00, 0x00, 0x00}), (Bytes{0x71, 0x01, 0xF0, 0xA0, 0x01}));
   const int aborts = backend_.aborts;
+  EXPECT_EQ(aborts, 0);
   server_->Tick(kT0 + 4 * kS);
   EXPECT_EQ(server_->session(), Session::kExtended);
   EXPECT_EQ(Tx({0x3E, 0x80}, kT0 + 4 * kS), Bytes{}) << "restarts S3";
@@ -167,10 +168,18 @@ TEST_F(UdsServerTest, LeavingOrReenteringExtendedRelocksSecurity) {
   EXPECT_EQ(Tx({0x10, 0x03})[0], 0x50);
   EXPECT_FALSE(server_->security_unlocked());
   Unlock();
-  const int aborts = backend_.aborts;
   EXPECT_EQ(Tx({0x10, 0x01})[0], 0x50);
   EXPECT_FALSE(server_->security_unlocked());
-  EXPECT_EQ(backend_.aborts, aborts + 1) << "entering default aborts a running routine";
+  EXPECT_EQ(backend_.aborts, 0) << "no routine was started in that session";
+  Unlock();
+  ASSERT_EQ(Tx({0x31, 0x01, 0xF0, 0xA0, 0x00, 0x00, 0x00})[0], 0x71);
+  EXPECT_EQ(Tx({0x10, 0x03})[0], 0x50);
+  EXPECT_EQ(backend_.aborts, 0) << "re-entering extended keeps the routine running";
+  EXPECT_EQ(Tx({0x10, 0x01})[0], 0x50);
+  EXPECT_EQ(backend_.aborts, 1) << "entering default aborts the routine";
+  EXPECT_EQ(backend_.snapshot.status, RoutineStatus::kAborted);
+  EXPECT_EQ(Tx({0x10, 0x01})[0], 0x50);
+  EXPECT_EQ(backend_.aborts, 1);
 }
 
 TEST_F(UdsServerTest, EcuResetHardResetOnly) {

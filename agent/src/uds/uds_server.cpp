@@ -61,7 +61,10 @@ void UdsServer::EnterDefaultSession() {
   session_ = Session::kDefault;
   security_.Lock();
   dtcs_.SetEnabled(true);  // §9.9.1: DTC setting off ends with the non-default session
-  backend_->AbortCalibration();
+  // Only a routine this server started: a session started by a start button or over LCM is not
+  // the tester's to end.
+  if (routine_started_in_session_) backend_->AbortCalibration();
+  routine_started_in_session_ = false;
 }
 
 void UdsServer::Tick(int64_t now_us) {
@@ -441,6 +444,7 @@ size_t UdsServer::RoutineControl(const uint8_t* req, size_t size) {
     const Nrc nrc = FromBackend(backend_->StartCalibration(options));
     if (nrc != kNrcNone) return Fail(nrc);
     calibrate_started_ = true;
+    routine_started_in_session_ = true;
     suppress_positive_ = suppress;
     return RoutineReply(req, static_cast<uint8_t>(RoutineStatus::kActive));
   }

@@ -37,8 +37,9 @@ class UdsBackend {
   virtual BackendReply StartCalibration(const CalibrateOptions& options) = 0;
   /// stopRoutine of calibrate/verify.
   virtual BackendReply StopCalibration() = 0;
-  /// The session was ended by the protocol (S3 timeout, change to the default session): abort
-  /// it if one is running, reporting RoutineReason::kSessionEnded. No reply.
+  /// The extended session in which the server started calibrate/verify ended (S3 timeout, change
+  /// to the default session): abort that session if it is still running, reporting
+  /// RoutineReason::kSessionEnded. No reply.
   virtual void AbortCalibration() = 0;
   virtual RoutineSnapshot CalibrationStatus() const = 0;
   /// Commit the last `updated` result to the store.

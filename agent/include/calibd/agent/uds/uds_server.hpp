@@ -29,8 +29,8 @@
 /// sub-function, never a negative one.
 ///
 /// Session rules (§9.2.1): leaving the extended session (for the default one, or re-entering
-/// it) locks security; entering the default session (0x10 01 or S3 expiry) also aborts a running
-/// calibrate/verify routine and turns DTC setting back on.
+/// it) locks security; returning to the default session (0x10 01 or S3 expiry) also aborts a
+/// calibrate/verify routine started in that session and turns DTC setting back on.
 ///
 /// Allocation: answering 0x10, 0x3E, 0x22, 0x19, 0x31 results, and every NRC allocates nothing.
 /// 0x27 sendKey (OpenSSL's HMAC), and requests that write a state file (a failed key, 0x14, a
@@ -111,6 +111,8 @@ class UdsServer {
   /// Routines started since the agent started (results before any start: 0x24), and the
   /// status of the last commit / restore.
   bool calibrate_started_ = false;
+  /// calibrate/verify started in the current extended session: aborted when it ends.
+  bool routine_started_in_session_ = false;
   RoutineStatus commit_status_ = RoutineStatus::kIdle;
   RoutineStatus restore_status_ = RoutineStatus::kIdle;
   std::array<uint8_t, kMaxMessageSize> buffer_{};
