@@ -17,14 +17,7 @@
 namespace calibd::uds {
 namespace {
 
-using calibd::testing::FakeUdsBackend;
-using calibd::testing::Send;
-using calibd::testing::TempDir;
-using Bytes = std::vector<uint8_t>;
-
-constexpr int64_t kS = 1000 * 1000;
-constexpr int64_t kT0 = 100 * kS;
-constexpr int64_t kUnix0 = 1'700'000'000LL * 1000000;
+using namespace calibd::testing::uds_test;  // NOLINT(google-build-using-namespace)
 
 const Bytes kStartCalibrate = {0x31, 0x01, 0xF0, 0xA0, 0x00, 0x00, 0x3C};  // moving, 60 s
 const Bytes kResults = {0x31, 0x03, 0xF0, 0xA0};

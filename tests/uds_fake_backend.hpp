@@ -13,6 +13,7 @@
 #include "calibd/agent/uds/uds_backend.hpp"
 #include "calibd/agent/uds/uds_config.hpp"
 #include "calibd/agent/uds/uds_server.hpp"
+#include "temp_dir.hpp"
 
 namespace calibd::testing {
 
@@ -110,5 +111,16 @@ inline std::vector<uint8_t> Send(uds::UdsServer& server, const std::vector<uint8
   const uds::Response r = server.Handle(request.data(), request.size(), functional, now_us);
   return std::vector<uint8_t>(r.data, r.data + r.size);
 }
+
+/// What every UDS test file uses: `using namespace calibd::testing::uds_test;`.
+namespace uds_test {
+using calibd::testing::FakeUdsBackend;
+using calibd::testing::Send;
+using calibd::testing::TempDir;
+using Bytes = std::vector<uint8_t>;
+inline constexpr int64_t kS = 1000 * 1000;
+inline constexpr int64_t kT0 = 100 * kS;                      ///< monotonic time of the tests
+inline constexpr int64_t kUnix0 = 1'700'000'000LL * 1000000;  ///< wall clock at kT0
+}  // namespace uds_test
 
 }  // namespace calibd::testing

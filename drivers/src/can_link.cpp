@@ -132,6 +132,14 @@ CanLinkState CheckCanInterface(const std::string& name, int* ifindex, int* mtu,
   return state;
 }
 
+bool CanInterfaceNameValid(const std::string& name, std::string* error) {
+  if (!name.empty() && name.size() < IFNAMSIZ) return true;
+  if (error)
+    *error =
+        "interface: \"" + name + "\" must have 1-" + std::to_string(IFNAMSIZ - 1) + " characters";
+  return false;
+}
+
 bool IsLinkErrno(int err) {
   return err == ENETDOWN || err == ENODEV || err == ENXIO || err == ENETUNREACH ||
          err == EADDRNOTAVAIL;

@@ -47,9 +47,7 @@ bool CanRawConfig::IsValid(std::string* error) const {
     if (error) *error = text;
     return false;
   };
-  if (interface.empty() || interface.size() >= IFNAMSIZ)
-    return fail("interface: \"" + interface + "\" must have 1-" + std::to_string(IFNAMSIZ - 1) +
-                " characters");
+  if (!CanInterfaceNameValid(interface, error)) return false;
   if (num_filters > kMaxFilters)
     return fail("num_filters: " + std::to_string(num_filters) + " > " +
                 std::to_string(kMaxFilters));

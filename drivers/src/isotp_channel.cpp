@@ -50,9 +50,7 @@ bool IsoTpConfig::IsValid(std::string* error) const {
     if (error) *error = text;
     return false;
   };
-  if (interface.empty() || interface.size() >= IFNAMSIZ)
-    return fail("interface: \"" + interface + "\" must have 1-" + std::to_string(IFNAMSIZ - 1) +
-                " characters");
+  if (!CanInterfaceNameValid(interface, error)) return false;
   const uint32_t max_id = extended_ids ? CAN_EFF_MASK : CAN_SFF_MASK;
   const char* bits = extended_ids ? "29" : "11";
   const struct {

@@ -120,4 +120,8 @@ CanLinkState CheckCanInterface(const std::string& name, int* ifindex, int* mtu, 
 /// ENETUNREACH, EADDRNOTAVAIL.
 bool IsLinkErrno(int err);
 
+/// A network interface name the kernel accepts (1 to IFNAMSIZ - 1 characters); false with
+/// `error` ("interface: ..." naming it) otherwise.
+bool CanInterfaceNameValid(const std::string& name, std::string* error);
+
 }  // namespace calibd
