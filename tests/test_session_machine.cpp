@@ -9,23 +9,7 @@
 #include <new>
 #include <random>
 
-// Counts every operator new of the process: the steady-state test expects none while collecting.
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  ++g_allocations;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-// These replacements pair with each other, but GCC 12 (-O2, as in the asan preset) inlines the
-// delete into gtest's `new TestClass` sites and warns of a new/free mismatch that is not there.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-#pragma GCC diagnostic pop
+#include "counting_new.hpp"  // counts every operator new of the process
 
 namespace calibd {
 namespace {
@@ -477,7 +461,7 @@ TEST(SessionMachineTest, NoAllocationWhileCollecting) {
   SessionMachine m(TestConfig());
   ASSERT_TRUE(
       m.Start(Request("a requester name longer than the small-string buffer"), kT0).accepted);
-  const long before = g_allocations.load();
+  const long before = calibd::testing::Allocations();
   for (int i = 0; i < 19; ++i) {
     // Guidance changes with every frame: bins and cells fill up, the frame count grows.
     m.FrameRecorded(Figures(i, 2 * i, (1u << (i % 4)) - 1, (1u << (i % 17)) - 1),
@@ -486,7 +470,7 @@ TEST(SessionMachineTest, NoAllocationWhileCollecting) {
     (void)m.guidance();
     (void)m.progress();
   }
-  const long after = g_allocations.load();
+  const long after = calibd::testing::Allocations();
   ASSERT_EQ(m.state(), SessionState::kCollecting);
   EXPECT_EQ(after - before, 0);
 }

@@ -13,21 +13,7 @@
 #include "temp_dir.hpp"
 #include "uds_fake_backend.hpp"
 
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  ++g_allocations;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-// See test_session_machine.cpp: GCC 12 warns of a new/free mismatch that is not there.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-#pragma GCC diagnostic pop
+#include "counting_new.hpp"  // counts every operator new of the process
 
 namespace calibd::uds {
 namespace {
@@ -65,7 +51,7 @@ TEST(UdsServerAllocationTest, RequestsAllocateNothing) {
   for (int warm = 0; warm < 2; ++warm) {
     for (const auto& r : requests) server.Handle(r.data(), r.size(), false, t += 1000);
   }
-  const long before = g_allocations.load();
+  const long before = calibd::testing::Allocations();
   for (int cycle = 0; cycle < 100; ++cycle) {
     for (const auto& r : requests) {
       const Response response = server.Handle(r.data(), r.size(), cycle % 2 == 1, t += 1000);
@@ -73,7 +59,7 @@ TEST(UdsServerAllocationTest, RequestsAllocateNothing) {
     }
     server.Tick(t += 6 * kS);
   }
-  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_EQ(calibd::testing::Allocations() - before, 0);
 }
 
 }  // namespace
