@@ -2,8 +2,8 @@
 # Runs one of our GoogleTest executables inside the test VM (real SocketCAN, can-isotp, gpio-sim):
 #   tests/vm/run_gtest.sh BINARY SHARED_DIR [TIMEOUT_S] [-- GTEST_ARGS...]
 # The binary is built on the host and runs unchanged in the guest (the host's root filesystem is
-# the guest's, see vm_run.sh). Exit code: the test binary's (vm_run.sh's 97/98/99 when the VM
-# itself failed).
+# the guest's, see vm_run.sh), copied into SHARED_DIR first. Exit code: the test binary's
+# (vm_run.sh's 97/98/99 when the VM itself failed).
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 if [ $# -lt 2 ]; then
@@ -19,6 +19,11 @@ shift 2
   exit 2
 }
 mkdir -p "$shared" || exit 2
+# The guest sees the host's root filesystem except /tmp (a fresh tmpfs there), where a build tree
+# may live: the binary runs from the shared folder, which the guest always sees.
+shared=$(cd "$shared" && pwd -P)
+cp -f "$binary" "$shared/" || exit 2
+binary=$shared/$(basename "$binary")
 job=$shared/gtest-job.sh
 {
   echo '#!/bin/bash'
