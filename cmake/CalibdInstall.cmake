@@ -17,7 +17,7 @@ set(CALIBD_UDEV_RULES_DIR "lib/udev/rules.d" CACHE STRING
   "udev rules directory: relative to the install prefix, or absolute")
 
 install(TARGETS calibd-agent RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
-foreach(tool calibd-calibrate calibd-sim)
+foreach(tool calibd-calibrate calibd-sim calibd-tester)
   if(TARGET ${tool})
     install(TARGETS ${tool} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
   endif()
