@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <utility>
+#include <vector>
+
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -301,6 +305,89 @@ TEST(AgentConfigTest, CodeBuiltConfigsAreValidatedToo) {
   version.software_version = "calibd\n1";
   EXPECT_FALSE(version.IsValid(&error));
   EXPECT_EQ(error.rfind("agent.software_version", 0), 0u) << error;
+}
+
+// The workshop diagnostics keys (issue 6): off by default; when on, parsed (hex ids too) into the
+// transport, UDS and GPIO configs, each error naming its key.
+std::string DiagnosticsYaml() {
+  std::string yaml = ReadText(kDefaultConfigPath);
+  const std::string off = "  can:\n    enabled: false\n";
+  const auto at = yaml.find(off);
+  EXPECT_NE(at, std::string::npos);
+  yaml.replace(at, off.size(), "  can:\n    enabled: true\n");
+  return yaml;
+}
+
+TEST(AgentConfigTest, DiagnosticsKeysParse) {
+  AgentConfig c;
+  std::string error;
+  ASSERT_TRUE(LoadAgentConfig(kDefaultConfigPath, &c, &error)) << error;
+  EXPECT_FALSE(c.can_enabled);
+  EXPECT_FALSE(c.gpio.interlock.enabled);
+
+  std::string yaml = DiagnosticsYaml();
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"physical_request_id: 0x7E0", "physical_request_id: 0x18DA10F1"},
+           {"physical_response_id: 0x7E8", "physical_response_id: 0x18DAF110"},
+           {"functional_request_id: 0x7DF", "functional_request_id: 0x18DB33F1"},
+           {"extended_ids: false", "extended_ids: true"},
+           {"st_min: 0 ", "st_min: 0xF5 "},
+           {"lockout_delay_s: 10 ", "lockout_delay_s: 2.5 "},
+           {"s3_ms: 5000 ", "s3_ms: 4000 "},
+           {"    interlock:                  # input: calibration allowed only while asserted\n"
+            "      enabled: false\n      chip: \"\"\n      line: \"\"",
+            "    interlock:\n      enabled: true\n      chip: calibd-sim\n      line: "
+            "interlock"}}) {
+    const auto at = yaml.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    yaml.replace(at, from.size(), to);
+  }
+  ASSERT_TRUE(ParseAgentConfigYaml(yaml, &c, &error)) << error;
+  EXPECT_TRUE(c.can_enabled);
+  EXPECT_EQ(c.isotp.physical_request_id, 0x18DA10F1u);
+  EXPECT_EQ(c.isotp.functional_request_id, 0x18DB33F1u);
+  EXPECT_TRUE(c.isotp.extended_ids);
+  EXPECT_EQ(c.isotp.st_min, 0xF5);
+  EXPECT_EQ(c.isotp.pad_byte, 0xCC);
+  EXPECT_EQ(c.status_frame_id, 0x3C0u);
+  EXPECT_EQ(c.uds.lockout_delay_us, 2500000);
+  EXPECT_EQ(c.uds.s3_us, 4000000);
+  EXPECT_EQ(c.uds.secret_file, "/etc/calibd/uds_secret");
+  EXPECT_TRUE(c.gpio.interlock.enabled);
+  EXPECT_EQ(c.gpio.interlock.chip, "calibd-sim");
+  EXPECT_EQ(c.gpio.start_button_debounce_ms, 30);
+}
+
+TEST(AgentConfigTest, DiagnosticsErrorsNameTheKey) {
+  const std::string base = DiagnosticsYaml();
+  for (const auto& [from, to, key] : std::vector<std::array<std::string, 3>>{
+           {"interface: can0", "interface: a-name-longer-than-ifnamsiz", "agent.can.interface"},
+           {"physical_request_id: 0x7E0", "physical_request_id: 0x800",
+            "agent.can.physical_request_id"},
+           {"status_frame_id: 0x3C0", "status_frame_id: 0x7E8", "agent.can.status_frame_id"},
+           {"status_frame_id: 0x3C0", "status_frame_id: 0x1000", "agent.can.status_frame_id"},
+           {"pad_byte: 0xCC", "pad_byte: lots", "agent.can.pad_byte"},
+           {"can_fd: false", "can_fd: false\n    bitrate: 500000", "agent.can.bitrate"},
+           {"max_key_attempts: 3 ", "max_key_attempts: 0 ", "agent.uds.max_key_attempts"},
+           {"lockout_delay_s: 10 ", "lockout_delay_s: -1 ", "agent.uds.lockout_delay_s"},
+           {"s3_ms: 5000 ", "s3_ms: 10 ", "agent.uds.s3_ms"},
+           {"p2_star_ms: 5000 ", "p2_star_ms: 5005 ", "agent.uds.p2_star_ms"},
+           {"ecu_serial: \"\" ", "ecu_serial: ECU-SERIAL-TOO-LONG-X ", "agent.uds.ecu_serial"},
+           {"start_button_debounce_ms: 30", "start_button_debounce_ms: 5000",
+            "agent.gpio.start_button_debounce_ms"},
+           {"    status_lamp:                # output: idle off, running 1 Hz, success on, "
+            "failure 4 Hz\n      enabled: false",
+            "    status_lamp:\n      enabled: true", "agent.gpio.status_lamp.chip"},
+       }) {
+    std::string yaml = base;
+    const auto at = yaml.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    yaml.replace(at, from.size(), to);
+    AgentConfig c;
+    std::string error;
+    EXPECT_FALSE(ParseAgentConfigYaml(yaml, &c, &error)) << to;
+    EXPECT_EQ(error.rfind(key + ": ", 0), 0u) << to << " -> " << error;
+  }
 }
 
 struct BadCase {

@@ -61,6 +61,41 @@ bool PositiveUpTo(const std::string& key, double v, double hi, std::string* erro
       "must be in (0, " + Num(hi) + "] (got " + Num(v) + ")" + (why.empty() ? "" : ": " + why));
 }
 
+// The issue 6 sections; each struct's own check names the field, prefixed here with its section.
+bool DiagnosticsValid(const AgentConfig& c, std::string* error) {
+  std::string why;
+  if (!c.gpio.IsValid(&why)) {  // already names agent.gpio.<line>.<key>
+    if (error) *error = why;
+    return false;
+  }
+  if (!c.can_enabled) return true;
+  if (!c.isotp.IsValid(&why)) {
+    if (error) *error = "agent.can." + why;
+    return false;
+  }
+  const uint32_t max_id = c.isotp.extended_ids ? 0x1FFFFFFFu : 0x7FFu;
+  if (c.status_frame_id > max_id)
+    return Fail(error, "agent.can.status_frame_id",
+                "must fit " + std::string(c.isotp.extended_ids ? "29" : "11") + " bits (got " +
+                    std::to_string(c.status_frame_id) + ")");
+  for (const uint32_t id :
+       {c.isotp.physical_request_id, c.isotp.physical_response_id, c.isotp.functional_request_id})
+    if (id == c.status_frame_id)
+      return Fail(error, "agent.can.status_frame_id", "must differ from the diagnostic ids");
+  // The file gives these two in s and ms (UdsConfig holds us).
+  if (c.uds.lockout_delay_us < 0 || c.uds.lockout_delay_us > 86400LL * 1000000)
+    return Fail(error, "agent.uds.lockout_delay_s",
+                "must be in [0, 86400] (got " + Num(static_cast<double>(c.uds.lockout_delay_us) * 1e-6) + ")");
+  if (c.uds.s3_us < 100000 || c.uds.s3_us > 60000000)
+    return Fail(error, "agent.uds.s3_ms",
+                "must be in [100, 60000] (got " + std::to_string(c.uds.s3_us / 1000) + ")");
+  if (!c.uds.IsValid(&why)) {  // names uds.<field>
+    if (error) *error = "agent." + why;
+    return false;
+  }
+  return true;
+}
+
 bool AgentKeysValid(const AgentConfig& c, std::string* error) {
   std::string why;
   if (!c.lcm_url.empty() && c.lcm_url.find("://") == std::string::npos)
@@ -119,7 +154,7 @@ bool AgentKeysValid(const AgentConfig& c, std::string* error) {
     if (ch < 0x20 || ch == 0x7f)
       return Fail(error, "agent.software_version", "must not hold control characters");
   }
-  return true;
+  return DiagnosticsValid(c, error);
 }
 
 bool EngineKeysValid(const EngineConfig& e, std::string* error) {
@@ -223,6 +258,10 @@ const char* Expected<int>() {
   return "an integer";
 }
 template <>
+const char* Expected<int64_t>() {
+  return "an integer";
+}
+template <>
 const char* Expected<double>() {
   return "a number";
 }
@@ -289,6 +328,64 @@ class Section {
   std::vector<std::string> known_;
 };
 
+// Reads an unsigned field through int (hex like 0x7E0 works); the range is checked by IsValid.
+template <typename U>
+void ReadUnsigned(Section* s, const char* name, U* value) {
+  int64_t v = static_cast<int64_t>(*value);
+  s->Read(name, &v);
+  *value = static_cast<U>(v < 0 || v > static_cast<int64_t>(UINT32_MAX) ? UINT32_MAX : v);
+}
+
+void ParseGpioLine(Section* gpio, const char* name, GpioLineConfig* line) {
+  Section l = gpio->Child(name);
+  l.Read("enabled", &line->enabled);
+  l.Read("chip", &line->chip);
+  l.Read("line", &line->line);
+  l.Read("active_low", &line->active_low);
+  l.RejectUnknown();
+}
+
+// agent.can, agent.uds, agent.gpio (issue 6).
+void ParseDiagnostics(Section* s, AgentConfig* c) {
+  Section can = s->Child("can");
+  can.Read("enabled", &c->can_enabled);
+  IsoTpConfig& t = c->isotp;
+  can.Read("interface", &t.interface);
+  ReadUnsigned(&can, "physical_request_id", &t.physical_request_id);
+  ReadUnsigned(&can, "physical_response_id", &t.physical_response_id);
+  ReadUnsigned(&can, "functional_request_id", &t.functional_request_id);
+  can.Read("extended_ids", &t.extended_ids);
+  can.Read("padding", &t.padding);
+  ReadUnsigned(&can, "pad_byte", &t.pad_byte);
+  ReadUnsigned(&can, "block_size", &t.block_size);
+  ReadUnsigned(&can, "st_min", &t.st_min);
+  can.Read("can_fd", &t.can_fd);
+  ReadUnsigned(&can, "status_frame_id", &c->status_frame_id);
+  can.RejectUnknown();
+
+  Section uds = s->Child("uds");
+  uds.Read("secret_file", &c->uds.secret_file);
+  uds.Read("state_dir", &c->uds.state_dir);
+  uds.Read("max_key_attempts", &c->uds.max_key_attempts);
+  double lockout_s = static_cast<double>(c->uds.lockout_delay_us) * 1e-6;
+  uds.Read("lockout_delay_s", &lockout_s);
+  c->uds.lockout_delay_us = static_cast<int64_t>(std::llround(lockout_s * 1e6));
+  int s3_ms = static_cast<int>(c->uds.s3_us / 1000);
+  uds.Read("s3_ms", &s3_ms);
+  c->uds.s3_us = int64_t{s3_ms} * 1000;
+  uds.Read("p2_ms", &c->uds.p2_ms);
+  uds.Read("p2_star_ms", &c->uds.p2_star_ms);
+  uds.Read("ecu_serial", &c->uds.ecu_serial);
+  uds.RejectUnknown();
+
+  Section gpio = s->Child("gpio");
+  ParseGpioLine(&gpio, "interlock", &c->gpio.interlock);
+  ParseGpioLine(&gpio, "start_button", &c->gpio.start_button);
+  ParseGpioLine(&gpio, "status_lamp", &c->gpio.status_lamp);
+  gpio.Read("start_button_debounce_ms", &c->gpio.start_button_debounce_ms);
+  gpio.RejectUnknown();
+}
+
 void ParseAgentSection(const YAML::Node& node, AgentConfig* c) {
   Section s(node, "agent");
   s.Read("lcm_url", &c->lcm_url);
@@ -311,6 +408,7 @@ void ParseAgentSection(const YAML::Node& node, AgentConfig* c) {
   s.Read("status_rate_hz", &c->status_rate_hz);
   s.Read("health_rate_hz", &c->health_rate_hz);
   s.Read("software_version", &c->software_version);
+  ParseDiagnostics(&s, c);
   s.RejectUnknown();
 }
 

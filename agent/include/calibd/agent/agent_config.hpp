@@ -15,10 +15,13 @@
 #include <array>
 #include <string>
 
+#include "calibd/agent/uds/uds_config.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/config.hpp"
 #include "calibd/drivers/calibration_store.hpp"
+#include "calibd/drivers/gpio_lines.hpp"
+#include "calibd/drivers/isotp_channel.hpp"
 
 namespace calibd {
 
@@ -89,6 +92,23 @@ struct AgentConfig {
   double health_rate_hz = channels::kHealth.rate_hz;  ///< health_t, always
   /// Reported in health_t; empty: this build's version (see SoftwareVersion()).
   std::string software_version;
+
+  // --- agent: workshop diagnostics (issue 6), all off by default ---
+  /// `agent.can`: UDS on ISO-TP and the cyclic status frame on a SocketCAN interface.
+  bool can_enabled = false;
+  IsoTpConfig isotp;                 ///< interface, ids, padding, BS/STmin, CAN FD
+  uint32_t status_frame_id = 0x3C0;  ///< cyclic status frame (deploy/calibd.dbc), 1 Hz
+  /// `agent.uds`: the diagnostic server (secret file, state directory, timings, ECU serial).
+  uds::UdsConfig uds = DefaultUdsConfig();
+  /// `agent.gpio`: interlock, start button and status lamp, each optional.
+  GpioConfig gpio;
+
+  static uds::UdsConfig DefaultUdsConfig() {
+    uds::UdsConfig u;
+    u.secret_file = "/etc/calibd/uds_secret";
+    u.state_dir = "/var/lib/calibd/uds";
+    return u;
+  }
 
   /// max_boards_per_frame, or when it is 0 the configured boards + 4.
   int BoardsPerFrame() const;
