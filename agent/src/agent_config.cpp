@@ -85,7 +85,8 @@ bool DiagnosticsValid(const AgentConfig& c, std::string* error) {
   // The file gives these two in s and ms (UdsConfig holds us).
   if (c.uds.lockout_delay_us < 0 || c.uds.lockout_delay_us > 86400LL * 1000000)
     return Fail(error, "agent.uds.lockout_delay_s",
-                "must be in [0, 86400] (got " + Num(static_cast<double>(c.uds.lockout_delay_us) * 1e-6) + ")");
+                "must be in [0, 86400] (got " +
+                    Num(static_cast<double>(c.uds.lockout_delay_us) * 1e-6) + ")");
   if (c.uds.s3_us < 100000 || c.uds.s3_us > 60000000)
     return Fail(error, "agent.uds.s3_ms",
                 "must be in [100, 60000] (got " + std::to_string(c.uds.s3_us / 1000) + ")");
