@@ -38,6 +38,7 @@ using testing::FakeUdsBackend;
 using testing::TempDir;
 
 constexpr char kInterface[] = "vcan0";
+constexpr int64_t kSecondUs = 1000 * 1000;
 
 std::string TesterExe() {
   std::error_code ec;
@@ -60,7 +61,7 @@ struct TesterRun {
 };
 
 /// A UdsServer on vcan0 in a thread: poll on the transport's fds, Handle, Send, Tick. The fake
-/// backend's calibration advances 25 % every 100 ms once started and then finishes with
+/// backend's calibration advances 25 % every step_us once started and then finishes with
 /// `final_verdict`. Test code reads the backend and server only after Stop().
 class ServerThread {
  public:
@@ -93,6 +94,7 @@ class ServerThread {
   FakeUdsBackend backend;
   uds::RoutineVerdict final_verdict = uds::RoutineVerdict::kUpdated;
   bool report_lidar_timeout = false;
+  int64_t step_us = 100000;  ///< between the fake calibration's 25 % steps
 
  private:
   void Loop() {
@@ -111,7 +113,7 @@ class ServerThread {
       transport_.Tick(now);
       server_->Tick(now);
       uds::RoutineSnapshot& s = backend.snapshot;
-      if (s.status == uds::RoutineStatus::kActive && now - last_step_us >= 100000) {
+      if (s.status == uds::RoutineStatus::kActive && now - last_step_us >= step_us) {
         last_step_us = now;
         s.progress_percent = static_cast<uint8_t>(std::min(100, s.progress_percent + 25));
         if (s.progress_percent >= 100) {
@@ -234,6 +236,26 @@ TEST_F(UdsTesterVm, RejectedVerdictExitsThree) {
   EXPECT_HAS(r.out, "verdict: rejected\n");
   EXPECT_HAS(r.out, "reason: delta_beyond_tolerance\n");
   EXPECT_EQ(r.err, "");  // --quiet: no progress
+}
+
+TEST_F(UdsTesterVm, StartWithoutWaitingThenStop) {
+  server_->step_us = 60 * kSecondUs;  // stays active until stopped
+  server_->Start();
+  TesterRun r = Tester("--secret " + Secret() + " calibrate --no-wait");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.out, "calibrate started (follow it with: calibd-tester results)\n");
+  r = Tester("results");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_HAS(r.out, "status: active\n");
+  r = Tester("--secret " + Secret() + " stop");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.out, "stopped\n");
+  r = Tester("results");
+  EXPECT_EQ(r.code, 4) << r.err;
+  EXPECT_HAS(r.out, "status: aborted\n");
+  EXPECT_HAS(r.out, "reason: stopped\n");
+  server_->Stop();
+  EXPECT_EQ(server_->backend.stops, 1);
 }
 
 TEST_F(UdsTesterVm, ResultsBeforeAnyStart) {

@@ -23,8 +23,8 @@ bool UdsClient::Open(const IsoTpConfig& config, const ClientTiming& timing, std:
   if (transport_.fd() < 0) {
     const std::string why = transport_.status().last_error;
     *error = "interface " + config.interface + " is not usable" +
-             (why.empty() ? std::string() : ": " + why) + " (is it up? ip link set " +
-             config.interface + " up)";
+             (why.empty() ? std::string() : ": " + why) +
+             " (check that it exists and is up: ip link show " + config.interface + ")";
     return false;
   }
   return true;
