@@ -258,6 +258,25 @@ TEST_F(UdsTesterVm, StartWithoutWaitingThenStop) {
   EXPECT_EQ(server_->backend.stops, 1);
 }
 
+TEST_F(UdsTesterVm, VerifyRestoreReferenceAndWriteVin) {
+  server_->final_verdict = uds::RoutineVerdict::kVerified;
+  server_->Start();
+  TesterRun r = Tester("--secret " + Secret() + " --quiet verify");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_HAS(r.out, "verdict: verified\n");
+  EXPECT_EQ(r.out.find("commit it with"), std::string::npos) << r.out;
+  r = Tester("--secret " + Secret() + " restore-reference");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.out, "restore-reference: success\n");
+  r = Tester("--secret " + Secret() + " write-vin WVWZZZ1KZAW000002");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.out, "VIN written: WVWZZZ1KZAW000002\n");
+  server_->Stop();
+  EXPECT_TRUE(server_->backend.last_options.verify_only);
+  EXPECT_EQ(server_->backend.restores, 1);
+  EXPECT_EQ(server_->backend.written_vin, "WVWZZZ1KZAW000002");
+}
+
 TEST_F(UdsTesterVm, ResultsBeforeAnyStart) {
   server_->Start();
   const TesterRun r = Tester("results");

@@ -3,6 +3,7 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <ostream>
@@ -176,8 +177,10 @@ int Unlock(UdsClient& client, const std::string& secret_file, std::ostream& out,
     err << kPrefix << "HMAC-SHA256 of the seed failed (OpenSSL)\n";
     return kExitFailure;
   }
-  std::vector<uint8_t> send_key = {uds::kSidSecurityAccess, 0x02};
-  send_key.insert(send_key.end(), key, key + uds::kKeySize);
+  std::vector<uint8_t> send_key(2 + uds::kKeySize);
+  send_key[0] = uds::kSidSecurityAccess;
+  send_key[1] = 0x02;
+  std::copy(key, key + uds::kKeySize, send_key.begin() + 2);
   code = Call(client, send_key, err, &reply);
   if (code != kExitOk) return code;
   out << "unlocked\n";
