@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <utility>
 
@@ -130,6 +131,12 @@ CanLinkState CheckCanInterface(const std::string& name, int* ifindex, int* mtu,
   }
   ::close(fd);
   return state;
+}
+
+std::string CanIdText(uint32_t id) {
+  char text[16];
+  std::snprintf(text, sizeof(text), "0x%X", static_cast<unsigned>(id));
+  return text;
 }
 
 bool CanInterfaceNameValid(const std::string& name, std::string* error) {

@@ -14,15 +14,6 @@
 #include <ctime>
 
 namespace calibd {
-namespace {
-
-std::string Hex(uint32_t id) {
-  char text[16];
-  std::snprintf(text, sizeof(text), "0x%X", static_cast<unsigned>(id));
-  return text;
-}
-
-}  // namespace
 
 const char* ToString(CanIo io) {
   switch (io) {
@@ -54,9 +45,9 @@ bool CanRawConfig::IsValid(std::string* error) const {
   for (size_t i = 0; i < num_filters; ++i) {
     const uint32_t max = filters[i].extended ? CAN_EFF_MASK : CAN_SFF_MASK;
     if (filters[i].id > max || filters[i].mask > max)
-      return fail("filters[" + std::to_string(i) + "]: id " + Hex(filters[i].id) + " / mask " +
-                  Hex(filters[i].mask) + " beyond " + (filters[i].extended ? "29" : "11") +
-                  " bits");
+      return fail("filters[" + std::to_string(i) + "]: id " + CanIdText(filters[i].id) +
+                  " / mask " + CanIdText(filters[i].mask) + " beyond " +
+                  (filters[i].extended ? "29" : "11") + " bits");
   }
   std::string reopen_error;
   if (!reopen.IsValid(&reopen_error)) return fail(reopen_error);
@@ -117,7 +108,7 @@ std::string Describe(const CanErrorFrame& e) {
   if (e.has_counters)
     text += " (tx errors " + std::to_string(e.tx_error_count) + ", rx errors " +
             std::to_string(e.rx_error_count) + ")";
-  if (text.empty()) text = "error frame " + Hex(e.classes);
+  if (text.empty()) text = "error frame " + CanIdText(e.classes);
   return text;
 }
 
@@ -217,7 +208,7 @@ CanIo CanRawSocket::Send(uint32_t id, bool extended, const uint8_t* data, size_t
   if (fd_ < 0) return CanIo::kLinkDown;
   if (id > (extended ? CAN_EFF_MASK : CAN_SFF_MASK) || len > CAN_MAX_DLEN) {
     ++link_.counters().tx_errors;
-    link_.SetError("raw CAN send: id " + Hex(id) + " or length " + std::to_string(len) +
+    link_.SetError("raw CAN send: id " + CanIdText(id) + " or length " + std::to_string(len) +
                    " out of range");
     return CanIo::kError;
   }

@@ -13,12 +13,6 @@
 namespace calibd {
 namespace {
 
-std::string Hex(uint32_t id) {
-  char text[16];
-  std::snprintf(text, sizeof(text), "0x%X", static_cast<unsigned>(id));
-  return text;
-}
-
 bool ValidStMin(uint8_t st_min) { return st_min <= 0x7F || (st_min >= 0xF1 && st_min <= 0xF9); }
 
 bool ValidFdTxDl(uint8_t dl) {
@@ -61,15 +55,17 @@ bool IsoTpConfig::IsValid(std::string* error) const {
              {"functional_request_id", functional_request_id}};
   for (const auto& id : ids)
     if (id.id > max_id)
-      return fail(std::string(id.key) + ": " + Hex(id.id) + " does not fit in " + bits + " bits");
+      return fail(std::string(id.key) + ": " + CanIdText(id.id) + " does not fit in " + bits +
+                  " bits");
   if (physical_request_id == physical_response_id ||
       functional_request_id == physical_response_id || functional_request_id == physical_request_id)
     return fail(
         "physical_request_id, physical_response_id and functional_request_id must differ (" +
-        Hex(physical_request_id) + ", " + Hex(physical_response_id) + ", " +
-        Hex(functional_request_id) + ")");
+        CanIdText(physical_request_id) + ", " + CanIdText(physical_response_id) + ", " +
+        CanIdText(functional_request_id) + ")");
   if (!ValidStMin(st_min))
-    return fail("st_min: " + Hex(st_min) + " is reserved (0x00-0x7F ms or 0xF1-0xF9 100-900 us)");
+    return fail("st_min: " + CanIdText(st_min) +
+                " is reserved (0x00-0x7F ms or 0xF1-0xF9 100-900 us)");
   if (can_fd && !ValidFdTxDl(fd_tx_dl))
     return fail("fd_tx_dl: " + std::to_string(fd_tx_dl) +
                 " is not a CAN FD length (8, 12, 16, 20, 24, 32, 48, 64)");
@@ -93,8 +89,8 @@ bool IsoTpSocket::Open(const IsoTpConfig& config, int ifindex, uint32_t tx_id, u
   auto fail = [&](const char* what) {
     *err = errno;
     if (error)
-      *error = "ISO-TP socket " + Hex(tx_id) + "/" + Hex(rx_id) + " on " + config.interface + ": " +
-               what + ": " + std::strerror(*err);
+      *error = "ISO-TP socket " + CanIdText(tx_id) + "/" + CanIdText(rx_id) + " on " +
+               config.interface + ": " + what + ": " + std::strerror(*err);
     Close();
     return false;
   };

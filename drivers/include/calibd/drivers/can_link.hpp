@@ -124,4 +124,7 @@ bool IsLinkErrno(int err);
 /// `error` ("interface: ..." naming it) otherwise.
 bool CanInterfaceNameValid(const std::string& name, std::string* error);
 
+/// A CAN id as the error texts write it: "0x7E0".
+std::string CanIdText(uint32_t id);
+
 }  // namespace calibd
