@@ -6,6 +6,7 @@
 #include <string>
 
 #include "calibd/agent/agent.hpp"
+#include "calibd/agent/heap_reserve.hpp"
 
 namespace {
 
@@ -66,6 +67,13 @@ int main(int argc, char** argv) {
   if (!calibd::LoadAgentConfig(config_path, &config, &error)) {
     std::cerr << "calibd-agent: " << error << "\n";
     return 2;
+  }
+  if (config.solve_heap_mb > 0) {
+    const auto heap = calibd::ReserveHeap(static_cast<std::size_t>(config.solve_heap_mb) << 20);
+    if (!options.quiet)
+      std::cerr << "calibd-agent: " << (heap.reserved >> 20) << " MB of heap reserved for the solve"
+                << (heap.policy_set ? "" : " (glibc refused part of the heap policy)") << " in "
+                << static_cast<int>(heap.ms) << " ms\n";
   }
   calibd::Agent agent(config);
   if (!agent.Init(options, &error)) {

@@ -39,6 +39,7 @@ void ExpectAgentAndEngineDefaults(const AgentConfig& c) {
   EXPECT_EQ(c.BoardsPerFrame(), static_cast<int>(c.calib.boards.size()) + 4);
   EXPECT_EQ(c.max_points_per_board, 4096);
   EXPECT_EQ(c.intake_queue_capacity, 4);
+  EXPECT_EQ(c.solve_heap_mb, 32);
   EXPECT_EQ(c.max_duration_s, 120.0);
   EXPECT_EQ(c.target_frames, 200);
   EXPECT_EQ(c.min_frames, d.min_frames);
@@ -149,6 +150,7 @@ agent:
   max_boards_per_frame: 5
   max_points_per_board: 1024
   intake_queue_capacity: 8
+  solve_heap_mb: 0
   max_duration_s: 45.5
   target_frames: 250
   min_frames: 40
@@ -193,6 +195,7 @@ engine:
   EXPECT_EQ(c.BoardsPerFrame(), 5);
   EXPECT_EQ(c.max_points_per_board, 1024);
   EXPECT_EQ(c.intake_queue_capacity, 8);
+  EXPECT_EQ(c.solve_heap_mb, 0);
   EXPECT_EQ(c.max_duration_s, 45.5);
   EXPECT_EQ(c.target_frames, 250);
   EXPECT_EQ(c.min_frames, 40);
@@ -421,6 +424,7 @@ INSTANTIATE_TEST_SUITE_P(
                 "agent.max_points_per_board"},
         BadCase{"intake_queue_capacity: 4\n", "intake_queue_capacity: 0\n",
                 "agent.intake_queue_capacity"},
+        BadCase{"solve_heap_mb: 32\n", "solve_heap_mb: 4096\n", "agent.solve_heap_mb"},
         BadCase{"max_duration_s: 120\n", "max_duration_s: 0\n", "agent.max_duration_s"},
         BadCase{"  min_frames: 50\n", "  min_frames: 5\n", "agent.min_frames"},
         BadCase{"min_distance_bins: 3\n", "min_distance_bins: 5\n", "agent.min_distance_bins"},

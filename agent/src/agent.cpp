@@ -116,6 +116,8 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
   else
     Log("no stored calibration: the config's prior is used");
 
+  if (!wake_.Open(error)) return false;
+  intake_.SetReadyEvent(&wake_);
   if (!intake_.Init(IntakeConfigFrom(config_), config_.calib, error)) return false;
 
   LidarKind kind;
@@ -247,6 +249,7 @@ void Agent::StartSolve() {
   solver_ = std::thread([this, calib] {
     outcome_ = Calibrate(calib, recorder_.session(), projection_, config_.engine);
     solve_done_ = true;
+    wake_.Signal();
   });
 }
 
@@ -485,9 +488,11 @@ int Agent::Run() {
     // A replay waits for the detectors instead of dropping frames: its bus is not polled while
     // the intake is full. A live stream is always read (the intake drops and counts instead).
     const bool read_bus = !end_of_log_ && !(replay && intake_.Full());
-    pollfd fds[3] = {
-        {signal_fd.fd, POLLIN, 0}, {timer_fd.fd, POLLIN, 0}, {bus_.fileno(), POLLIN, 0}};
-    const int n = ::poll(fds, read_bus ? 3 : 2, read_bus ? -1 : kTickMs);
+    pollfd fds[4] = {{signal_fd.fd, POLLIN, 0},
+                     {timer_fd.fd, POLLIN, 0},
+                     {wake_.fd(), POLLIN, 0},
+                     {bus_.fileno(), POLLIN, 0}};
+    const int n = ::poll(fds, read_bus ? 4 : 3, read_bus ? -1 : kTickMs);
     if (n < 0 && errno != EINTR) {
       Log(std::string("poll: ") + std::strerror(errno));
       return 1;
@@ -509,7 +514,8 @@ int Agent::Run() {
         last_ping_us = now_us;
       }
     }
-    if (read_bus && (fds[2].revents & POLLIN)) {
+    if (fds[2].revents & POLLIN) wake_.Clear();
+    if (read_bus && (fds[3].revents & POLLIN)) {
       // A replay hands over one message at a time so that Full() is looked at between frames.
       if (bus_.Handle(0, replay ? 1 : 64) < 0) {
         if (!bus_.end_of_log()) {

@@ -258,11 +258,14 @@ void FrameIntake::Worker(bool camera) {
       if (slot->lidar_ok) lidar_detector_->Detect(cloud, &slot->lidar_detections);
       slot->lidar_ms = MsSince(t0);
     }
+    bool ready = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       (camera ? slot->camera_done : slot->lidar_done) = true;
-      if (slot->camera_done && slot->lidar_done) slot->state = SlotState::kDone;
+      ready = slot->camera_done && slot->lidar_done;
+      if (ready) slot->state = SlotState::kDone;
     }
+    if (ready && ready_event_ != nullptr) ready_event_->Signal();
   }
 }
 

@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -10,6 +11,7 @@
 #include <random>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include "calibd/core/board_fit.hpp"
 #include "calibd/core/stats.hpp"
@@ -41,20 +43,34 @@ std::string Fmt(double v, int precision = 3) {
 }
 
 // Paper Table I metric over all observations: mean and p95 of the fitted corners' pixel errors.
-void ReprojectionFigures(const CalibConfig& config, const ObservationSet& set, const Pose& T_cl,
-                         const DirectOptimizerConfig& direct, QualityFigures* q) {
-  const CameraModel camera(config.camera);
-  std::vector<double> errors;
+// Paper Table I errors of observations [begin, end) of `set` into errors_px[4k .. 4k+3] (NaN
+// where a corner has none). `T_camera_board_start` (one per observation, or empty): where each
+// board's fit starts.
+void ReprojectionErrors(const CalibConfig& config, const CameraModel& camera,
+                        const ObservationSet& set, const Pose& T_cl,
+                        const DirectOptimizerConfig& direct,
+                        const std::vector<Pose>& T_camera_board_start, size_t begin, size_t end,
+                        double* errors_px) {
+  const bool warm = T_camera_board_start.size() == set.observations.size();
   std::array<Eigen::Vector2d, 4> px;
-  for (const auto& o : set.observations) {
-    if (!FittedTagCornersPx(camera, config.boards, set, o, T_cl, direct, &px)) continue;
+  for (size_t k = begin; k < end; ++k) {
+    const BoardObservation& o = set.observations[k];
+    const bool fitted = FittedTagCornersPx(camera, config.boards, set, o, T_cl, direct, &px,
+                                           warm ? &T_camera_board_start[k] : nullptr);
     for (int c = 0; c < 4; ++c)
-      if (px[c].allFinite()) errors.push_back((px[c] - o.corners_px[c]).norm());
+      errors_px[4 * k + c] = fitted && px[c].allFinite() ? (px[c] - o.corners_px[c]).norm()
+                                                         : std::numeric_limits<double>::quiet_NaN();
   }
-  if (errors.empty()) return;
-  q->reprojection_mean_px =
-      std::accumulate(errors.begin(), errors.end(), 0.0) / static_cast<double>(errors.size());
-  q->reprojection_p95_px = Quantile(errors, 0.95);
+}
+
+void ReprojectionFigures(std::vector<double> errors_px, QualityFigures* q) {
+  errors_px.erase(
+      std::remove_if(errors_px.begin(), errors_px.end(), [](double e) { return std::isnan(e); }),
+      errors_px.end());
+  if (errors_px.empty()) return;
+  q->reprojection_mean_px = std::accumulate(errors_px.begin(), errors_px.end(), 0.0) /
+                            static_cast<double>(errors_px.size());
+  q->reprojection_p95_px = Quantile(errors_px, 0.95);
 }
 
 void CoverageFigures(const CalibConfig& config, const ObservationSet& set, QualityFigures* q) {
@@ -102,11 +118,13 @@ void FormalSigmas(const Eigen::Matrix<double, 6, 6>& info, double residual_rms, 
 
 bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeometry>& boards,
                         const ObservationSet& set, const BoardObservation& o, const Pose& T_cl,
-                        const DirectOptimizerConfig& direct, std::array<Eigen::Vector2d, 4>* px) {
+                        const DirectOptimizerConfig& direct, std::array<Eigen::Vector2d, 4>* px,
+                        const Pose* T_camera_board_start) {
   const BoardGeometry& g = boards[o.board_index];
-  const BoardFitResult fit = FitBoardPose(set.points.data() + o.first_point, o.num_points,
-                                          g.width_m / 2.0, g.height_m / 2.0, direct.alpha_m,
-                                          direct.huber_m, T_cl.inverse() * o.T_camera_board);
+  const Pose& start = T_camera_board_start ? *T_camera_board_start : o.T_camera_board;
+  const BoardFitResult fit =
+      FitBoardPose(set.points.data() + o.first_point, o.num_points, g.width_m / 2.0,
+                   g.height_m / 2.0, direct.alpha_m, direct.huber_m, T_cl.inverse() * start);
   if (!fit.usable) return false;
   const auto corners = g.TagCornersInBoard();
   for (int c = 0; c < 4; ++c) {
@@ -210,23 +228,53 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     const double top = es.eigenvalues()(5);
     q.plane_conditioning = top > 0.0 ? std::max(0.0, es.eigenvalues()(0)) / top : 0.0;
   }
-  ReprojectionFigures(config, corr, out.T_camera_lidar, engine.direct, &q);
-  if (engine.stability_runs > 0) {
-    // Re-solve on random halves (deterministic seed) from the full solution.
-    std::mt19937_64 rng(12345);
-    std::vector<char> use(corr.observations.size());
-    for (int run = 0; run < engine.stability_runs; ++run) {
-      for (auto& u : use) u = static_cast<char>(rng() & 1u);
-      const DirectResult half = OptimizeDirect(config.boards, corr, out.T_camera_lidar,
-                                               engine.direct, &use, true, &camera);
-      if (!half.usable) continue;
-      q.rotation_spread_deg = std::max(
-          q.rotation_spread_deg,
-          RotationAngle(half.T_camera_lidar.linear(), out.T_camera_lidar.linear()) * kRad2Deg);
-      q.translation_spread_m =
-          std::max(q.translation_spread_m,
-                   (half.T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm());
+  // The reprojection errors (each board fitted alone, started from its refined pose) and the
+  // stability re-solves are independent tasks, shared out over the solver's threads.
+  const int runs = std::max(0, engine.stability_runs);
+  std::mt19937_64 rng(12345);
+  std::vector<std::vector<char>> use(runs, std::vector<char>(corr.observations.size()));
+  for (auto& u : use)
+    for (auto& b : u) b = static_cast<char>(rng() & 1u);
+  std::vector<DirectResult> half(runs);
+  DirectOptimizerConfig one = engine.direct;
+  one.threads = 1;
+  // Re-solves on random halves need the spread of the extrinsic over board subsets, not every
+  // point of each board: half the points do.
+  one.max_points_per_observation = std::max(3, one.max_points_per_observation / 2);
+  const int threads = std::max(1, engine.direct.threads);
+  const size_t n = corr.observations.size();
+  const int chunks = 4 * threads;
+  std::vector<double> errors_px(4 * n);
+  std::atomic<int> next{0};
+  // Tasks [0, runs): re-solves on random halves (deterministic seed) from the full solution with
+  // its board poses held, i.e. how far the extrinsic moves when half the boards are left out;
+  // tasks [runs, runs + chunks): reprojection errors of a slice of the observations.
+  auto work = [&] {
+    for (int task = next++; task < runs + chunks; task = next++) {
+      if (task < runs) {
+        half[task] = ResolveWithHeldBoards(config.boards, corr, out.T_camera_lidar, one,
+                                           direct.T_camera_board, &use[task]);
+      } else {
+        const size_t c = static_cast<size_t>(task - runs);
+        ReprojectionErrors(config, camera, corr, out.T_camera_lidar, engine.direct,
+                           direct.T_camera_board, n * c / chunks, n * (c + 1) / chunks,
+                           errors_px.data());
+      }
     }
+  };
+  std::vector<std::thread> workers;
+  for (int t = 1; t < threads; ++t) workers.emplace_back(work);
+  work();
+  for (auto& w : workers) w.join();
+  ReprojectionFigures(std::move(errors_px), &q);
+  for (const DirectResult& h : half) {
+    if (!h.usable) continue;
+    q.rotation_spread_deg =
+        std::max(q.rotation_spread_deg,
+                 RotationAngle(h.T_camera_lidar.linear(), out.T_camera_lidar.linear()) * kRad2Deg);
+    q.translation_spread_m =
+        std::max(q.translation_spread_m,
+                 (h.T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm());
   }
   out.quality_ms = Ms(t_q);
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <memory>
 #include <thread>
+#include <utility>
 
 #include "calibd/core/board_box_joint_cost.hpp"
 #include "calibd/core/box_cost.hpp"
@@ -110,12 +111,20 @@ bool DirectOptimizerConfig::IsValid(std::string* error) const {
   return true;
 }
 
+// What a solve with the board poses held is for.
+enum class HeldSolve {
+  kRound,    ///< a few steps between board-pose refinements, half the points
+  kFinal,    ///< to convergence, then residual statistics and information
+  kResolve,  ///< to convergence, no statistics (stability re-solves)
+};
+
 // Paper Eq. 4 with the board poses held: solves (or only evaluates) T_camera_lidar from `T_start`
-// and fills `result` with the solution, the residual statistics and the information.
+// and fills `result` with the solution and, for kFinal, the residual statistics and the
+// information.
 void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
                          const std::vector<char>* use, const DirectOptimizerConfig& config,
                          const std::vector<Pose>& T_camera_board, const Pose& T_start, bool solve,
-                         bool statistics, DirectResult* out) {
+                         HeldSolve mode, DirectResult* out) {
   DirectResult& result = *out;
   result.T_camera_lidar = T_start;
   result.observations = result.points = 0;
@@ -130,7 +139,8 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
   problem.AddParameterBlock(params, 7, new PoseManifold);
 
   // A solve between board-pose refinements only steers the alternation: half the points do.
-  const int points_per_observation = statistics
+  const bool statistics = mode == HeldSolve::kFinal;
+  const int points_per_observation = mode != HeldSolve::kRound
                                          ? config.max_points_per_observation
                                          : std::max(3, config.max_points_per_observation / 2);
   std::vector<const BoardBoxCost*> costs;
@@ -151,7 +161,7 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
   ceres::Solver::Options options = SolverOptions(config);
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // 6 unknowns, many residuals
   // and a few steps towards the joint optimum; the final solve converges fully.
-  if (!statistics) options.max_num_iterations = config.round_iterations;
+  if (mode == HeldSolve::kRound) options.max_num_iterations = config.round_iterations;
   if (solve) {
     ceres::Solver::Summary summary;
     ceres::Solve(options, &problem, &summary);
@@ -160,7 +170,7 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
     result.final_cost = summary.final_cost;
     result.T_camera_lidar = PoseFromParameters(params);
     result.usable = summary.IsSolutionUsable() &&
-                    (summary.termination_type == ceres::CONVERGENCE || !statistics);
+                    (summary.termination_type == ceres::CONVERGENCE || mode == HeldSolve::kRound);
     if (!result.usable) result.reason = "solver: " + summary.message;
   } else {
     result.usable = true;
@@ -173,15 +183,25 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
     for (int i = 0; i < c->num_used_points(); ++i)
       sum_sq += c->PointResidual(result.T_camera_lidar, i).squaredNorm();
   result.residual_rms_m = std::sqrt(sum_sq / std::max(1, result.points));
-  ceres::CRSMatrix jacobian;
-  problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &jacobian);
-  for (int row = 0; row < jacobian.num_rows; ++row) {
-    Eigen::Matrix<double, 1, 6> j = Eigen::Matrix<double, 1, 6>::Zero();
-    for (int k = jacobian.rows[row]; k < jacobian.rows[row + 1]; ++k)
-      j[jacobian.cols[k]] = jacobian.values[k];
-    result.information.noalias() += j.transpose() * j;
-    // Every residual block holds (x, y, z) triples, so row % 3 == 2 is a board-plane row.
-    if (row % 3 == 2) result.plane_information.noalias() += j.transpose() * j;
+  // Each cost's Jacobian in the tangent space is its ambient Jacobian's first 6 columns
+  // (pose_manifold.hpp), so the costs are evaluated directly, without assembling the problem's
+  // sparse Jacobian.
+  std::vector<double> residuals, jacobian;
+  double at[7];
+  PoseToParameters(result.T_camera_lidar, at);
+  const double* parameter_blocks[1] = {at};
+  for (const BoardBoxCost* c : costs) {
+    const size_t rows = static_cast<size_t>(c->num_residuals());
+    residuals.resize(rows);
+    jacobian.resize(rows * 7);
+    double* jacobians[1] = {jacobian.data()};
+    if (!c->Evaluate(parameter_blocks, residuals.data(), jacobians)) continue;
+    for (size_t row = 0; row < rows; ++row) {
+      const Eigen::Map<const Eigen::Matrix<double, 1, 6>> j(jacobian.data() + 7 * row);
+      result.information.noalias() += j.transpose() * j;
+      // Every residual block holds (x, y, z) triples, so row % 3 == 2 is a board-plane row.
+      if (row % 3 == 2) result.plane_information.noalias() += j.transpose() * j;
+    }
   }
   result.min_information_eigenvalue =
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(result.information)
@@ -216,7 +236,8 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
     // Alternation: extrinsic with the board poses held, then each board's pose with the
     // extrinsic held; the final solve below starts from the last extrinsic.
     for (int round = 0; round < config.refine_rounds; ++round) {
-      SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start, true, false, &result);
+      SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start, true,
+                          HeldSolve::kRound, &result);
       if (!result.usable) return result;
       T_start = result.T_camera_lidar;
       const size_t n = set.observations.size();
@@ -242,7 +263,39 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
     result.board_rotation_change_deg /= std::max(1, result.refined_boards);
     result.board_translation_change_m /= std::max(1, result.refined_boards);
   }
-  SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start, solve, true, &result);
+  SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start, solve, HeldSolve::kFinal,
+                      &result);
+  result.T_camera_board = std::move(T_camera_board);
+  result.solve_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return result;
+}
+
+DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
+                                   const ObservationSet& set, const Pose& T_init,
+                                   const DirectOptimizerConfig& config,
+                                   const std::vector<Pose>& T_camera_board,
+                                   const std::vector<char>* use) {
+  const auto t0 = std::chrono::steady_clock::now();
+  DirectResult result;
+  result.T_camera_lidar = T_init;
+  std::string why;
+  if (!config.IsValid(&why)) {
+    result.reason = "config: " + why;
+    return result;
+  }
+  if (T_camera_board.size() != set.observations.size()) {
+    result.reason = "one board pose per observation needed";
+    return result;
+  }
+  bool any = false;
+  for (size_t k = 0; k < set.observations.size() && !any; ++k) any = Used(boards, set, use, k);
+  if (!any) {
+    result.reason = "no board observations with LiDAR points";
+    return result;
+  }
+  SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_init, true, HeldSolve::kResolve,
+                      &result);
   result.solve_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return result;

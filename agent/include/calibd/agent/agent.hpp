@@ -89,6 +89,10 @@ class Agent {
   LcmBus bus_;
   LcmBus out_bus_;               ///< opened for AgentOptions::publish_url
   LcmBus* publisher_ = nullptr;  ///< bus_, out_bus_, or null (replay without publish_url)
+  /// Signalled by the solve thread and the intake's workers when they have something for the
+  /// poll loop (a finished solve, a pair to drain): it reacts at once, not at its next tick.
+  /// Declared before intake_ so that it outlives the intake's workers.
+  WakeEvent wake_;
   FrameIntake intake_;
   SessionMachine machine_;
   CalibrationStore store_;

@@ -61,6 +61,10 @@ struct AgentConfig {
   /// Frame pairs waiting for or in detection (one camera and one LiDAR detection thread); when
   /// all are taken, the newest pair is dropped and counted (agent/frame_intake.hpp).
   int intake_queue_capacity = 4;
+  /// Heap for the solve's scratch (Ceres' Jacobians and workspaces), MB, faulted in at start-up
+  /// and kept (agent/heap_reserve.hpp), so the solve after the last frame does not page-fault;
+  /// 0: glibc's default heap policy. A 200-pair solve touches about 27 MB.
+  int solve_heap_mb = 32;
 
   // --- agent: collection (one session) ---
   /// Collection time limit, s, unless the request sets its own (calibration_request_t

@@ -32,6 +32,7 @@
 #include "calibd/core/session_observations.hpp"
 #include "calibd/core/stream_gaps.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
+#include "calibd/drivers/wake_event.hpp"
 #include "calibd/lidar_frame_t.hpp"
 
 namespace calibd {
@@ -93,6 +94,10 @@ class FrameIntake {
   /// number moved. Pairs that do not fit are counted in over_capacity. With a null `session` the
   /// finished pairs are discarded (frames still in flight when a collection ended).
   int Drain(SessionObservations* session);
+  /// Signalled by the workers whenever a pair is ready to drain, so that the poll loop drains it
+  /// at once instead of at its next timer tick (null: none). Set before Init; must outlive the
+  /// intake.
+  void SetReadyEvent(const WakeEvent* event) { ready_event_ = event; }
   /// True when no pair is queued or in detection (everything received has been drained).
   bool Idle() const;
   /// True when a new camera frame would find no free slot (it would be dropped). A replay that
@@ -123,6 +128,7 @@ class FrameIntake {
   uint64_t next_sequence_ = 0;   ///< arrival order of queued pairs
   uint64_t drain_sequence_ = 0;  ///< next pair to drain
   bool active_ = false;
+  const WakeEvent* ready_event_ = nullptr;
   IntakeCounters counters_;
   double last_camera_ms_ = 0.0, last_lidar_ms_ = 0.0;
 

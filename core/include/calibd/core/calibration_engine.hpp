@@ -115,11 +115,14 @@ int ImageCell(double u_px, double v_px, int width, int height);
 
 /// Paper Table I metric for one observation: fit its board alone in the LiDAR frame (Eq. 2-3,
 /// from the camera's board pose through T_camera_lidar) and map the fitted tag corners into the
-/// image. Corners that do not project are NaN. False when the fit fails.
+/// image. Corners that do not project are NaN. False when the fit fails. The fit starts from
+/// `T_camera_board_start` when given (e.g. the solve's refined board pose, from which it converges
+/// in fewer steps to the same fit), else from the camera's PnP pose.
 bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeometry>& boards,
                         const ObservationSet& set, const BoardObservation& observation,
                         const Pose& T_camera_lidar, const DirectOptimizerConfig& direct,
-                        std::array<Eigen::Vector2d, 4>* px);
+                        std::array<Eigen::Vector2d, 4>* px,
+                        const Pose* T_camera_board_start = nullptr);
 
 /// Runs the whole session-level calibration. `projection` is a RangeImage configured for the
 /// config's LiDAR model (the grid search projects into it). `correspondences` (optional) receives

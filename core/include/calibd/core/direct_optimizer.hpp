@@ -75,6 +75,9 @@ struct DirectResult {
   /// Mean change of the refined board poses from the camera's PnP: rotation (deg), translation
   /// (m).
   double board_rotation_change_deg = 0.0, board_translation_change_m = 0.0;
+  /// The board poses the final solve held, one per observation of the set: the camera's PnP
+  /// poses, or the refined ones (OptimizeDirect only; empty when it failed early).
+  std::vector<Pose> T_camera_board;
 };
 
 /// Minimises paper Eq. 4 starting from `T_camera_lidar_init`. `boards[o.board_index]` gives each
@@ -86,5 +89,15 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
                             const Pose& T_camera_lidar_init, const DirectOptimizerConfig& config,
                             const std::vector<char>* use = nullptr, bool solve = true,
                             const CameraModel* camera = nullptr);
+
+/// Re-solves T_camera_lidar from `T_init` on the observations selected by `use`, with the given
+/// board poses (one per observation, e.g. a previous OptimizeDirect's T_camera_board) held and no
+/// refinement: the stability re-solves on parts of the data. No residual statistics or
+/// information are computed.
+DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
+                                   const ObservationSet& set, const Pose& T_init,
+                                   const DirectOptimizerConfig& config,
+                                   const std::vector<Pose>& T_camera_board,
+                                   const std::vector<char>* use);
 
 }  // namespace calibd
