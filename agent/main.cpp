@@ -2,6 +2,10 @@
 // agent.hpp). Exit codes: 0 stopped by a signal (or --once: verified/updated), 1 could not start
 // or the loop failed, 2 bad option or config, 3 (--once) rejected, 4 (--once) failed or aborted.
 
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <iostream>
 #include <string>
 
@@ -32,7 +36,9 @@ Options:
   --quiet            no log lines on stderr
 
 Exit codes: 0 stopped by SIGTERM/SIGINT (or --once: verified/updated), 1 could not start (store,
-LCM, detectors), 2 bad option or config (the message names the key), 3/4 see --once.
+LCM, detectors, UDS secret file, GPIO lines), 2 bad option or config (the message names the key),
+3/4 see --once. A UDS ECU reset (0x11 01) restarts the program in place (same arguments, same
+PID).
 )";
 
 }  // namespace
@@ -75,10 +81,22 @@ int main(int argc, char** argv) {
                 << (heap.policy_set ? "" : " (glibc refused part of the heap policy)") << " in "
                 << static_cast<int>(heap.ms) << " ms\n";
   }
-  calibd::Agent agent(config);
-  if (!agent.Init(options, &error)) {
-    std::cerr << "calibd-agent: cannot start: " << error << "\n";
+  int code = 0;
+  {
+    calibd::Agent agent(config);
+    if (!agent.Init(options, &error)) {
+      std::cerr << "calibd-agent: cannot start: " << error << "\n";
+      return 1;
+    }
+    code = agent.Run();
+  }  // the agent is gone (threads joined, sockets and GPIO lines released) before a restart
+  if (code == calibd::kAgentExitRestart) {
+    // UDS 0x11 ECU reset: the same program with the same arguments, in place (same PID, so a
+    // systemd unit sees no exit; a fresh READY=1 follows).
+    std::cerr << "calibd-agent: restarting (ECU reset)" << std::endl;
+    ::execv("/proc/self/exe", argv);
+    std::cerr << "calibd-agent: restart failed: " << std::strerror(errno) << "\n";
     return 1;
   }
-  return agent.Run();
+  return code;
 }

@@ -17,6 +17,8 @@
 #include "calibd/calibration_status_t.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/core/lidar_model.hpp"
+#include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/can_link.hpp"
 
 namespace calibd {
 
@@ -116,6 +118,19 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
   else
     Log("no stored calibration: the config's prior is used");
 
+  software_version_ = config_.SoftwareVersion();
+  if (!diag_.Start(
+          config_, this, [this](const std::string& line) { Log(line); }, MonotonicUs(), WallUs(),
+          error))
+    return false;
+  if (config_.can_enabled) {
+    std::string vin_error;
+    if (!ReadWholeFile(config_.uds.state_dir + "/vin", &vin_, &vin_error)) vin_.clear();
+    diag_.Report(uds::Dtc::kStoreCorrupt, !store_.load_warnings().empty());
+    diag_.Report(uds::Dtc::kCalibrationNotPerformed, store_.current() == nullptr);
+    Log("diagnostics: UDS on " + config_.isotp.interface + ", status frame " +
+        CanIdText(config_.status_frame_id));
+  }
   if (!wake_.Open(error)) return false;
   intake_.SetReadyEvent(&wake_);
   if (!intake_.Init(IntakeConfigFrom(config_), config_.calib, error)) return false;
@@ -165,8 +180,14 @@ void Agent::Publish(std::string_view channel, const Msg& msg) {
   if (publisher_ != nullptr && !publisher_->Publish(channel, msg, &error)) Log(error);
 }
 
-void Agent::OnCamera(const camera_frame_t& msg) { intake_.OnCamera(msg); }
-void Agent::OnLidar(const lidar_frame_t& msg) { intake_.OnLidar(msg); }
+void Agent::OnCamera(const camera_frame_t& msg) {
+  last_camera_us_ = MonotonicUs();
+  intake_.OnCamera(msg);
+}
+void Agent::OnLidar(const lidar_frame_t& msg) {
+  last_lidar_us_ = MonotonicUs();
+  intake_.OnLidar(msg);
+}
 
 void Agent::OnSensorInfo(const sensor_info_t& msg) {
   const bool lidar =
@@ -183,6 +204,7 @@ void Agent::OnSensorInfo(const sensor_info_t& msg) {
   // "unknown": committed before any sensor_info was seen, nothing to compare with.
   if (!serial.empty() && stored != "unknown" && serial != stored && !sensor_mismatch_) {
     sensor_mismatch_ = true;
+    diag_.Report(uds::Dtc::kRecalibrationRequired, true);
     Log(std::string(lidar ? "LiDAR" : "camera") + " serial " + serial +
         " differs from the stored calibration's " + stored + ": recalibration required");
   }
@@ -211,24 +233,27 @@ void Agent::OnRequest(const calibration_request_t& msg) {
   }
 }
 
-void Agent::Start(const StartRequest& request) {
+RequestReply Agent::Start(const StartRequest& request) {
+  RequestReply reply;
   if (solver_.joinable() && !solve_done_) {
-    last_error_ = "start refused: the previous session's solve is still finishing";
-    Log(last_error_);
-    return;
+    reply.reason = "the previous session's solve is still finishing";
+  } else if (!diag_.Interlock()) {
+    reply.reason = "the interlock is not asserted (agent.gpio.interlock)";
+  } else {
+    if (solver_.joinable()) solver_.join();  // an aborted session's finished solve
+    reply = machine_.Start(request, MonotonicUs());
   }
-  if (solver_.joinable()) solver_.join();  // an aborted session's finished solve
-  const RequestReply reply = machine_.Start(request, MonotonicUs());
   if (!reply.accepted) {
-    last_error_ = "start refused: " + reply.reason;
+    last_error_ = "start refused (" + request.requester + "): " + reply.reason;
     Log(last_error_);
-    return;
+    return reply;
   }
   recorder_.Clear();
   has_outcome_ = result_published_ = false;
   last_error_.clear();
   intake_.SetActive(true);
   Log("session " + std::to_string(machine_.session()) + " started by '" + request.requester + "'");
+  return reply;
 }
 
 void Agent::StartSolve() {
@@ -271,18 +296,19 @@ void Agent::FinishSolve() {
       Log(last_error_);
     }
   }
+  diag_.Report(uds::Dtc::kResultRejected, o.verdict == CalibrationOutcome::Verdict::kRejected);
   PublishResult();
   if (o.verdict == CalibrationOutcome::Verdict::kUpdated && config_.auto_commit &&
       !machine_.request().verify_only)
     Commit();
 }
 
-void Agent::Commit() {
+uds::BackendReply Agent::Commit() {
   const RequestReply reply = machine_.CommitRequested();
   if (!reply.accepted) {
     last_error_ = "commit refused: " + reply.reason;
     Log(last_error_);
-    return;
+    return uds::BackendReply::kSequenceError;
   }
   const CalibrationOutcome& o = outcome_;
   StoredCalibration c;
@@ -303,13 +329,30 @@ void Agent::Commit() {
     machine_.CommitFailed(error);
     last_error_ = "store: " + error;
     Log(last_error_ + " (the previous calibration stays in use)");
-    return;
+    return uds::BackendReply::kFailure;
   }
   sensor_mismatch_ = false;
+  diag_.Report(uds::Dtc::kCalibrationNotPerformed, false);
+  diag_.Report(uds::Dtc::kRecalibrationRequired, false);
+  diag_.Report(uds::Dtc::kStoreCorrupt, false);  // a valid current version was written
   Log("committed calibration version " + std::to_string(store_.current()->version));
+  return uds::BackendReply::kAccepted;
 }
 
 void Agent::Step(int64_t now_us) {
+  if (diag_.TakeStartPress()) {
+    StartRequest r;
+    r.mode = SessionMode::kStatic;  // a factory line: the vehicle stands, the boards are placed
+    r.requester = "start_button";
+    Start(r);
+  }
+  if (diag_.has_interlock() &&
+      (machine_.state() == SessionState::kCollecting ||
+       machine_.state() == SessionState::kSolving) &&
+      !diag_.Interlock()) {
+    machine_.Stop(now_us, "interlock_released");
+    Log("session " + std::to_string(machine_.session()) + " aborted: the interlock was released");
+  }
   const bool collecting = machine_.state() == SessionState::kCollecting;
   if (collecting) {
     if (recorder_.DrainFrom(&intake_) > 0) machine_.FrameRecorded(recorder_.figures(), now_us);
@@ -333,6 +376,7 @@ void Agent::Step(int64_t now_us) {
   }
   if (machine_.NeedsSolve()) StartSolve();
   if (solver_.joinable() && solve_done_) FinishSolve();
+  ReportDtcs(now_us);
   if (now_us - last_status_us_ >= static_cast<int64_t>(1e6 / config_.status_rate_hz)) {
     PublishStatus();
     last_status_us_ = now_us;
@@ -488,11 +532,15 @@ int Agent::Run() {
     // A replay waits for the detectors instead of dropping frames: its bus is not polled while
     // the intake is full. A live stream is always read (the intake drops and counts instead).
     const bool read_bus = !end_of_log_ && !(replay && intake_.Full());
-    pollfd fds[4] = {{signal_fd.fd, POLLIN, 0},
-                     {timer_fd.fd, POLLIN, 0},
-                     {wake_.fd(), POLLIN, 0},
-                     {bus_.fileno(), POLLIN, 0}};
-    const int n = ::poll(fds, read_bus ? 4 : 3, read_bus ? -1 : kTickMs);
+    pollfd fds[4 + Diagnostics::kMaxPollFds] = {{signal_fd.fd, POLLIN, 0},
+                                                {timer_fd.fd, POLLIN, 0},
+                                                {wake_.fd(), POLLIN, 0},
+                                                {bus_.fileno(), POLLIN, 0}};
+    // The bus last among the fixed ones: left out (not read) while a replay waits.
+    int count = read_bus ? 4 : 3;
+    const int first_diag = count;
+    count += diag_.PollFds(fds + count);
+    const int n = ::poll(fds, static_cast<nfds_t>(count), read_bus ? -1 : kTickMs);
     if (n < 0 && errno != EINTR) {
       Log(std::string("poll: ") + std::strerror(errno));
       return 1;
@@ -515,6 +563,9 @@ int Agent::Run() {
       }
     }
     if (fds[2].revents & POLLIN) wake_.Clear();
+    bool diag_readable = false;
+    for (int i = first_diag; i < count; ++i) diag_readable = diag_readable || fds[i].revents != 0;
+    if (diag_readable) diag_.OnReadable(MonotonicUs());
     if (read_bus && (fds[3].revents & POLLIN)) {
       // A replay hands over one message at a time so that Full() is looked at between frames.
       if (bus_.Handle(0, replay ? 1 : 64) < 0) {
@@ -526,8 +577,16 @@ int Agent::Run() {
         Log("end of the replayed log");
       }
     }
-    Step(MonotonicUs());
+    const int64_t step_us = MonotonicUs();
+    Step(step_us);
+    diag_.Tick(step_us, DiagnosticsNow());
     NotifyStatus();
+    if (reset_requested_) {
+      Log("ECU reset requested over UDS: restarting");
+      notifier_.Stopping();
+      machine_.Stop(step_us, "ecu_reset");
+      return kAgentExitRestart;
+    }
     if (options_.once) {
       const SessionState s = machine_.state();
       const bool session_over = machine_.session() > 0 && Terminal(s) && !solver_.joinable();

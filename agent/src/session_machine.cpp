@@ -134,7 +134,7 @@ RequestReply SessionMachine::Start(const StartRequest& request, int64_t now_us) 
   return reply;
 }
 
-RequestReply SessionMachine::Stop(int64_t now_us) {
+RequestReply SessionMachine::Stop(int64_t now_us, const char* reason) {
   RequestReply reply;
   if (state_ != SessionState::kCollecting && state_ != SessionState::kSolving) {
     reply.reason = std::string("no session in progress (") + SessionStateName(state_) + ")";
@@ -144,8 +144,8 @@ RequestReply SessionMachine::Stop(int64_t now_us) {
     UpdateProgress(now_us);
     collection_end_ = CollectionEnd::kStopped;
   }
-  reason_ = "stopped";
-  detail_ = "stopped by request while ";
+  reason_ = reason;
+  detail_ = reason_ == "stopped" ? "stopped by request while " : reason_ + " while ";
   detail_ += SessionStateName(state_);
   detail_ += " (";
   AppendInt(&detail_, figures_.frames_with_boards);

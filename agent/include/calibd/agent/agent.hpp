@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "calibd/agent/agent_config.hpp"
+#include "calibd/agent/diagnostics.hpp"
 #include "calibd/agent/frame_intake.hpp"
 #include "calibd/agent/session_machine.hpp"
 #include "calibd/agent/session_recorder.hpp"
@@ -45,10 +46,14 @@ struct AgentOptions {
   bool quiet = false;  ///< no log lines on stderr
 };
 
-class Agent {
+/// Run()'s exit code when a diagnostic tester asked for an ECU reset (UDS 0x11 01): the caller
+/// (main) re-executes the program, which restarts the agent in place.
+inline constexpr int kAgentExitRestart = 10;
+
+class Agent : private uds::UdsBackend {
  public:
   explicit Agent(const AgentConfig& config);
-  ~Agent();
+  ~Agent() override;
   Agent(const Agent&) = delete;
   Agent& operator=(const Agent&) = delete;
 
@@ -66,8 +71,36 @@ class Agent {
   void OnLidar(const lidar_frame_t& msg);
   void OnSensorInfo(const sensor_info_t& msg);
   void OnRequest(const calibration_request_t& msg);
-  void Start(const StartRequest& request);
-  void Commit();
+  /// Starts a session unless refused (a session running, the interlock released); the reason
+  /// is logged and kept in last_error_.
+  RequestReply Start(const StartRequest& request);
+  /// Commits the last `updated` result. kAccepted, kSequenceError (nothing to commit) or
+  /// kFailure (the store write failed: the previous calibration stays in use).
+  uds::BackendReply Commit();
+  /// DTC test results from the agent's state (agent_uds.cpp): calibration performed, sensor
+  /// replaced, sensor data timeouts (while collecting), store problems. `now_us` monotonic.
+  void ReportDtcs(int64_t now_us);
+  DiagnosticsView DiagnosticsNow() const;
+
+  // uds::UdsBackend (agent_uds.cpp): the diagnostic server's view of the agent.
+  uds::RoutineConditions Conditions() const override;
+  uds::BackendReply StartCalibration(const uds::CalibrateOptions& options) override;
+  uds::BackendReply StopCalibration() override;
+  void AbortCalibration() override;
+  uds::RoutineSnapshot CalibrationStatus() const override;
+  uds::BackendReply RestoreReference() override;
+  std::string_view Vin() const override { return vin_; }
+  bool WriteVin(std::string_view vin) override;
+  std::string_view SoftwareVersion() const override { return software_version_; }
+  int64_t CalibrationUnixS() const override;
+  uds::ExtrinsicFigures CurrentExtrinsic() const override;
+  uds::ExtrinsicFigures ReferenceExtrinsic() const override;
+  uds::QualityFigures Quality() const override;
+  std::string_view LidarSerial() const override;
+  std::string_view CameraSerial() const override;
+  uds::CalibrationState State() const override;
+  void ResetRequested() override { reset_requested_ = true; }
+
   /// Drains the intake, advances the machine, starts or collects the solve; `now_us` monotonic.
   void Step(int64_t now_us);
   void StartSolve();
@@ -114,6 +147,14 @@ class Agent {
   int64_t last_status_us_ = 0, last_health_us_ = 0;
   int64_t rate_camera_frames_ = 0, rate_lidar_frames_ = 0, rate_since_us_ = 0;  ///< health rates
   bool end_of_log_ = false;
+
+  /// CAN (UDS, status frame) and GPIO; each part optional (agent.can, agent.gpio).
+  Diagnostics diag_;
+  std::string vin_;               ///< DID 0xF190, kept in <agent.uds.state_dir>/vin
+  std::string software_version_;  ///< DID 0xF195
+  bool reset_requested_ = false;  ///< UDS 0x11: Run returns kAgentExitRestart
+  int64_t last_camera_us_ = 0, last_lidar_us_ = 0;       ///< monotonic arrival of the last frames
+  bool camera_timeout_ = false, lidar_timeout_ = false;  ///< DTC states last reported
 
   /// Type=notify unit: READY=1, STATUS=, WATCHDOG=1 from the loop's timer, STOPPING=1.
   SystemdNotifier notifier_;

@@ -93,7 +93,9 @@ class SessionMachine {
   RequestReply Start(const StartRequest& request, int64_t now_us);
   /// Aborts a collecting or solving session (a running solve's result will be ignored). Refused
   /// when no session is in progress.
-  RequestReply Stop(int64_t now_us);
+  /// `reason` is the aborted session's reason code: "stopped" for a stop request; others name
+  /// what ended it (e.g. "session_ended" when the diagnostic session ended, "interlock_released").
+  RequestReply Stop(int64_t now_us, const char* reason = "stopped");
   /// A frame pair entered the session buffer; `figures` are the session's totals so far. May end
   /// the collection (target frames, coverage gates, time limit). False (ignored) when not
   /// collecting: frames keep arriving after collection ends.

@@ -1,0 +1,308 @@
+// The agent's side of the diagnostic interfaces (issue 6): uds::UdsBackend over the session
+// machine and the calibration store, the DTC test results, and what the status frame and the
+// lamp show. The protocol itself (sessions, security, NRCs) is the UDS server's.
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+
+#include "calibd/agent/agent.hpp"
+#include "calibd/drivers/atomic_file.hpp"
+
+namespace calibd {
+
+namespace {
+
+constexpr double kRad2Deg = 180.0 / M_PI;
+/// A sensor counts as alive when its last frame arrived within this; silent longer while a
+/// session collects sets its data-timeout DTC.
+constexpr int64_t kSensorAliveUs = 1000000;
+
+int64_t NowUs(clockid_t clock) {
+  timespec ts{};
+  clock_gettime(clock, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
+}
+
+uds::ExtrinsicFigures Figures(const StoredCalibration* c) {
+  uds::ExtrinsicFigures e;
+  if (c == nullptr) return e;
+  e.available = true;
+  const Eigen::Vector3d t = c->T_camera_lidar.translation();
+  const Eigen::Vector3d rpy = RpyFromRotation(c->T_camera_lidar.linear()) * kRad2Deg;
+  e.x_m = t.x();
+  e.y_m = t.y();
+  e.z_m = t.z();
+  e.roll_deg = rpy.x();
+  e.pitch_deg = rpy.y();
+  e.yaw_deg = rpy.z();
+  return e;
+}
+
+// The results record's reason code of the machine's / engine's reason string (routines.hpp).
+uds::RoutineReason ReasonCode(const std::string& reason) {
+  using R = uds::RoutineReason;
+  static constexpr struct {
+    const char* text;
+    R code;
+  } kCodes[] = {{"stopped", R::kStopped},
+                {"session_ended", R::kSessionEnded},
+                {"too_few_frames", R::kTooFewFrames},
+                {"too_few_boards", R::kTooFewBoards},
+                {"no_camera_boards", R::kNoCameraBoards},
+                {"no_lidar_boards", R::kNoLidarBoards},
+                {"no_grid_candidate", R::kNoGridCandidate},
+                {"solver_failed", R::kSolverFailed},
+                {"poor_observability", R::kPoorObservability},
+                {"unstable_solution", R::kUnstableSolution},
+                {"high_reprojection_error", R::kHighReprojectionError},
+                {"high_residual", R::kHighResidual},
+                {"delta_beyond_tolerance", R::kDeltaBeyondTolerance},
+                {"invalid_config", R::kInvalidConfig},
+                {"commit_failed", R::kStoreWriteFailed}};
+  if (reason.empty()) return R::kNone;
+  for (const auto& c : kCodes)
+    if (reason == c.text) return c.code;
+  return R::kOther;
+}
+
+}  // namespace
+
+uds::RoutineConditions Agent::Conditions() const {
+  uds::RoutineConditions c;
+  const int64_t now = NowUs(CLOCK_MONOTONIC);
+  c.interlock_asserted = diag_.Interlock();
+  c.lidar_alive = last_lidar_us_ > 0 && now - last_lidar_us_ <= kSensorAliveUs;
+  c.camera_alive = last_camera_us_ > 0 && now - last_camera_us_ <= kSensorAliveUs;
+  return c;
+}
+
+uds::BackendReply Agent::StartCalibration(const uds::CalibrateOptions& options) {
+  StartRequest r;
+  r.mode =
+      options.mode == uds::CalibrationMode::kStatic ? SessionMode::kStatic : SessionMode::kMoving;
+  r.max_duration_us = static_cast<int64_t>(options.max_duration_s) * 1000000;
+  r.verify_only = options.verify_only;
+  r.requester = options.verify_only ? "uds verify" : "uds calibrate";
+  return Start(r).accepted ? uds::BackendReply::kAccepted
+                           : uds::BackendReply::kConditionsNotCorrect;
+}
+
+uds::BackendReply Agent::StopCalibration() {
+  const RequestReply reply = machine_.Stop(NowUs(CLOCK_MONOTONIC));
+  if (!reply.accepted) return uds::BackendReply::kSequenceError;
+  Log("session " + std::to_string(machine_.session()) + " stopped over UDS");
+  return uds::BackendReply::kAccepted;
+}
+
+void Agent::AbortCalibration() {
+  if (machine_.Stop(NowUs(CLOCK_MONOTONIC), "session_ended").accepted)
+    Log("session " + std::to_string(machine_.session()) +
+        " aborted: the extended diagnostic session ended");
+}
+
+uds::RoutineSnapshot Agent::CalibrationStatus() const {
+  uds::RoutineSnapshot r;
+  const SessionState s = machine_.state();
+  r.reason = ReasonCode(machine_.reason());
+  switch (s) {
+    case SessionState::kIdle:
+      r.status = uds::RoutineStatus::kIdle;
+      break;
+    case SessionState::kCollecting:
+    case SessionState::kSolving:
+      r.status = uds::RoutineStatus::kActive;
+      r.progress_percent = static_cast<uint8_t>(std::lround(
+          std::clamp(machine_.progress(), 0.0, 1.0) * (s == SessionState::kSolving ? 99.0 : 95.0)));
+      break;
+    case SessionState::kDone:
+      r.status = uds::RoutineStatus::kSuccess;
+      r.progress_percent = 100;
+      break;
+    case SessionState::kFailed:
+      r.status = uds::RoutineStatus::kFailed;
+      r.progress_percent = 100;
+      break;
+    case SessionState::kAborted:
+      r.status = uds::RoutineStatus::kAborted;
+      break;
+  }
+  if (s == SessionState::kDone && has_outcome_) {
+    switch (outcome_.verdict) {
+      case CalibrationOutcome::Verdict::kVerified:
+        r.verdict = uds::RoutineVerdict::kVerified;
+        break;
+      case CalibrationOutcome::Verdict::kUpdated:
+        r.verdict = uds::RoutineVerdict::kUpdated;
+        break;
+      case CalibrationOutcome::Verdict::kRejected:
+        r.verdict = uds::RoutineVerdict::kRejected;
+        break;
+    }
+    r.reason = ReasonCode(outcome_.reason);
+    if (outcome_.solved) {
+      r.delta_rotation_deg = outcome_.delta_rotation_deg;
+      r.delta_translation_m = outcome_.delta_translation_m;
+    }
+  }
+  return r;
+}
+
+uds::BackendReply Agent::RestoreReference() {
+  if (store_.reference() == nullptr) {
+    last_error_ = "restore refused: the store holds no reference calibration";
+    Log(last_error_);
+    return uds::BackendReply::kConditionsNotCorrect;
+  }
+  std::string error;
+  if (!store_.RestoreReference(NowUs(CLOCK_REALTIME) / 1000000, &error)) {
+    last_error_ = "restore failed: " + error;
+    Log(last_error_ + " (the previous calibration stays in use)");
+    return uds::BackendReply::kFailure;
+  }
+  sensor_mismatch_ = false;
+  diag_.Report(uds::Dtc::kCalibrationNotPerformed, false);
+  Log("restored the reference calibration as version " + std::to_string(store_.current()->version));
+  return uds::BackendReply::kAccepted;
+}
+
+bool Agent::WriteVin(std::string_view vin) {
+  std::string error;
+  if (!WriteFileAtomic(config_.uds.state_dir + "/vin", vin, &error)) {
+    Log("VIN not stored: " + error);
+    return false;
+  }
+  vin_.assign(vin);
+  Log("VIN written over UDS: " + vin_);
+  return true;
+}
+
+int64_t Agent::CalibrationUnixS() const {
+  return store_.current() == nullptr ? 0 : store_.current()->created_unix_s;
+}
+
+uds::ExtrinsicFigures Agent::CurrentExtrinsic() const { return Figures(store_.current()); }
+uds::ExtrinsicFigures Agent::ReferenceExtrinsic() const { return Figures(store_.reference()); }
+
+uds::QualityFigures Agent::Quality() const {
+  uds::QualityFigures q;
+  const StoredCalibration* c = store_.current();
+  if (c == nullptr) return q;
+  q.reprojection_mean_px = c->reprojection_mean_px;
+  q.residual_rms_m = c->residual_rms_m;
+  q.rotation_sigma_deg = c->rotation_sigma_deg;
+  q.translation_sigma_m = c->translation_sigma_m;
+  q.frames_used = c->frames_used;
+  q.boards_used = c->boards_used;
+  return q;
+}
+
+std::string_view Agent::LidarSerial() const {
+  if (!lidar_serial_.empty() || store_.current() == nullptr) return lidar_serial_;
+  return store_.current()->lidar_serial;
+}
+
+std::string_view Agent::CameraSerial() const {
+  if (!camera_serial_.empty() || store_.current() == nullptr) return camera_serial_;
+  return store_.current()->camera_serial;
+}
+
+uds::CalibrationState Agent::State() const {
+  if (store_.current() == nullptr) return uds::CalibrationState::kNotPerformed;
+  if (sensor_mismatch_) return uds::CalibrationState::kRecalibrationRequired;
+  return uds::CalibrationState::kValid;
+}
+
+void Agent::ReportDtcs(int64_t now_us) {
+  if (!config_.can_enabled) return;
+  // Sensor data timeouts are tested while a session collects (the agent needs the data then);
+  // a frame arriving passes the test again.
+  const bool collecting = machine_.state() == SessionState::kCollecting;
+  const int64_t since = machine_.started_us();
+  auto check = [&](int64_t last_us, bool* reported, uds::Dtc dtc, const char* name) {
+    const int64_t reference = std::max(last_us, since);
+    const bool silent = collecting && now_us - reference > kSensorAliveUs;
+    const bool alive = last_us > 0 && now_us - last_us <= kSensorAliveUs;
+    if (silent && !*reported) {
+      diag_.Report(dtc, true);
+      *reported = true;
+      Log(std::string(name) + " data timeout: no frame for more than 1 s while collecting");
+    } else if (alive && *reported) {
+      diag_.Report(dtc, false);
+      *reported = false;
+    }
+  };
+  check(last_lidar_us_, &lidar_timeout_, uds::Dtc::kLidarTimeout, "LiDAR");
+  check(last_camera_us_, &camera_timeout_, uds::Dtc::kCameraTimeout, "camera");
+}
+
+DiagnosticsView Agent::DiagnosticsNow() const {
+  DiagnosticsView v;
+  StatusFrame& f = v.status;
+  const SessionState s = machine_.state();
+  switch (s) {
+    case SessionState::kIdle:
+      f.state = StatusFrame::State::kIdle;
+      v.lamp = LampState::kIdle;
+      break;
+    case SessionState::kCollecting:
+      f.state = StatusFrame::State::kCollecting;
+      v.lamp = LampState::kRunning;
+      break;
+    case SessionState::kSolving:
+      f.state = StatusFrame::State::kSolving;
+      v.lamp = LampState::kRunning;
+      break;
+    case SessionState::kDone:
+      f.state = StatusFrame::State::kDone;
+      v.lamp = machine_.verdict() == CalibrationOutcome::Verdict::kRejected ? LampState::kFailure
+                                                                            : LampState::kSuccess;
+      break;
+    case SessionState::kFailed:
+      f.state = StatusFrame::State::kFailed;
+      v.lamp = LampState::kFailure;
+      break;
+    case SessionState::kAborted:
+      f.state = StatusFrame::State::kAborted;
+      v.lamp = LampState::kFailure;
+      break;
+  }
+  if (machine_.session() > 0)
+    f.progress_percent = static_cast<int>(std::lround(
+        std::clamp(s == SessionState::kCollecting ? machine_.progress() : 1.0, 0.0, 1.0) * 100.0));
+  if (has_outcome_) {
+    switch (outcome_.verdict) {
+      case CalibrationOutcome::Verdict::kVerified:
+        f.last_verdict = StatusFrame::Verdict::kVerified;
+        break;
+      case CalibrationOutcome::Verdict::kUpdated:
+        f.last_verdict = StatusFrame::Verdict::kUpdated;
+        break;
+      case CalibrationOutcome::Verdict::kRejected:
+        f.last_verdict = StatusFrame::Verdict::kRejected;
+        break;
+    }
+    if (outcome_.solved) f.rotation_delta_deg = outcome_.delta_rotation_deg;
+  }
+  switch (State()) {
+    case uds::CalibrationState::kValid:
+      f.calibration = StatusFrame::Calibration::kValid;
+      break;
+    case uds::CalibrationState::kNotPerformed:
+      f.calibration = StatusFrame::Calibration::kNotPerformed;
+      break;
+    case uds::CalibrationState::kRecalibrationRequired:
+      f.calibration = StatusFrame::Calibration::kRecalibrationRequired;
+      break;
+  }
+  if (const StoredCalibration* c = store_.current()) {
+    const int64_t since = std::max(c->created_unix_s, c->verified_unix_s);
+    f.calibration_age_h =
+        std::max<double>(0.0, static_cast<double>(NowUs(CLOCK_REALTIME) / 1000000 - since)) /
+        3600.0;
+  }
+  return v;
+}
+
+}  // namespace calibd
