@@ -208,17 +208,28 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
           .eigenvalues()(0);
 }
 
+// The checks both entry points make before solving; false with result->reason set.
+static bool CanSolve(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
+                     const DirectOptimizerConfig& config, const std::vector<char>* use,
+                     DirectResult* result) {
+  std::string why;
+  if (!config.IsValid(&why)) {
+    result->reason = "config: " + why;
+    return false;
+  }
+  bool any = false;
+  for (size_t k = 0; k < set.observations.size() && !any; ++k) any = Used(boards, set, use, k);
+  if (!any) result->reason = "no board observations with LiDAR points";
+  return any;
+}
+
 DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
                             const Pose& T_init, const DirectOptimizerConfig& config,
                             const std::vector<char>* use, bool solve, const CameraModel* camera) {
   const auto t0 = std::chrono::steady_clock::now();
   DirectResult result;
   result.T_camera_lidar = T_init;
-  std::string why;
-  if (!config.IsValid(&why)) {
-    result.reason = "config: " + why;
-    return result;
-  }
+  if (!CanSolve(boards, set, config, use, &result)) return result;
 
   // Board poses: the camera's, or refined with the extrinsic (refine_board_poses).
   std::vector<Pose> T_camera_board(set.observations.size());
@@ -226,12 +237,6 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
     T_camera_board[k] = set.observations[k].T_camera_board;
   Pose T_start = T_init;
   const bool joint = solve && config.refine_board_poses && camera != nullptr;
-  bool any = false;
-  for (size_t k = 0; k < set.observations.size() && !any; ++k) any = Used(boards, set, use, k);
-  if (!any) {
-    result.reason = "no board observations with LiDAR points";
-    return result;
-  }
   if (joint) {
     // Alternation: extrinsic with the board poses held, then each board's pose with the
     // extrinsic held; the final solve below starts from the last extrinsic.
@@ -279,21 +284,11 @@ DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
   const auto t0 = std::chrono::steady_clock::now();
   DirectResult result;
   result.T_camera_lidar = T_init;
-  std::string why;
-  if (!config.IsValid(&why)) {
-    result.reason = "config: " + why;
-    return result;
-  }
   if (T_camera_board.size() != set.observations.size()) {
     result.reason = "one board pose per observation needed";
     return result;
   }
-  bool any = false;
-  for (size_t k = 0; k < set.observations.size() && !any; ++k) any = Used(boards, set, use, k);
-  if (!any) {
-    result.reason = "no board observations with LiDAR points";
-    return result;
-  }
+  if (!CanSolve(boards, set, config, use, &result)) return result;
   SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_init, true, HeldSolve::kResolve,
                       &result);
   result.solve_ms =
