@@ -15,6 +15,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # the status frame's DBC decoded by a decoder we did not write (tests/dbc_decode.py)
   python3-canmatrix
+  # an independent UDS client over its own user-space ISO-TP (tests/vm/uds_scapy_client.py)
+  python3-scapy
   # VM tests (tests/vm/): qemu boots Debian's kernel with an initramfs of busybox and modules;
   # gpio-sim.ko is built out of tree against the headers of linux-image-amd64's current ABI (the
   # kernel image and source are fetched into the cache with apt-get download, not installed);
