@@ -1,5 +1,8 @@
 #include "calibd/agent/diagnostics.hpp"
 
+#include <sys/stat.h>
+
+#include <cerrno>
 #include <cstring>
 
 namespace calibd {
@@ -13,6 +16,19 @@ bool Diagnostics::Start(const AgentConfig& config, uds::UdsBackend* backend, Log
   if (gpio_enabled_ && !gpio_.Open(config.gpio, error)) return false;
   if (!can_enabled_) return true;
 
+  // The server's state (DTCs, lockout, VIN) lives there: created owner-only on first start, as
+  // the calibration store's directory is; its parent must exist.
+  struct stat st {};
+  if (::stat(config.uds.state_dir.c_str(), &st) != 0 &&
+      (errno != ENOENT || ::mkdir(config.uds.state_dir.c_str(), 0700) != 0)) {
+    *error =
+        "agent.uds.state_dir: cannot create " + config.uds.state_dir + ": " + std::strerror(errno);
+    return false;
+  }
+  if (::stat(config.uds.state_dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+    *error = "agent.uds.state_dir: " + config.uds.state_dir + " is not a directory";
+    return false;
+  }
   server_ = std::make_unique<uds::UdsServer>(config.uds, backend);
   if (!server_->Init(now_us, now_unix_us, error)) {
     *error = "agent.uds: " + *error;
