@@ -52,8 +52,12 @@ int Diagnostics::PollFds(pollfd* fds) const {
     if (fd >= 0) fds[n++] = pollfd{fd, POLLIN, 0};
   };
   if (can_enabled_) {
-    add(isotp_.physical_fd());
-    add(isotp_.functional_fd());
+    // While a response waits for the kernel to finish the previous one, the requests wait in
+    // their sockets (the timer retries the send) instead of waking the loop without end.
+    if (pending_size_ == 0) {
+      add(isotp_.physical_fd());
+      add(isotp_.functional_fd());
+    }
     add(raw_.fd());
   }
   if (gpio_enabled_) add(gpio_.event_fd());
