@@ -13,9 +13,17 @@ Eigen::Matrix3d RotationFromRpy(double roll, double pitch, double yaw) {
 }
 
 Eigen::Vector3d RpyFromRotation(const Eigen::Matrix3d& R) {
-  const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
+  // Row 2 of R is (-sin p, cos p sin r, cos p cos r): roll from it, then M = R Rx(roll)^T =
+  // Rz(yaw) Ry(pitch) = [[cy cp, -sy, cy sp], [sy cp, cy, sy sp], [-sp, 0, cp]] gives yaw and
+  // pitch from entries that stay of unit size. Reading yaw from R(1,0), R(0,0) instead (both
+  // cos(pitch) times something) fails at pitch = +-90 deg, where a forward camera's
+  // T_camera_lidar sits: atan2(0, 0) returned roll = yaw = 0, a different rotation. Here any roll
+  // there is absorbed into yaw, and the angles rebuild R to rounding everywhere.
   const double roll = std::atan2(R(2, 1), R(2, 2));
-  const double yaw = std::atan2(R(1, 0), R(0, 0));
+  const Eigen::Matrix3d M =
+      R * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()).toRotationMatrix().transpose();
+  const double yaw = std::atan2(-M(0, 1), M(1, 1));
+  const double pitch = std::atan2(-M(2, 0), M(2, 2));  // M(2,2) = hypot(R(2,1), R(2,2)) >= 0
   return {roll, pitch, yaw};
 }
 

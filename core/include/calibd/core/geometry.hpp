@@ -14,9 +14,10 @@ using Pose = Eigen::Isometry3d;
 /// Rx(roll).
 Eigen::Matrix3d RotationFromRpy(double roll, double pitch, double yaw);
 
-/// Inverse of RotationFromRpy, radians, pitch in [-pi/2, pi/2]. Ill-conditioned near pitch = +-90
-/// deg (docs/conventions.md#euler): compare rotations with RotationAngle, never with Euler
-/// differences.
+/// Inverse of RotationFromRpy, radians, pitch in [-pi/2, pi/2]: RotationFromRpy of the result
+/// rebuilds R to rounding, at pitch = +-90 deg too (there only yaw -+ roll is defined; roll comes
+/// from R's last row). Ill-conditioned near pitch = +-90 deg (docs/conventions.md#euler): compare
+/// rotations with RotationAngle, never with Euler differences.
 Eigen::Vector3d RpyFromRotation(const Eigen::Matrix3d& R);
 
 /// Pose from translation (m) and roll/pitch/yaw (radians).
