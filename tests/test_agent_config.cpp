@@ -87,6 +87,8 @@ TEST(AgentConfigTest, DocumentedDefaultFileLoadsWithTheDocumentedValues) {
   ExpectAgentAndEngineDefaults(c);
   EXPECT_EQ(c.calib.camera_id, "front");
   EXPECT_EQ(c.calib.lidar_model, "ot128");
+  EXPECT_EQ(c.calib.camera_frame, "camera");
+  EXPECT_EQ(c.calib.lidar_frame, "lidar");
   ASSERT_EQ(c.calib.boards.size(), 3u);
   EXPECT_EQ(c.BoardsPerFrame(), 7);
   // The figure the file's comment quotes: 200 x 7 x 4096 x 16 B = 92 MB.

@@ -77,7 +77,33 @@ INSTANTIATE_TEST_SUITE_P(
                               "prior.T_camera_lidar[3]"},
                       BadCase{"lidar:\n  id: roof\n", "lidar:\n", "lidar.id"},
                       BadCase{"model: radtan", "model: fisheye", "camera.model"},
-                      BadCase{"pattern: apriltag", "pattern: dots", "boards[0].pattern"}));
+                      BadCase{"pattern: apriltag", "pattern: dots", "boards[0].pattern"},
+                      BadCase{"frame_id: camera", "frame_id: /camera", "camera.frame_id"},
+                      BadCase{"frame_id: camera", "frame_id: \"cam era\"", "camera.frame_id"},
+                      BadCase{"frame_id: camera", "frame_id: \"\"", "camera.frame_id"},
+                      BadCase{"frame_id: lidar", "frame_id: [lidar]", "lidar.frame_id"},
+                      BadCase{"frame_id: lidar", "frame_id: camera", "lidar.frame_id"}));
+
+TEST(ConfigFileTest, FrameIdsRoundTripAndDefault) {
+  CalibConfig c = Example();
+  c.camera_frame = "cam_front/optical";
+  c.lidar_frame = "lidar_roof.top";
+  CalibConfig back;
+  std::string error;
+  ASSERT_TRUE(ParseConfigYaml(ConfigToYaml(c), &back, &error)) << error;
+  EXPECT_EQ(back.camera_frame, "cam_front/optical");
+  EXPECT_EQ(back.lidar_frame, "lidar_roof.top");
+  // Files written before the keys existed still load, with the defaults.
+  std::string yaml = ConfigToYaml(Example());
+  for (const std::string key : {"  frame_id: camera\n", "  frame_id: lidar\n"}) {
+    const auto pos = yaml.find(key);
+    ASSERT_NE(pos, std::string::npos) << key;
+    yaml.erase(pos, key.size());
+  }
+  ASSERT_TRUE(ParseConfigYaml(yaml, &back, &error)) << error;
+  EXPECT_EQ(back.camera_frame, "camera");
+  EXPECT_EQ(back.lidar_frame, "lidar");
+}
 
 TEST(ConfigFileTest, FisheyeCameraAndCheckerboardRoundTrip) {
   CalibConfig c = Example();

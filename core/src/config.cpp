@@ -7,6 +7,36 @@
 
 namespace calibd {
 
+namespace {
+
+// A frame id every export can carry unquoted: a ROS command-line argument, a YAML key, a tf2
+// frame (which rejects a leading '/').
+bool FrameIdValid(const std::string& id, std::string* why) {
+  if (id.empty()) {
+    *why = "must not be empty";
+    return false;
+  }
+  if (id.size() > 64) {
+    *why = "must be at most 64 characters (got " + std::to_string(id.size()) + ")";
+    return false;
+  }
+  if (id.front() == '/') {
+    *why = "must not start with '/' (tf2 rejects it; got '" + id + "')";
+    return false;
+  }
+  for (const char ch : id) {
+    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') ||
+                    (ch >= '0' && ch <= '9') || ch == '_' || ch == '-' || ch == '.' || ch == '/';
+    if (!ok) {
+      *why = "may hold only letters, digits and _ - . / (got '" + id + "')";
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
 bool CalibConfig::IsValid(std::string* error) const {
   std::string why;
   auto fail = [&](const std::string& key, const std::string& what) {
@@ -16,6 +46,10 @@ bool CalibConfig::IsValid(std::string* error) const {
   if (camera_id.empty()) return fail("camera.id", "must not be empty");
   if (!camera.IsValid(&why)) return fail("camera.intrinsics", why);
   if (lidar_id.empty()) return fail("lidar.id", "must not be empty");
+  if (!FrameIdValid(camera_frame, &why)) return fail("camera.frame_id", why);
+  if (!FrameIdValid(lidar_frame, &why)) return fail("lidar.frame_id", why);
+  if (camera_frame == lidar_frame)
+    return fail("lidar.frame_id", "must differ from camera.frame_id ('" + camera_frame + "')");
   LidarKind kind;
   if (!LidarKindFromName(lidar_model, &kind, &why)) return fail("lidar.model", why);
   if (boards.empty()) return fail("boards", "at least one board is required");

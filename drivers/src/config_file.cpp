@@ -52,9 +52,11 @@ void CheckKnown(const YAML::Node& map, std::initializer_list<const char*> known,
 void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
   CheckKnown(root, {"camera", "lidar", "boards", "prior"}, "");
   const YAML::Node cam = Child(root, "camera", "camera");
-  CheckKnown(cam, {"id", "width", "height", "fx", "fy", "cx", "cy", "model", "distortion"},
+  CheckKnown(cam,
+             {"id", "frame_id", "width", "height", "fx", "fy", "cx", "cy", "model", "distortion"},
              "camera");
   c->camera_id = Get<std::string>(cam, "id", "camera.id");
+  c->camera_frame = GetOr<std::string>(cam, "frame_id", "camera.frame_id", c->camera_frame);
   c->camera.width = Get<int>(cam, "width", "camera.width");
   c->camera.height = Get<int>(cam, "height", "camera.height");
   c->camera.fx = Get<double>(cam, "fx", "camera.fx");
@@ -85,8 +87,9 @@ void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
   }
 
   const YAML::Node lidar = Child(root, "lidar", "lidar");
-  CheckKnown(lidar, {"id", "model"}, "lidar");
+  CheckKnown(lidar, {"id", "frame_id", "model"}, "lidar");
   c->lidar_id = Get<std::string>(lidar, "id", "lidar.id");
+  c->lidar_frame = GetOr<std::string>(lidar, "frame_id", "lidar.frame_id", c->lidar_frame);
   c->lidar_model = Get<std::string>(lidar, "model", "lidar.model");
 
   const YAML::Node boards = Child(root, "boards", "boards");
@@ -148,8 +151,11 @@ void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
   c->prior_T_camera_lidar = pose;
 }
 
-// Shortest decimal text that reads back to the same double (0.48, not 0.47999999999999998).
-std::string Num(double v) {
+std::string Num(double v) { return ShortestDecimal(v); }
+
+}  // namespace
+
+std::string ShortestDecimal(double v) {
   for (int digits = 6; digits <= 17; ++digits) {
     std::ostringstream o;
     o << std::setprecision(digits) << v;
@@ -157,8 +163,6 @@ std::string Num(double v) {
   }
   return std::to_string(v);
 }
-
-}  // namespace
 
 bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* error) {
   CalibConfig c;
@@ -184,9 +188,9 @@ std::string ConfigToYaml(const CalibConfig& c) {
   std::ostringstream o;
   const auto& k = c.camera;
   o << "# calibd calibration config: sensors, intrinsics, boards and the prior extrinsic.\n";
-  o << "camera:\n  id: " << c.camera_id << "\n  width: " << k.width << "\n  height: " << k.height
-    << "\n  fx: " << Num(k.fx) << "\n  fy: " << Num(k.fy) << "\n  cx: " << Num(k.cx)
-    << "\n  cy: " << Num(k.cy);
+  o << "camera:\n  id: " << c.camera_id << "\n  frame_id: " << c.camera_frame
+    << "\n  width: " << k.width << "\n  height: " << k.height << "\n  fx: " << Num(k.fx)
+    << "\n  fy: " << Num(k.fy) << "\n  cx: " << Num(k.cx) << "\n  cy: " << Num(k.cy);
   if (k.model == DistortionModel::kKannalaBrandt) {
     o << "\n  model: kannala_brandt\n  distortion: [" << Num(k.k1) << ", " << Num(k.k2) << ", "
       << Num(k.k3) << ", " << Num(k.k4) << "]  # k1, k2, k3, k4 (OpenCV fisheye)\n";
@@ -195,7 +199,8 @@ std::string ConfigToYaml(const CalibConfig& c) {
       << ", " << Num(k.p2) << ", " << Num(k.k3)
       << "]  # k1, k2, p1, p2, k3 (OpenCV radial-tangential)\n";
   }
-  o << "lidar:\n  id: " << c.lidar_id << "\n  model: " << c.lidar_model << "\n";
+  o << "lidar:\n  id: " << c.lidar_id << "\n  frame_id: " << c.lidar_frame
+    << "\n  model: " << c.lidar_model << "\n";
   o << "boards:\n";
   for (const auto& b : c.boards) {
     o << "  - id: " << b.board_id << "\n    width_m: " << Num(b.width_m)

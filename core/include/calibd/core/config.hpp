@@ -17,6 +17,11 @@ struct CalibConfig {
   CameraIntrinsics camera;
   std::string lidar_id = "roof";
   std::string lidar_model = "ot128";  ///< LidarKindFromName() names
+  /// Frame names written into the exported calibration files (ROS tf, Autoware, JSON): the
+  /// camera's and the LiDAR's frame ids. Letters, digits and `_ - . /`, not starting with `/`
+  /// (tf2 rejects a leading slash); the two must differ.
+  std::string camera_frame = "camera";
+  std::string lidar_frame = "lidar";
   std::vector<BoardGeometry> boards;  ///< boards expected in the scene (ids must be distinct)
   /// Prior T_camera_lidar (maps LiDAR points into the camera frame), e.g. from the mechanical
   /// design.

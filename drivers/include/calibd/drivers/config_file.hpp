@@ -34,6 +34,9 @@ bool LoadTextFile(const std::string& path,
 /// YAML text of a config (round-trips through ParseConfigYaml).
 std::string ConfigToYaml(const CalibConfig& config);
 
+/// Shortest decimal text that reads back to the same double (0.48, not 0.47999999999999998).
+std::string ShortestDecimal(double v);
+
 /// Writes the config atomically.
 bool SaveConfigFile(const std::string& path, const CalibConfig& config, std::string* error);
 
