@@ -31,9 +31,10 @@ TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
                        dir.file("s.lcmlog") + " --truth " + dir.file("truth.json") +
                        " --config-out " + dir.file("calib.yaml")),
             0);
-  const int code = RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log " + dir.file("s.lcmlog") +
-                              " --config " + dir.file("calib.yaml") + " --truth " +
-                              dir.file("truth.json") + " --report " + dir.file("report.json"));
+  const int code =
+      RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log " + dir.file("s.lcmlog") +
+                 " --config " + dir.file("calib.yaml") + " --truth " + dir.file("truth.json") +
+                 " --report " + dir.file("report.json") + " --export " + dir.file("export"));
   const auto report = ReadJson(dir.file("report.json"));
   EXPECT_EQ(code, 0) << report.dump(2);
   EXPECT_EQ(report["verdict"], "updated") << report["reason"] << ": " << report["detail"];
@@ -43,6 +44,20 @@ TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
   EXPECT_EQ(report["frames"]["pairs"].get<int>(), 40);
   EXPECT_EQ(report["frames"]["unpaired_camera"].get<int>(), 0);
   EXPECT_GT(report["board_pose_refinement"]["refined_boards"].get<int>(), 60);
+  // --export: the same transform as the report, with the config's frame names (the formats
+  // themselves are test_calibration_export's).
+  const auto exported = ReadJson(dir.file("export/calibration.json"));
+  EXPECT_EQ(exported["camera_frame"], "camera");
+  EXPECT_EQ(exported["lidar_frame"], "lidar");
+  EXPECT_EQ(exported["software_version"], report["software_version"]);
+  EXPECT_EQ(exported["T_camera_lidar"], report["T_camera_lidar"]);
+  EXPECT_EQ(exported["T_lidar_camera"], report["T_lidar_camera"]);
+  for (const char* name :
+       {"T_camera_lidar_opencv.yaml", "ros_static_transform_publisher.txt",
+        "T_camera_lidar_tf.yaml", "sensor_kit_calibration.yaml", "calib_velo_to_cam.txt"}) {
+    std::string text, error;
+    EXPECT_TRUE(ReadWholeFile(dir.file("export/") + name, &text, &error)) << error;
+  }
 }
 
 TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -17,6 +18,7 @@
 #include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/stats.hpp"
 #include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/calibration_export.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "log_session.hpp"
 #include "overlay.hpp"
@@ -38,7 +40,15 @@ extrinsic and the direct optimisation (paper Eq. 4-5), and judges the result aga
 Options:
   --log FILE           LCM log with CALIBD_CAMERA and CALIBD_LIDAR frames (required)
   --config FILE        calibration config: intrinsics, boards, LiDAR model, prior (required)
-  --report FILE        JSON report: verdict, reason, T_camera_lidar, quality, timings
+  --report FILE        JSON report: verdict, reason, T_camera_lidar and T_lidar_camera (4x4,
+                       xyz, quaternion xyzw, rpy), frame names, quality, timings
+  --export DIR         the result in other stacks' formats, one file each (DIR is created):
+                       calibration.json, T_camera_lidar_opencv.yaml (cv::FileStorage),
+                       ros_static_transform_publisher.txt (ROS 1 and ROS 2 commands),
+                       T_camera_lidar_tf.yaml (TransformStamped layout),
+                       sensor_kit_calibration.yaml (Autoware), calib_velo_to_cam.txt (KITTI);
+                       parent frame camera.frame_id, child lidar.frame_id of the config.
+                       Written for verified and updated results only (not when rejected)
   --overlay DIR        PNG pictures of LiDAR points projected with the result (4 frames across the
                        distance range), detected corners in green, LiDAR-fitted corners in red
   --truth FILE         the simulator's truth JSON: adds the error against ground truth to the
@@ -58,16 +68,6 @@ Options:
 
 Exit codes: 0 verified or updated, 3 rejected (reason in the report), 1 failed, 2 bad option.
 )";
-
-nlohmann::json PoseJson(const Pose& T) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r)
-    rows.push_back({T.matrix()(r, 0), T.matrix()(r, 1), T.matrix()(r, 2), T.matrix()(r, 3)});
-  const Eigen::Vector3d rpy = RpyFromRotation(T.linear()) * kRad2Deg;
-  return {{"matrix", rows},
-          {"xyz_m", {T.translation().x(), T.translation().y(), T.translation().z()}},
-          {"rpy_deg", {rpy.x(), rpy.y(), rpy.z()}}};
-}
 
 double Sum(const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0); }
 
@@ -90,7 +90,8 @@ std::vector<int> OverlayFrames(const ObservationSet& corr) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string log_path, config_path, report_path, overlay_dir, truth_path, method = "direct";
+  std::string log_path, config_path, report_path, overlay_dir, truth_path, export_dir;
+  std::string method = "direct";
   bool motion_compensation = true;
   bool board_pose_refinement = true;
   tools::LogReadOptions read_options;
@@ -119,6 +120,8 @@ int main(int argc, char** argv) {
       report_path = value;
     else if (arg == "--overlay")
       overlay_dir = value;
+    else if (arg == "--export")
+      export_dir = value;
     else if (arg == "--truth")
       truth_path = value;
     else if (arg == "--method")
@@ -196,9 +199,12 @@ int main(int argc, char** argv) {
   report["detail"] = out.detail;
   report["method"] = method;
   report["solved"] = out.solved;  // false: T_camera_lidar is only the prior or grid candidate
-  report["T_camera_lidar"] = PoseJson(out.T_camera_lidar);
-  report["T_lidar_camera"] = PoseJson(out.T_camera_lidar.inverse());
-  report["prior_T_camera_lidar"] = PoseJson(out.prior_T_camera_lidar);
+  report["camera_frame"] = config.camera_frame;
+  report["lidar_frame"] = config.lidar_frame;
+  report["software_version"] = std::string("calibd ") + CALIBD_VERSION;
+  report["T_camera_lidar"] = TransformJson(out.T_camera_lidar);
+  report["T_lidar_camera"] = TransformJson(out.T_camera_lidar.inverse());
+  report["prior_T_camera_lidar"] = TransformJson(out.prior_T_camera_lidar);
   report["delta_vs_prior"] = {{"rotation_deg", out.delta_rotation_deg},
                               {"translation_m", out.delta_translation_m}};
   report["quality"] = {{"reprojection_mean_px", q.reprojection_mean_px},
@@ -269,6 +275,19 @@ int main(int argc, char** argv) {
   if (!report_path.empty() && !WriteFileAtomic(report_path, report.dump(2) + "\n", &error)) {
     std::cerr << "calibd-calibrate: " << error << "\n";
     return 1;
+  }
+  // A rejected result is no calibration to hand on: other stacks would load it without a verdict.
+  if (!export_dir.empty() && out.verdict != CalibrationOutcome::Verdict::kRejected) {
+    CalibrationExport e;
+    e.T_camera_lidar = out.T_camera_lidar;
+    e.camera_frame = config.camera_frame;
+    e.lidar_frame = config.lidar_frame;
+    e.software_version = std::string("calibd ") + CALIBD_VERSION;
+    e.calibrated_unix_s = static_cast<int64_t>(std::time(nullptr));
+    if (!WriteCalibrationExports(export_dir, e, &error)) {
+      std::cerr << "calibd-calibrate: " << error << "\n";
+      return 1;
+    }
   }
 
   if (!overlay_dir.empty() && !corr.observations.empty()) {
