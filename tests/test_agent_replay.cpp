@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "agent_outputs.hpp"
@@ -67,6 +68,18 @@ TEST_P(AgentReplayTest, CalibratesCommitsAndThenVerifies) {
   EXPECT_EQ(stored.version, 1);
   EXPECT_EQ(stored.verdict, "updated");
   EXPECT_EQ(stored.lidar_serial.rfind("LDR-", 0), 0u) << "serials come from sensor_info";
+  // The commit wrote the exports next to the store (drivers/calibration_export.hpp).
+  std::string text;
+  ASSERT_TRUE(ReadWholeFile(dir.file("store/export/calibration.json"), &text, &error)) << error;
+  const auto exported = nlohmann::json::parse(text);
+  EXPECT_EQ(exported["camera_frame"], "camera");
+  EXPECT_EQ(exported["lidar_frame"], "lidar");
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      EXPECT_EQ(exported["T_camera_lidar"]["matrix"][r][c].get<double>(),
+                stored.T_camera_lidar.matrix()(r, c));
+  EXPECT_TRUE(ReadWholeFile(dir.file("store/export/calib_velo_to_cam.txt"), &text, &error))
+      << error;
 
   const Published first = ReadPublished(dir.file("out1.lcmlog"));
   EXPECT_GE(first.status, 2);
@@ -88,6 +101,9 @@ TEST_P(AgentReplayTest, CalibratesCommitsAndThenVerifies) {
   const Published second = ReadPublished(dir.file("out2.lcmlog"));
   EXPECT_EQ(second.last_result.verdict, +calibration_result_t::VERDICT_VERIFIED);
   EXPECT_EQ(second.last_health.calibration_state, +health_t::CALIB_VALID);
+  // Without agent.can: no CAN link and no DTCs reported.
+  EXPECT_EQ(second.last_health.can_state, "off");
+  EXPECT_EQ(second.last_health.num_active_dtcs, 0);
 }
 
 INSTANTIATE_TEST_SUITE_P(EachLidar, AgentReplayTest, ::testing::Values("ot128", "m1", "falcon"));

@@ -18,6 +18,7 @@
 #include "calibd/channels.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/calibration_export.hpp"
 #include "calibd/drivers/can_link.hpp"
 
 namespace calibd {
@@ -336,7 +337,23 @@ uds::BackendReply Agent::Commit() {
   diag_.Report(uds::Dtc::kRecalibrationRequired, false);
   diag_.Report(uds::Dtc::kStoreCorrupt, false);  // a valid current version was written
   Log("committed calibration version " + std::to_string(store_.current()->version));
+  WriteExports();
   return uds::BackendReply::kAccepted;
+}
+
+void Agent::WriteExports() {
+  const StoredCalibration* current = store_.current();
+  if (current == nullptr) return;
+  CalibrationExport e;
+  e.T_camera_lidar = current->T_camera_lidar;
+  e.camera_frame = config_.calib.camera_frame;
+  e.lidar_frame = config_.calib.lidar_frame;
+  e.software_version = config_.SoftwareVersion();
+  e.calibrated_unix_s = current->created_unix_s;
+  std::string error;
+  if (!WriteCalibrationExports(config_.store.directory + "/export", e, &error))
+    Log("exports of calibration version " + std::to_string(current->version) +
+        " not written: " + error);
 }
 
 void Agent::Step(int64_t now_us) {
@@ -447,6 +464,22 @@ void Agent::PublishHealth() {
   h.lidar_frames_missed = static_cast<int32_t>(c.lidar_missed);
   h.camera_serial = camera_serial_;
   h.lidar_serial = lidar_serial_;
+  // lcm-gen leaves scalars uninitialised: every field is set here.
+  h.can_state = "off";
+  h.can_link_losses = h.can_bus_off_events = 0;
+  h.num_active_dtcs = 0;
+  if (const CanLinkStatus* isotp = diag_.isotp_status()) {
+    const CanLinkStatus* raw = diag_.raw_status();
+    h.can_state = ToString(raw->state == CanLinkState::kBusOff ? raw->state : isotp->state);
+    h.can_link_losses = static_cast<int32_t>(isotp->counters.link_losses);
+    h.can_bus_off_events = static_cast<int32_t>(raw->counters.bus_off_events);
+  }
+  if (uds::UdsServer* server = diag_.server()) {
+    for (size_t i = 0; i < uds::kDtcCount; ++i)
+      if (server->dtcs().status(i) & uds::kTestFailed)
+        h.active_dtcs.push_back(static_cast<int32_t>(uds::kDtcNumbers[i]));
+    h.num_active_dtcs = static_cast<int16_t>(h.active_dtcs.size());
+  }
   Publish(channels::kHealth.name, h);
 }
 
