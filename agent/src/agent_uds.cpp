@@ -164,6 +164,7 @@ uds::BackendReply Agent::RestoreReference() {
   sensor_mismatch_ = false;
   diag_.Report(uds::Dtc::kCalibrationNotPerformed, false);
   Log("restored the reference calibration as version " + std::to_string(store_.current()->version));
+  WriteExports();
   return uds::BackendReply::kAccepted;
 }
 

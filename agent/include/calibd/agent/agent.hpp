@@ -112,6 +112,11 @@ class Agent : private uds::UdsBackend {
   /// STATUS= for systemd ("idle", "session 2: collecting 40%", ...) when the state, the session
   /// or the collection progress (10% steps) changed since the last one: not every tick.
   void NotifyStatus();
+  /// Writes the store's current calibration in other stacks' formats into
+  /// `<agent.store.directory>/export/` (drivers/calibration_export.hpp), each file atomically,
+  /// after every change of the current calibration. A failure is logged, never fatal: the store
+  /// holds the calibration, the exports are copies.
+  void WriteExports();
   void Log(const std::string& line) const;
 
   AgentConfig config_;
