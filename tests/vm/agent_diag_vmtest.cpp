@@ -9,7 +9,14 @@
 //     (tests/vm/uds_scapy_client.py), bytes compared with calibd-tester's;
 //   - the status frame as captured from the bus (CRC, alive counter, period, state);
 //   - the start button (pulled with bounce on the simulator's side) starting a session, and the
-//     status lamp's level read from the simulator's side: blinking while running, steady after.
+//     status lamp's level read from the simulator's side: blinking while running, steady after;
+//   - S3 expiry aborting the calibration (results: aborted, session_ended); the SecurityAccess
+//     lockout (0x35, 0x36, 0x37) surviving an ECU reset; DTCs from real faults (no calibration,
+//     LiDAR/camera data timeout with the replay stopped, bus-off) with their exact status bytes,
+//     across a reset, cleared by 0x14, frozen by 0x85 02;
+//   - the transport: vcan0 down/up with the agent running, functional addressing, an
+//     interrupted multi-frame request, bus-off and restart error frames injected on vcan0.
+// Byte-exact requests come from this process (calibd-tester's client library, Uds()).
 //
 // Files: tests/CMakeLists.txt puts into the shared folder (this binary's folder in the guest) the
 // session (session.lcmlog, truth.json, calib.yaml), calibd-agent, calibd-sim, calibd-tester and
@@ -18,8 +25,13 @@
 // (LoadSecret checks owner and mode, which a 9p folder reports as the host decides).
 
 #include <gtest/gtest.h>
+#include <linux/can.h>
+#include <linux/can/error.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -31,6 +43,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -38,6 +51,7 @@
 #include <thread>
 #include <vector>
 
+#include "calibd/agent/uds/security_access.hpp"
 #include "calibd/core/geometry.hpp"
 #include "calibd/core/status_frame.hpp"
 #include "calibd/drivers/atomic_file.hpp"
@@ -45,6 +59,7 @@
 #include "calibd/drivers/can_raw_socket.hpp"
 #include "run_command.hpp"
 #include "temp_dir.hpp"
+#include "uds_client.hpp"
 
 namespace calibd {
 namespace {
@@ -63,6 +78,12 @@ constexpr double kRad2Deg = 180.0 / M_PI;
 // The replay's pace: 5 Hz frame pairs at half speed, 2.5 pairs/s, which the emulated guest's
 // detectors keep up with (a session ends on coverage after about one drive, 40 s).
 constexpr char kReplaySpeed[] = "0.5";
+constexpr char kSecret[] = "vmtest-secret-of-this-vehicle-0123456789";  // the UDS secret file
+// agent.uds.lockout_delay_s: longer than an ECU reset takes in the emulated guest (the agent is
+// answering again 13-20 s after 0x11 on a loaded host), so the delay is seen surviving the
+// restart.
+constexpr int kLockoutDelayS = 25;
+constexpr char kSessionExtendedReply[] = "50 03 00 32 01 F4";  // P2 50 ms, P2* 5000 ms
 
 int64_t NowUs() {
   timespec ts{};
@@ -105,6 +126,7 @@ class Child {
     }
     return true;
   }
+  pid_t pid() const { return pid_; }
   bool running() {
     if (pid_ <= 0) return false;
     int status = 0;
@@ -234,6 +256,165 @@ Pose TruthExtrinsic(const std::string& path) {
   return T;
 }
 
+std::string Hex(const uint8_t* data, size_t size) {
+  std::string text;
+  char byte[4];
+  for (size_t i = 0; i < size; ++i) {
+    std::snprintf(byte, sizeof(byte), i == 0 ? "%02X" : " %02X", data[i]);
+    text += byte;
+  }
+  return text;
+}
+std::string Hex(const std::vector<uint8_t>& bytes) { return Hex(bytes.data(), bytes.size()); }
+std::vector<uint8_t> Bytes(const std::string& hex) {
+  std::vector<uint8_t> bytes;
+  std::istringstream in(hex);
+  std::string token;
+  while (in >> token) bytes.push_back(static_cast<uint8_t>(std::stoul(token, nullptr, 16)));
+  return bytes;
+}
+
+/// What one request got from the agent, as text: the response's bytes in hex ("62 F1 95 ..."),
+/// a negative response as its three bytes ("7F 27 37"), else "timeout", "link down: ..." or
+/// "transport error: ...".
+struct UdsAnswer {
+  std::string text;
+  std::vector<uint8_t> bytes;  ///< the positive response
+  bool positive() const { return !bytes.empty(); }
+};
+
+/// One request over the kernel's can-isotp on vcan0 (0x7E0/0x7E8, functional 0x7DF) from this
+/// process: calibd-tester's client library (the transport the tester uses), without a process
+/// start per request, so sequences that race the agent's 1 s status frame stay short. The
+/// socket lives for this one request only: no second ISO-TP receiver on 0x7E8 while
+/// calibd-tester runs.
+UdsAnswer Uds(const std::string& request, bool functional = false, int p2_ms = 2000) {
+  UdsAnswer a;
+  IsoTpConfig config;
+  config.interface = kInterface;
+  tester::ClientTiming timing;
+  timing.p2_ms = p2_ms;
+  tester::UdsClient client;
+  std::string error;
+  if (!client.Open(config, timing, &error)) {
+    a.text = "link down: " + error;
+    return a;
+  }
+  const std::vector<uint8_t> bytes = Bytes(request);
+  const tester::UdsReply r = client.Request(bytes, functional);
+  switch (r.outcome) {
+    case tester::UdsReply::Outcome::kPositive:
+      a.bytes = r.bytes;
+      a.text = Hex(r.bytes);
+      break;
+    case tester::UdsReply::Outcome::kNegative: {
+      const uint8_t nrc[3] = {0x7F, bytes[0], r.nrc};
+      a.text = Hex(nrc, 3);
+      break;
+    }
+    case tester::UdsReply::Outcome::kNoResponse:
+    case tester::UdsReply::Outcome::kTimeout:
+      a.text = "timeout";
+      break;
+    case tester::UdsReply::Outcome::kLinkDown:
+      a.text = "link down: " + r.error;
+      break;
+    case tester::UdsReply::Outcome::kTransportError:
+      a.text = "transport error: " + r.error;
+      break;
+  }
+  return a;
+}
+
+/// 0x19 02 FF (reportDTCByStatusMask, every status bit): DTC number -> status byte. A response
+/// that is not 59 02 7F followed by 4-byte records is a test failure (and an empty map).
+std::map<uint32_t, int> ReadDtcs() {
+  const UdsAnswer a = Uds("19 02 FF");
+  std::map<uint32_t, int> dtcs;
+  const std::vector<uint8_t>& b = a.bytes;
+  if (b.size() < 3 || b[0] != 0x59 || b[1] != 0x02 || b[2] != 0x7F || (b.size() - 3) % 4 != 0) {
+    ADD_FAILURE() << "19 02 FF answered: " << a.text;
+    return dtcs;
+  }
+  for (size_t i = 3; i + 3 < b.size(); i += 4)
+    dtcs[(uint32_t{b[i]} << 16) | (uint32_t{b[i + 1]} << 8) | b[i + 2]] = b[i + 3];
+  return dtcs;
+}
+std::string DtcText(const std::map<uint32_t, int>& dtcs) {
+  std::string text;
+  char line[32];
+  for (const auto& [number, status] : dtcs) {
+    std::snprintf(line, sizeof(line), "%s%06X=%02X", text.empty() ? "" : " ", number, status);
+    text += line;
+  }
+  return text;
+}
+/// The status of one DTC in a reading (-1: not reported).
+int DtcStatus(const std::map<uint32_t, int>& dtcs, uint32_t number) {
+  const auto it = dtcs.find(number);
+  return it == dtcs.end() ? -1 : it->second;
+}
+
+/// A plain raw CAN socket on vcan0: sends what the transports never would (a lone First Frame,
+/// error frames) and sniffs one id.
+class RawCan {
+ public:
+  RawCan() {
+    fd_ = ::socket(PF_CAN, SOCK_RAW, CAN_RAW);
+    sockaddr_can addr{};
+    addr.can_family = AF_CAN;
+    addr.can_ifindex = static_cast<int>(if_nametoindex(kInterface));
+    if (fd_ >= 0 && ::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
+      ::close(fd_);
+      fd_ = -1;
+    }
+  }
+  ~RawCan() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  bool ok() const { return fd_ >= 0; }
+  /// Receives only `id` (11-bit) from now on.
+  void Filter(uint32_t id) {
+    can_filter f{id, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG};
+    ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, &f, sizeof(f));
+    can_frame drop{};
+    while (::recv(fd_, &drop, sizeof(drop), MSG_DONTWAIT) > 0) {
+    }
+  }
+  bool Send(canid_t id, const std::vector<uint8_t>& data) {
+    can_frame f{};
+    f.can_id = id;
+    f.len = static_cast<uint8_t>(data.size());
+    std::copy(data.begin(), data.end(), f.data);
+    return ::write(fd_, &f, sizeof(f)) == static_cast<ssize_t>(sizeof(f));
+  }
+  /// An error frame as a controller's driver reports it (vcan loops it back to every raw socket
+  /// on the interface whose error mask matches, as the agent's has for bus-off and restarted).
+  bool SendError(canid_t classes) {
+    can_frame f{};
+    f.can_id = CAN_ERR_FLAG | classes;
+    f.len = CAN_ERR_DLC;
+    if (classes & CAN_ERR_BUSOFF) {
+      f.can_id |= CAN_ERR_CNT;
+      f.data[6] = 255;  // tx error counter
+    }
+    return ::write(fd_, &f, sizeof(f)) == static_cast<ssize_t>(sizeof(f));
+  }
+  /// The next frame within `timeout_ms`: "7E8: 02 7E 00 CC ...", or empty.
+  std::string Receive(int timeout_ms) {
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, timeout_ms) <= 0) return "";
+    can_frame f{};
+    if (::recv(fd_, &f, sizeof(f), MSG_DONTWAIT) != static_cast<ssize_t>(sizeof(f))) return "";
+    char id[16];
+    std::snprintf(id, sizeof(id), "%03X: ", f.can_id & CAN_SFF_MASK);
+    return id + Hex(f.data, f.len);
+  }
+
+ private:
+  int fd_ = -1;
+};
+
 #define EXPECT_HAS(text, part) EXPECT_NE((text).find(part), std::string::npos) << (text)
 
 class AgentDiagVm : public ::testing::Test {
@@ -247,10 +428,14 @@ class AgentDiagVm : public ::testing::Test {
         "ip link set lo multicast on; ip route replace 224.0.0.0/4 dev lo; "
         "sysctl -q -w net.core.rmem_max=33554432 net.core.rmem_default=4194304");
     sim_ = new Child;
-    sim_->Start(InShared("calibd-sim") + " --replay " + InShared("session.lcmlog") +
-                    " --publish-url '" + kLcmUrl + "' --loops 40 --speed " + kReplaySpeed +
-                    " --start-delay 0",
-                InShared("sim.log"));
+    StartReplay("sim.log");
+  }
+  /// calibd-sim publishing the drive from its start, looping.
+  static bool StartReplay(const std::string& log) {
+    return sim_->Start(InShared("calibd-sim") + " --replay " + InShared("session.lcmlog") +
+                           " --publish-url '" + kLcmUrl + "' --loops 40 --speed " + kReplaySpeed +
+                           " --start-delay 0",
+                       InShared(log));
   }
   static void TearDownTestSuite() {
     delete sim_;  // stops it
@@ -272,6 +457,8 @@ class AgentDiagVm : public ::testing::Test {
   }
   void TearDown() override {
     monitor_.Stop();
+    // A test that stopped the replay (a sensor fault) restarts it; if it failed before, here.
+    if (sim_ != nullptr && !sim_->running()) StartReplay("sim-restarted.log");
     if (agent_started_) {
       const int code = agent_.Stop();
       EXPECT_EQ(code, 0) << "calibd-agent did not stop cleanly on SIGTERM; its log:\n"
@@ -285,7 +472,7 @@ class AgentDiagVm : public ::testing::Test {
     const std::string d = dir_.path().string();
     std::filesystem::create_directories(d + "/uds");
     {
-      std::ofstream(secret()) << "vmtest-secret-of-this-vehicle-0123456789";
+      std::ofstream(secret()) << kSecret;
       std::filesystem::permissions(
           secret(), std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
     }
@@ -299,17 +486,21 @@ class AgentDiagVm : public ::testing::Test {
             "  min_frames: 60\n  max_duration_s: 150\n" +
             "  can:\n    enabled: true\n    interface: " + kInterface + "\n" +
             "  uds:\n    secret_file: " + secret() + "\n    state_dir: " + d + "/uds\n" +
-            "    ecu_serial: " + kEcuSerial + "\n" + "  gpio:\n" + GpioLine("interlock") +
-            GpioLine("start_button") + GpioLine("status_lamp") +
+            "    ecu_serial: " + kEcuSerial + "\n" +
+            "    lockout_delay_s: " + std::to_string(kLockoutDelayS) + "\n" + "  gpio:\n" +
+            GpioLine("interlock") + GpioLine("start_button") + GpioLine("status_lamp") +
             "    start_button_debounce_ms: 30\n";
     std::string error;
     ASSERT_TRUE(WriteFileAtomic(dir_.file("agent.yaml"), yaml, &error)) << error;
     agent_log_ = InShared(
         "agent-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
         ".log");
+    // A log of an earlier run says "ready on" until the shell truncates it: gone first.
+    std::filesystem::remove(agent_log_);
     ASSERT_TRUE(agent_.Start(InShared("calibd-agent") + " --config " + dir_.file("agent.yaml"),
                              agent_log_));
     agent_started_ = true;
+    const int64_t spawn_us = NowUs();
     // Ready: its log says so, then UDS answers (F195 over the bus).
     const int64_t end = NowUs() + 90 * 1000000LL;
     bool ready = false;
@@ -319,15 +510,56 @@ class AgentDiagVm : public ::testing::Test {
       if (!ready) SleepMs(200);
     }
     ASSERT_TRUE(ready) << "calibd-agent not ready after 90 s; its log:\n" << ReadFile(agent_log_);
-    ToolRun r;
-    for (int attempt = 0; attempt < 20; ++attempt) {
-      r = Tester("read F195");
-      if (r.code == 0) break;
-      SleepMs(500);
-    }
+    std::printf("calibd-agent ready after %.2f s\n",
+                static_cast<double>(NowUs() - spawn_us) * 1e-6);
+    AwaitUdsAnswer();
+    if (HasFatalFailure()) return;
+    const ToolRun r = Tester("read F195");
     ASSERT_EQ(r.code, 0) << "no UDS answer from the agent: " << r.err << "\nits log:\n"
                          << ReadFile(agent_log_);
     ASSERT_EQ(r.out, "F195 software version: " + std::string(kSoftwareVersion) + "\n");
+  }
+
+  /// The first request after a start: 0x22 F195 with a long P2 (the agent's first answer can
+  /// take seconds while the emulated guest starts it up). One request at a time, so no answer
+  /// to an earlier one can arrive late and pass for the next request's (the ISO-TP receivers of
+  /// the tester and of Uds() take the first 0x62 that comes).
+  void AwaitUdsAnswer() {
+    const int64_t start_us = NowUs();
+    UdsAnswer a;
+    for (int attempt = 0; attempt < 4 && !a.positive(); ++attempt) {
+      a = Uds("22 F1 95", false, 10000);
+      if (!a.positive()) SleepMs(500);
+    }
+    ASSERT_TRUE(a.positive()) << "no UDS answer from the agent: " << a.text << "\nits log:\n"
+                              << ReadFile(agent_log_);
+    std::printf("first UDS answer after %.2f s\n", static_cast<double>(NowUs() - start_us) * 1e-6);
+  }
+
+  /// Occurrences of `what` in the agent's log.
+  int CountInLog(const std::string& what) {
+    const std::string log = ReadFile(agent_log_);
+    int n = 0;
+    for (size_t at = log.find(what); at != std::string::npos; at = log.find(what, at + 1)) ++n;
+    return n;
+  }
+  /// Waits up to `timeout_s` until `what` is in the agent's log `count` times.
+  bool WaitInLog(const std::string& what, int count, double timeout_s) {
+    const int64_t end = NowUs() + static_cast<int64_t>(timeout_s * 1e6);
+    while (CountInLog(what) < count) {
+      if (NowUs() >= end) return false;
+      SleepMs(20);
+    }
+    return true;
+  }
+  /// After a 0x11 01: the agent ready for the `count`-th time (the same process, re-executed)
+  /// and answering F195 again.
+  void WaitRestarted(int count) {
+    ASSERT_TRUE(WaitInLog("ready on", count, 90)) << "not ready again after the reset:\n"
+                                                  << ReadFile(agent_log_);
+    ASSERT_TRUE(agent_.running()) << "the agent exited instead of restarting:\n"
+                                  << ReadFile(agent_log_);
+    AwaitUdsAnswer();
   }
 
   static std::string GpioLine(const char* name) {
@@ -434,7 +666,9 @@ TEST_F(AgentDiagVm, StatusFrameIsCyclicWithCrcAndAliveCounter) {
 // b. Negative responses over the bus, from a fresh agent: results before any start 0x24; start
 // without security 0x33 (the exact bytes too); interlock released 0x22; and the same start with
 // the interlock asserted again is accepted (so the 0x22 was the interlock, not silent sensors).
-TEST_F(AgentDiagVm, NegativeResponsesForSequenceSecurityAndInterlock) {
+// Then S3: no request for 5 s ends the extended session and aborts that calibration (status
+// frame aborted; results 0x03 aborted, reason 0x02 session_ended), security relocked.
+TEST_F(AgentDiagVm, NegativeResponsesThenS3ExpiryAbortsTheCalibration) {
   StartAgent();
   ToolRun r = Tester("results");
   EXPECT_EQ(r.code, 5) << r.out << r.err;
@@ -471,9 +705,44 @@ TEST_F(AgentDiagVm, NegativeResponsesForSequenceSecurityAndInterlock) {
   r = Tester("results");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_HAS(r.out, "status: active\n");
-  r = Tester("--secret " + secret() + " stop");
-  EXPECT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(r.out, "stopped\n");
+
+  // S3: no request at all from here (no TesterPresent). 5 s after the last one the server is
+  // back in the default session, which aborts the routine it started in the extended one; the
+  // next status frame shows it (the frame is 1 Hz: within 5-6 s, plus the guest's slack).
+  const int64_t last_request_us = NowUs();
+  const size_t before_s3 = monitor_.count();
+  SeenFrame aborted;
+  ASSERT_TRUE(monitor_.WaitFor(
+      [](const StatusFrame& s) { return s.state != StatusFrame::State::kCollecting; }, 10,
+      before_s3, &aborted))
+      << "still collecting 10 s after the last request; agent log:\n"
+      << ReadFile(agent_log_);
+  const double s3_s = static_cast<double>(NowUs() - last_request_us) * 1e-6;
+  std::printf("S3: the status frame left collecting %.2f s after the last request (%s)\n", s3_s,
+              StateName(aborted.check.status.state));
+  EXPECT_EQ(aborted.check.status.state, StatusFrame::State::kAborted)
+      << StateName(aborted.check.status.state);
+  EXPECT_GE(s3_s, 4.5);  // from after the tester's exit: the agent got the request earlier
+  EXPECT_LE(s3_s, 7.5);
+  EXPECT_EQ(CountInLog("aborted: the extended diagnostic session ended"), 1)
+      << ReadFile(agent_log_);
+  // Back in the default session: SecurityAccess is not available there (0x7F).
+  EXPECT_EQ(Uds("27 01").text, "7F 27 7F");
+  // Extended again: the results record says aborted (0x03), no verdict, reason 0x02
+  // session_ended (routines.hpp); security was relocked, so a start is refused with 0x33.
+  EXPECT_EQ(Uds("10 03").text, kSessionExtendedReply);
+  const UdsAnswer results = Uds("31 03 F0 A0");
+  ASSERT_EQ(results.bytes.size(), 12u) << results.text;
+  EXPECT_EQ(Hex(std::vector<uint8_t>(results.bytes.begin(), results.bytes.begin() + 5)),
+            "71 03 F0 A0 03")
+      << results.text;
+  EXPECT_EQ(results.bytes[6], 0x00) << "verdict: " << results.text;
+  EXPECT_EQ(results.bytes[7], 0x02) << "reason: " << results.text;
+  EXPECT_EQ(Uds("31 01 F0 A0 00 00 00").text, "7F 31 33");
+  r = Tester("results");
+  EXPECT_EQ(r.code, 4) << r.err;  // the tester's exit code for failed or aborted
+  EXPECT_HAS(r.out, "status: aborted\n");
+  EXPECT_HAS(r.out, "reason: session_ended\n");
 }
 
 // 3. An independent client: scapy's UDS layer over its own ISO-TP (and over the kernel's), the
@@ -499,35 +768,267 @@ TEST_F(AgentDiagVm, ScapyUdsClientAgrees) {
   }
 }
 
-// 0x11 01 hardReset: the agent answers, then restarts itself in place (the same process, exec'd
-// afresh: its log shows it ready a second time) and UDS answers again.
-TEST_F(AgentDiagVm, HardResetRestartsTheAgentInPlace) {
+// 0x11 01 hardReset with a SecurityAccess lockout running: three wrong keys (0x35, 0x35, then
+// 0x36 exceededNumberOfAttempts, security_access.hpp) start the delay (agent.uds.lockout_delay_s
+// = kLockoutDelayS) and requestSeed answers 0x37; the reset answers, then the agent restarts
+// itself in place (the same process, exec'd afresh: its log shows it ready a second time) and
+// the delay survives it: 0x37 until kLockoutDelayS after the third key, then a fresh seed whose
+// correct key (HMAC-SHA256 with the vehicle's secret) unlocks.
+TEST_F(AgentDiagVm, HardResetRestartsTheAgentAndKeepsTheSecurityLockout) {
   StartAgent();
-  const std::string tester = InShared("calibd-tester") + " --interface vcan0 --p2-ms 2000 ";
-  const int code = RunCommand(tester + "session extended >/dev/null && " + tester + "raw 11 01 >" +
-                              dir_.file("reset.txt") + " 2>&1");
-  EXPECT_EQ(code, 0) << ReadFile(dir_.file("reset.txt"));
-  EXPECT_EQ(ReadFile(dir_.file("reset.txt")), "51 01\n");
-  auto count = [&](const std::string& what) {
-    const std::string log = ReadFile(agent_log_);
-    int n = 0;
-    for (size_t at = log.find(what); at != std::string::npos; at = log.find(what, at + 1)) ++n;
-    return n;
-  };
-  const int64_t end = NowUs() + 90 * 1000000LL;
-  while (count("ready on") < 2 && NowUs() < end && agent_.running()) SleepMs(200);
-  ASSERT_TRUE(agent_.running()) << "the agent exited instead of restarting:\n"
-                                << ReadFile(agent_log_);
-  EXPECT_EQ(count("restarting (ECU reset)"), 1) << ReadFile(agent_log_);
-  ASSERT_EQ(count("ready on"), 2) << "not ready again after the reset:\n" << ReadFile(agent_log_);
-  ToolRun r;
-  for (int attempt = 0; attempt < 20; ++attempt) {
-    r = Tester("read F195");
-    if (r.code == 0) break;
-    SleepMs(500);
+  ASSERT_EQ(Uds("10 03").text, kSessionExtendedReply);
+  const std::string wrong_key = " 00 11 22 33 44 55 66 77 88 99 AA BB CC DD EE FF";
+  int64_t third_key_us = 0;
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    SCOPED_TRACE("wrong key " + std::to_string(attempt));
+    const UdsAnswer seed = Uds("27 01");
+    ASSERT_EQ(seed.bytes.size(), 18u) << seed.text;
+    EXPECT_EQ(Hex(std::vector<uint8_t>(seed.bytes.begin(), seed.bytes.begin() + 2)), "67 01");
+    if (attempt == 3) third_key_us = NowUs();
+    EXPECT_EQ(Uds("27 02" + wrong_key).text, attempt < 3 ? "7F 27 35" : "7F 27 36");
   }
+  EXPECT_EQ(Uds("27 01").text, "7F 27 37");
+  EXPECT_EQ(Uds("11 01").text, "51 01");
+  const int64_t reset_us = NowUs();
+  WaitRestarted(2);
+  if (HasFatalFailure()) return;
+  std::printf("ECU reset: answering again %.2f s after 0x11 01\n",
+              static_cast<double>(NowUs() - reset_us) * 1e-6);
+  EXPECT_EQ(CountInLog("restarting (ECU reset)"), 1) << ReadFile(agent_log_);
+  ToolRun r = Tester("read F195");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.out, "F195 software version: " + std::string(kSoftwareVersion) + "\n");
+
+  // The restarted agent read the lockout back: still 0x37.
+  ASSERT_EQ(Uds("10 03").text, kSessionExtendedReply);
+  const UdsAnswer locked = Uds("27 01");
+  const double since_third_s = static_cast<double>(NowUs() - third_key_us) * 1e-6;
+  ASSERT_LT(since_third_s, kLockoutDelayS - 1.0)
+      << "the reset took too long to see the delay survive it: raise kLockoutDelayS";
+  EXPECT_EQ(locked.text, "7F 27 37") << since_third_s << " s after the third key";
+  // Polled every 250 ms (which keeps the session): a seed once the delay has passed, not before.
+  UdsAnswer seed;
+  int64_t free_us = 0;
+  while (NowUs() - third_key_us < (kLockoutDelayS + 5) * 1000000LL) {
+    seed = Uds("27 01");
+    if (seed.text != "7F 27 37") {
+      free_us = NowUs();
+      break;
+    }
+    SleepMs(250);
+  }
+  ASSERT_GT(free_us, 0) << "still 0x37 " << kLockoutDelayS + 5 << " s after the third key";
+  const double delay_s = static_cast<double>(free_us - third_key_us) * 1e-6;
+  std::printf("lockout: 0x37 until %.2f s after the third wrong key (configured %d s)\n", delay_s,
+              kLockoutDelayS);
+  EXPECT_GE(delay_s, kLockoutDelayS - 0.05);
+  EXPECT_LE(delay_s, kLockoutDelayS + 1.5);
+  ASSERT_EQ(seed.bytes.size(), 18u) << seed.text;
+  uint8_t key[uds::kKeySize];
+  const std::string secret_text = kSecret;
+  ASSERT_TRUE(uds::ComputeKey(secret_text, seed.bytes.data() + 2, uds::kSeedSize, key));
+  EXPECT_EQ(Uds("27 02 " + Hex(key, uds::kKeySize)).text, "67 02");
+  // Unlocked: requestSeed returns the all-zero seed (ISO 14229-1 §9.4.2.2).
+  EXPECT_EQ(Uds("27 01").text, "67 01 00 00 00 00 00 00 00 00 00 00 00 00 00 00 00 00");
+}
+
+// DTCs from real faults, read over the bus with 0x19 02 FF (dtc_store.hpp's rules, exact
+// status bytes): a fresh start with an empty store fails 5A0054; the replay stopped during a
+// collection fails 5A0187 and 5A0287 (LiDAR/camera data timeout) about 1 s after the last
+// frame; the statuses survive an ECU reset (a new operation cycle: ...ThisOperationCycle
+// cleared, testNotCompletedThisOperationCycle set); 0x14 FFFFFF clears every DTC to 0x50;
+// with DTC setting off (0x85 02) a bus-off fault changes nothing, with it on again the same
+// fault is recorded.
+TEST_F(AgentDiagVm, DtcsFromRealFaultsPersistClearAndFreeze) {
+  StartAgent();
+  std::map<uint32_t, int> dtcs = ReadDtcs();
+  std::printf("fresh start: %s\n", DtcText(dtcs).c_str());
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0054), 0x2F) << DtcText(dtcs);
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0187), 0x50) << DtcText(dtcs);
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0287), 0x50) << DtcText(dtcs);
+  ToolRun r = Tester("dtc");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_HAS(r.out,
+             "C1A00-54 (0x5A0054) calibration not performed: status 0x2F (testFailed, "
+             "testFailedThisOperationCycle, pendingDTC, confirmedDTC, testFailedSinceLastClear)\n");
+
+  // A collection, then the frames stop (the replay killed).
+  const size_t before = monitor_.count();
+  r = Tester("--secret " + secret() + " calibrate --no-wait");
+  ASSERT_EQ(r.code, 0) << r.out << r.err << "\nagent log:\n" << ReadFile(agent_log_);
+  ASSERT_TRUE(monitor_.WaitFor(
+      [](const StatusFrame& s) { return s.state == StatusFrame::State::kCollecting; }, 5, before))
+      << ReadFile(agent_log_);
+  const int64_t kill_us = NowUs();
+  sim_->Stop();
+  int64_t set_us = 0;
+  while (NowUs() - kill_us < 6000000) {
+    dtcs = ReadDtcs();
+    if ((DtcStatus(dtcs, 0x5A0187) & 0x01) == 1 && (DtcStatus(dtcs, 0x5A0287) & 0x01) == 1) {
+      set_us = NowUs();
+      break;
+    }
+    SleepMs(100);
+  }
+  ASSERT_GT(set_us, 0) << "no data-timeout DTCs 6 s after the replay stopped: " << DtcText(dtcs)
+                       << "\nagent log:\n"
+                       << ReadFile(agent_log_);
+  const double timeout_s = static_cast<double>(set_us - kill_us) * 1e-6;
+  std::printf("replay stopped: both data-timeout DTCs read back %.2f s later: %s\n", timeout_s,
+              DtcText(dtcs).c_str());
+  EXPECT_LE(timeout_s, 2.5);
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0187), 0x2F) << DtcText(dtcs);
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0287), 0x2F) << DtcText(dtcs);
+  EXPECT_EQ(CountInLog("LiDAR data timeout: no frame for more than 1 s while collecting"), 1)
+      << ReadFile(agent_log_);
+  EXPECT_EQ(CountInLog("camera data timeout: no frame for more than 1 s while collecting"), 1)
+      << ReadFile(agent_log_);
+
+  // ECU reset: the statuses come back from the state directory, in a new operation cycle.
+  ASSERT_EQ(Uds("11 01").text, "51 01");
+  WaitRestarted(2);
+  if (HasFatalFailure()) return;
+  ASSERT_TRUE(StartReplay("sim-dtc.log"));  // the agent is idle: no data-timeout test runs
+  dtcs = ReadDtcs();
+  std::printf("after the reset: %s\n", DtcText(dtcs).c_str());
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0187), 0x6D) << DtcText(dtcs);
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0287), 0x6D) << DtcText(dtcs);
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0054), 0x2F) << DtcText(dtcs);  // failed again at this start
+
+  // 0x14 FFFFFF: every DTC 0x50 (testNotCompletedSinceLastClear, ...ThisOperationCycle).
+  EXPECT_EQ(Uds("14 FF FF FF").text, "54");
+  dtcs = ReadDtcs();
+  EXPECT_EQ(dtcs.size(), 7u) << DtcText(dtcs);
+  for (const auto& [number, status] : dtcs) EXPECT_EQ(status, 0x50) << DtcText(dtcs);
+
+  // DTC setting off (extended session), then a fault the agent sees (a bus-off error frame; its
+  // log says so): nothing changes.
+  RawCan injector;
+  ASSERT_TRUE(injector.ok());
+  ASSERT_EQ(Uds("10 03").text, kSessionExtendedReply);
+  ASSERT_EQ(Uds("85 02").text, "C5 02");
+  ASSERT_TRUE(injector.SendError(CAN_ERR_BUSOFF));
+  ASSERT_TRUE(WaitInLog("CAN vcan0: bus-off", 1, 3)) << ReadFile(agent_log_);
+  dtcs = ReadDtcs();
+  std::printf("bus-off with DTC setting off: %s\n", DtcText(dtcs).c_str());
+  EXPECT_EQ(dtcs.size(), 7u) << DtcText(dtcs);
+  for (const auto& [number, status] : dtcs) EXPECT_EQ(status, 0x50) << DtcText(dtcs);
+  // On again: the next bus-off (once the link is back up, which on vcan the next status frame
+  // sent does) is recorded: confirmed and testFailedSinceLastClear (testFailed itself may have
+  // cleared again at that frame; the transport test checks it).
+  ASSERT_TRUE(WaitInLog("CAN vcan0: back on the bus", 1, 3)) << ReadFile(agent_log_);
+  ASSERT_EQ(Uds("85 01").text, "C5 01");
+  ASSERT_TRUE(injector.SendError(CAN_ERR_BUSOFF));
+  ASSERT_TRUE(WaitInLog("CAN vcan0: bus-off", 2, 3)) << ReadFile(agent_log_);
+  dtcs = ReadDtcs();
+  std::printf("bus-off with DTC setting on: %s\n", DtcText(dtcs).c_str());
+  EXPECT_EQ(DtcStatus(dtcs, 0xC00188) & 0x2E, 0x2E) << DtcText(dtcs);
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0187), 0x50) << DtcText(dtcs);
+}
+
+// The transport with the agent running:
+//  - vcan0 down, then up: the agent keeps running (the same PID, not restarted), logs the loss,
+//    reopens (backoff 100 ms doubling to 5 s) and answers 0x22 F195 again within a few seconds;
+//    its status frames come back;
+//  - functionally addressed requests (0x7DF) are answered on 0x7E8; an unknown SID sent
+//    functionally gets no answer (0x11 suppressed), physically 7F xx 11;
+//  - a First Frame on 0x7E0 whose consecutive frames never come: the agent's can-isotp sends its
+//    flow control, gives up (N_Cr 1 s), and a normal request afterwards is answered;
+//  - bus-off: vcan has no controller, but the kernel lets a raw socket send an error frame,
+//    which vcan loops back to the agent's raw socket: C00188 failed at CAN_ERR_BUSOFF, passed
+//    again at CAN_ERR_RESTARTED (both before the agent's next status frame, whose successful
+//    send would also end the bus-off: can_link.hpp).
+TEST_F(AgentDiagVm, TransportSurvivesLinkLossFunctionalInterruptedRequestsAndBusOff) {
+  StartAgent();
+  const std::string f195 = Uds("22 F1 95").text;  // the version, space-padded (did_codec.hpp)
+  ASSERT_EQ(f195.substr(0, 9), "62 F1 95 ") << f195;
+  const pid_t pid = agent_.pid();
+  ASSERT_EQ(RunCommand("ip link set vcan0 down"), 0);
+  ASSERT_TRUE(WaitInLog("CAN vcan0 (UDS): down", 1, 5)) << ReadFile(agent_log_);
+  SleepMs(1000);
+  ASSERT_TRUE(agent_.running()) << ReadFile(agent_log_);
+  ASSERT_EQ(RunCommand("ip link set vcan0 up"), 0);
+  const int64_t up_us = NowUs();
+  UdsAnswer a;
+  while (NowUs() - up_us < 10000000 && a.text != f195) {
+    a = Uds("22 F1 95", false, 500);
+    if (a.text != f195) SleepMs(100);
+  }
+  const double back_s = static_cast<double>(NowUs() - up_us) * 1e-6;
+  std::printf("vcan0 up again: F195 answered after %.2f s\n", back_s);
+  ASSERT_EQ(a.text, f195) << "no answer 10 s after the link came back; agent log:\n"
+                          << ReadFile(agent_log_);
+  EXPECT_LE(back_s, 6.0);
+  EXPECT_TRUE(agent_.running());
+  EXPECT_EQ(agent_.pid(), pid);
+  EXPECT_EQ(CountInLog("ready on"), 1) << "restarted?\n" << ReadFile(agent_log_);
+  EXPECT_EQ(CountInLog("CAN vcan0 (UDS): up"), 2) << ReadFile(agent_log_);
+  // The status frames resume (the monitor's own socket died with the link: a fresh one).
+  monitor_.Stop();
+  std::string error;
+  ASSERT_TRUE(monitor_.Start(&error)) << error;
+  EXPECT_TRUE(monitor_.WaitFor([](const StatusFrame&) { return true; }, 3))
+      << "no status frame after the link came back; agent log:\n"
+      << ReadFile(agent_log_);
+
+  // Functional addressing: calibd-tester sends on 0x7DF, the answer comes on 0x7E8.
+  RawCan sniffer;
+  ASSERT_TRUE(sniffer.ok());
+  sniffer.Filter(0x7E8);
+  ToolRun r = Tester("raw 3E 00 --functional");
+  EXPECT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_EQ(r.out, "7E 00\n");
+  EXPECT_EQ(sniffer.Receive(500), "7E8: 02 7E 00 CC CC CC CC CC");
+  r = Tester("raw 10 01 --functional");
+  EXPECT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_EQ(r.out, "50 01 00 32 01 F4\n");
+  EXPECT_EQ(sniffer.Receive(500), "7E8: 06 50 01 00 32 01 F4 CC");
+  EXPECT_EQ(Uds("BA 01", true, 500).text, "timeout");
+  EXPECT_EQ(sniffer.Receive(300), "") << "an answer to a functional unknown SID";
+  EXPECT_EQ(Uds("BA 01").text, "7F BA 11");
+  EXPECT_EQ(sniffer.Receive(300), "7E8: 03 7F BA 11 CC CC CC CC");
+
+  // An interrupted multi-frame request: a First Frame of 10 bytes, never the rest.
+  RawCan injector;
+  ASSERT_TRUE(injector.ok());
+  ASSERT_TRUE(injector.Send(0x7E0, Bytes("10 0A 22 F1 95 F1 90 F1")));
+  const std::string flow_control = sniffer.Receive(1000);
+  EXPECT_EQ(flow_control.substr(0, 7), "7E8: 30") << "no flow control: '" << flow_control << "'";
+  SleepMs(1500);
+  EXPECT_EQ(Uds("22 F1 95").text, f195) << ReadFile(agent_log_);
+  // A multi-frame request (9 bytes: First Frame + 1 Consecutive Frame) is received whole.
+  EXPECT_EQ(Uds("22 F1 95 F1 8C FD 05 F1 9B").text.substr(0, f195.size()), f195)
+      << ReadFile(agent_log_);
+  EXPECT_TRUE(agent_.running());
+
+  // Bus-off: injected right after a status frame, so the checks run before the next one.
+  std::map<uint32_t, int> dtcs = ReadDtcs();
+  // Passed at start (the link up): status 0x00, which mask 0xFF does not report.
+  EXPECT_EQ(DtcStatus(dtcs, 0xC00188), -1) << DtcText(dtcs);
+  const size_t frames = monitor_.count();
+  ASSERT_TRUE(monitor_.WaitFor([](const StatusFrame&) { return true; }, 3, frames));
+  const size_t last_frame = monitor_.count();
+  ASSERT_TRUE(injector.SendError(CAN_ERR_BUSOFF));
+  ASSERT_TRUE(WaitInLog("CAN vcan0: bus-off", 1, 1)) << ReadFile(agent_log_);
+  dtcs = ReadDtcs();
+  const std::string during = DtcText(dtcs);
+  ASSERT_TRUE(injector.SendError(CAN_ERR_RESTARTED));
+  ASSERT_TRUE(WaitInLog("CAN vcan0: back on the bus", 1, 1)) << ReadFile(agent_log_);
+  const std::map<uint32_t, int> after = ReadDtcs();
+  timespec read_at{};
+  clock_gettime(CLOCK_REALTIME, &read_at);  // the frames' kernel receive times are wall clock
+  SleepMs(100);
+  const std::vector<SeenFrame> seen = monitor_.frames();
+  const bool before_next_frame =
+      seen.size() == last_frame ||
+      seen[last_frame].t_ns > int64_t{read_at.tv_sec} * 1000000000 + read_at.tv_nsec;
+  std::printf("bus-off: %s\nrestarted: %s\n", during.c_str(), DtcText(after).c_str());
+  EXPECT_EQ(DtcStatus(dtcs, 0xC00188), 0x2F) << during;
+  EXPECT_EQ(DtcStatus(after, 0xC00188), 0x2E) << DtcText(after);
+  EXPECT_TRUE(before_next_frame)
+      << "a status frame went out between the bus-off and the check: the clear cannot be told "
+         "from the send's";
+  EXPECT_TRUE(agent_.running());
 }
 
 // a. The workshop flow with calibd-tester: extended session, unlock, calibrate start, results
@@ -536,6 +1037,10 @@ TEST_F(AgentDiagVm, HardResetRestartsTheAgentInPlace) {
 // The status frame follows: collecting while it runs, done + updated after, valid once stored.
 TEST_F(AgentDiagVm, WorkshopFlowCalibratesCommitsAndStores) {
   StartAgent();
+  // An empty store: 5A0054 calibration not performed, failed at this start (dtc_store.hpp:
+  // testFailed, ...ThisOperationCycle, pending, confirmed, ...SinceLastClear).
+  std::map<uint32_t, int> dtcs = ReadDtcs();
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0054), 0x2F) << DtcText(dtcs);
   ToolRun r = Tester("session extended");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.out, "session extended (P2 50 ms, P2* 5000 ms)\n");
@@ -569,6 +1074,15 @@ TEST_F(AgentDiagVm, WorkshopFlowCalibratesCommitsAndStores) {
   r = Tester("--secret " + secret() + " commit");
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_EQ(r.out, "commit: success\n");
+  // Committed: 5A0054's test passed (testFailed clear; confirmed and the history bits kept).
+  dtcs = ReadDtcs();
+  EXPECT_EQ(DtcStatus(dtcs, 0x5A0054), 0x2E) << DtcText(dtcs);
+  r = Tester("dtc");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_HAS(
+      r.out,
+      "C1A00-54 (0x5A0054) calibration not performed: status 0x2E "
+      "(testFailedThisOperationCycle, pendingDTC, confirmedDTC, testFailedSinceLastClear)\n");
 
   // The store on disk (as the agent's next start would read it) holds the new calibration.
   CalibrationStoreConfig store_config;
