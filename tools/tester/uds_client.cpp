@@ -39,6 +39,40 @@ std::string UdsClient::Describe(uint8_t sid) const {
   return std::string(sid_text) + " " + ServiceName(sid) + " on " + config_.interface + ids;
 }
 
+namespace {
+
+// Whether a positive response echoes this request's identifiers (ISO 14229-1: 0x22/0x2E the DID,
+// 0x31 the control type and RID, services with a sub-function the sub-function without the
+// suppress bit). A late answer to an earlier request of the same service must not pass for it.
+bool EchoMatches(const std::vector<uint8_t>& req, const uint8_t* m, size_t size) {
+  auto same = [&](size_t from, size_t count) {
+    if (req.size() < from + count || size < from + count) return req.size() < from + count;
+    for (size_t i = from; i < from + count; ++i) {
+      const uint8_t a = i == 1 ? static_cast<uint8_t>(req[i] & 0x7F) : req[i];
+      if (a != m[i]) return false;
+    }
+    return true;
+  };
+  switch (req[0]) {
+    case uds::kSidReadDataByIdentifier:
+    case uds::kSidWriteDataByIdentifier:
+      return same(1, 2);
+    case uds::kSidRoutineControl:
+      return same(1, 3);
+    case uds::kSidDiagnosticSessionControl:
+    case uds::kSidEcuReset:
+    case uds::kSidReadDtcInformation:
+    case uds::kSidSecurityAccess:
+    case uds::kSidTesterPresent:
+    case uds::kSidControlDtcSetting:
+      return same(1, 1);
+    default:
+      return true;
+  }
+}
+
+}  // namespace
+
 UdsReply UdsClient::Request(const std::vector<uint8_t>& request, bool functional,
                             bool expect_response) {
   UdsReply reply;
@@ -100,7 +134,8 @@ UdsReply UdsClient::Request(const std::vector<uint8_t>& request, bool functional
       reply.bytes.assign(m, m + message.size);
       return reply;
     }
-    if (message.size >= 1 && m[0] == static_cast<uint8_t>(sid + uds::kPositiveResponseOffset)) {
+    if (message.size >= 1 && m[0] == static_cast<uint8_t>(sid + uds::kPositiveResponseOffset) &&
+        EchoMatches(request, m, message.size)) {
       reply.outcome = UdsReply::Outcome::kPositive;
       reply.bytes.assign(m, m + message.size);
       reply.waited_ms = static_cast<int>((MonotonicUs() - start_us) / 1000);
