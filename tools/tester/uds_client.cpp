@@ -45,10 +45,13 @@ namespace {
 // 0x31 the control type and RID, services with a sub-function the sub-function without the
 // suppress bit). A late answer to an earlier request of the same service must not pass for it.
 bool EchoMatches(const std::vector<uint8_t>& req, const uint8_t* m, size_t size) {
-  auto same = [&](size_t from, size_t count) {
-    if (req.size() < from + count || size < from + count) return req.size() < from + count;
-    for (size_t i = from; i < from + count; ++i) {
-      const uint8_t a = i == 1 ? static_cast<uint8_t>(req[i] & 0x7F) : req[i];
+  // Bytes [1, 1 + count) of the request and the response; `sub_function`: byte 1 compared
+  // without the suppressPosRspMsgIndicationBit. A request too short to have them (raw) passes.
+  auto same = [&](size_t count, bool sub_function) {
+    if (req.size() < 1 + count) return true;
+    if (size < 1 + count) return false;
+    for (size_t i = 1; i < 1 + count; ++i) {
+      const uint8_t a = sub_function && i == 1 ? static_cast<uint8_t>(req[i] & 0x7F) : req[i];
       if (a != m[i]) return false;
     }
     return true;
@@ -56,16 +59,16 @@ bool EchoMatches(const std::vector<uint8_t>& req, const uint8_t* m, size_t size)
   switch (req[0]) {
     case uds::kSidReadDataByIdentifier:
     case uds::kSidWriteDataByIdentifier:
-      return same(1, 2);
+      return same(2, false);
     case uds::kSidRoutineControl:
-      return same(1, 3);
+      return same(3, true);
     case uds::kSidDiagnosticSessionControl:
     case uds::kSidEcuReset:
     case uds::kSidReadDtcInformation:
     case uds::kSidSecurityAccess:
     case uds::kSidTesterPresent:
     case uds::kSidControlDtcSetting:
-      return same(1, 1);
+      return same(1, true);
     default:
       return true;
   }
