@@ -165,6 +165,7 @@ struct ToolRun {
 struct SeenFrame {
   int64_t t_ns = 0;
   StatusFrameCheck check;
+  StatusFrameBytes bytes{};
 };
 
 /// Captures the agent's status frames from vcan0 on a thread (a raw socket filtered on its id).
@@ -229,7 +230,7 @@ class FrameMonitor {
         StatusFrameBytes bytes{};
         std::copy(frame.data.begin(), frame.data.begin() + kStatusFrameBytes, bytes.begin());
         std::lock_guard<std::mutex> lock(mutex_);
-        frames_.push_back({frame.timestamp_ns, DecodeStatusFrame(bytes)});
+        frames_.push_back({frame.timestamp_ns, DecodeStatusFrame(bytes), bytes});
       }
     }
   }
@@ -661,6 +662,41 @@ TEST_F(AgentDiagVm, StatusFrameIsCyclicWithCrcAndAliveCounter) {
   const double mean_s = sum_s / static_cast<double>(f.size() - 1);
   std::printf("status frames: %zu, mean period %.3f s\n", f.size(), mean_s);
   EXPECT_NEAR(mean_s, 1.0, 0.05);
+
+  // The same frames through deploy/calibd.dbc with a decoder we did not write (Debian's
+  // python3-canmatrix, tests/dbc_decode.py): its signals equal our decoder's.
+  const std::string frames_txt = dir_.file("status_frames.txt"), decoded = dir_.file("dbc.jsonl"),
+                    decode_err = dir_.file("dbc.err");
+  {
+    std::ofstream out(frames_txt);
+    for (const SeenFrame& s : f) {
+      char line[32];
+      int n = std::snprintf(line, sizeof(line), "3C0#");
+      for (uint8_t b : s.bytes) n += std::snprintf(line + n, sizeof(line) - n, "%02X", b);
+      out << line << "\n";
+    }
+  }
+  ASSERT_EQ(RunCommand("/usr/bin/python3 " + std::string(CALIBD_SOURCE_DIR) +
+                       "/tests/dbc_decode.py " + CALIBD_SOURCE_DIR + "/deploy/calibd.dbc " +
+                       frames_txt + " >" + decoded + " 2>" + decode_err),
+            0)
+      << ReadFile(decode_err);
+  std::ifstream in(decoded);
+  std::string line;
+  size_t i = 0;
+  for (; std::getline(in, line) && i < f.size(); ++i) {
+    const auto j = nlohmann::json::parse(line);
+    const StatusFrameCheck& c = f[i].check;
+    EXPECT_EQ(j.at("Crc").get<int>(), f[i].bytes[0]) << line;
+    EXPECT_EQ(j.at("AliveCounter").get<int>(), c.counter) << line;
+    EXPECT_EQ(j.at("State").get<int>(), static_cast<int>(c.status.state)) << line;
+    EXPECT_EQ(j.at("Progress").get<int>(), 255) << line;  // no session
+    EXPECT_EQ(j.at("LastVerdict").get<int>(), static_cast<int>(c.status.last_verdict)) << line;
+    EXPECT_EQ(j.at("CalibrationState").get<int>(), static_cast<int>(c.status.calibration)) << line;
+    EXPECT_EQ(j.at("RotationDelta").get<int>(), 0xFFFF) << line;   // no result
+    EXPECT_EQ(j.at("CalibrationAge").get<int>(), 0xFFFF) << line;  // no calibration
+  }
+  EXPECT_EQ(i, f.size()) << "canmatrix decoded every frame";
 }
 
 // b. Negative responses over the bus, from a fresh agent: results before any start 0x24; start
@@ -888,6 +924,11 @@ TEST_F(AgentDiagVm, DtcsFromRealFaultsPersistClearAndFreeze) {
   ASSERT_EQ(Uds("11 01").text, "51 01");
   WaitRestarted(2);
   if (HasFatalFailure()) return;
+  // Sensors silent (no frame within 1 s): a start is refused with 0x22, the interlock being
+  // asserted.
+  r = Tester("--secret " + secret() + " calibrate --no-wait");
+  EXPECT_EQ(r.code, 5) << r.out << r.err;
+  EXPECT_HAS(r.err, "0x31 RoutineControl refused: 0x22 conditionsNotCorrect");
   ASSERT_TRUE(StartReplay("sim-dtc.log"));  // the agent is idle: no data-timeout test runs
   dtcs = ReadDtcs();
   std::printf("after the reset: %s\n", DtcText(dtcs).c_str());
