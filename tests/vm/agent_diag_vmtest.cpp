@@ -676,10 +676,11 @@ TEST_F(AgentDiagVm, StatusFrameIsCyclicWithCrcAndAliveCounter) {
       out << line << "\n";
     }
   }
-  ASSERT_EQ(RunCommand("/usr/bin/python3 " + std::string(CALIBD_SOURCE_DIR) +
-                       "/tests/dbc_decode.py " + CALIBD_SOURCE_DIR + "/deploy/calibd.dbc " +
-                       frames_txt + " >" + decoded + " 2>" + decode_err),
-            0)
+  // The decoder and the DBC travel in the shared folder (a clone under /tmp is not seen here).
+  ASSERT_EQ(
+      RunCommand("/usr/bin/python3 " + InShared("dbc_decode.py") + " " + InShared("calibd.dbc") +
+                 " " + frames_txt + " >" + decoded + " 2>" + decode_err),
+      0)
       << ReadFile(decode_err);
   std::ifstream in(decoded);
   std::string line;
