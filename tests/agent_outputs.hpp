@@ -4,17 +4,12 @@
 
 #include <gtest/gtest.h>
 
-#include <algorithm>
-#include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "calibd/calibration_result_t.hpp"
-#include "calibd/calibration_status_t.hpp"
-#include "calibd/channels.hpp"
 #include "calibd/core/geometry.hpp"
+#include "calibd/drivers/agent_outputs.hpp"
 #include "calibd/drivers/atomic_file.hpp"
-#include "calibd/health_t.hpp"
 
 namespace calibd::testing {
 
@@ -29,34 +24,14 @@ inline Pose TruthExtrinsic(const std::string& path) {
   return T;
 }
 
-/// What the agent published: counts and the last message of each kind.
-struct Published {
-  int status = 0, health = 0, results = 0;
-  calibration_status_t last_status;
-  calibration_result_t last_result;
-  health_t last_health;
-  float max_camera_rate_hz = 0.f, max_lidar_rate_hz = 0.f;  ///< over every health message
-};
+/// What the agent published (drivers/agent_outputs.hpp); every message must decode.
+using Published = AgentOutputs;
 
 inline Published ReadPublished(const std::string& path) {
   Published p;
-  lcm::LogFile log(path, "r");
-  EXPECT_TRUE(log.good()) << path;
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
-    const int size = static_cast<int>(ev->datalen);
-    if (ev->channel == channels::kStatus.name) {
-      EXPECT_EQ(p.last_status.decode(ev->data, 0, size), size);
-      ++p.status;
-    } else if (ev->channel == channels::kResult.name) {
-      EXPECT_EQ(p.last_result.decode(ev->data, 0, size), size);
-      ++p.results;
-    } else if (ev->channel == channels::kHealth.name) {
-      EXPECT_EQ(p.last_health.decode(ev->data, 0, size), size);
-      p.max_camera_rate_hz = std::max(p.max_camera_rate_hz, p.last_health.camera_rate_hz);
-      p.max_lidar_rate_hz = std::max(p.max_lidar_rate_hz, p.last_health.lidar_rate_hz);
-      ++p.health;
-    }
-  }
+  std::string error;
+  EXPECT_TRUE(ReadAgentOutputs(path, &p, &error)) << error;
+  EXPECT_EQ(p.undecodable, 0) << path;
   return p;
 }
 

@@ -112,6 +112,40 @@ TEST(TesterDid, TextDateQualityStateAndUnknown) {
   EXPECT_EQ(DidSize(0xFD00), 24u);
 }
 
+// DID 0xFD06 as the agent encodes it, shown to the operator: the bins and the image grid with
+// what is covered, and the agent's own guidance for what is missing.
+TEST(TesterDid, CaptureCoverageShowsWhereBoardsAreMissing) {
+  CaptureCoverage c;
+  c.moving = false;
+  c.distance_bins = 0b0001;                           // only 0-8.5 m
+  c.image_cells = (1u << 0) | (1u << 1) | (1u << 4);  // three cells of the top-left quadrant
+  c.frames_with_boards = 12;
+  c.boards = 30;
+  uint8_t bytes[uds::kCoverageSize];
+  ASSERT_EQ(uds::EncodeCoverage(c, bytes), uds::kCoverageSize);
+  EXPECT_EQ(DidSize(0xFD06), uds::kCoverageSize);
+  EXPECT_EQ(DecodeDid(0xFD06, bytes, sizeof(bytes)),
+            "static session, distance bins 1 of 4 (3 needed), image cells 3 of 16 (4 needed), "
+            "frame pairs 12 (50 needed, target 200), boards 30 (20 needed)");
+  EXPECT_EQ(CoverageChart(uds::DecodeCoverage(bytes)),
+            "distance bins:  [x] 0-8.5 m  [ ] 8.5-15 m  [ ] 15-25 m  [ ] 25+ m   (3 needed)\n"
+            "image cells (x: a board centre seen; 4 needed):\n"
+            "   x x . .\n"
+            "   x . . .\n"
+            "   . . . .\n"
+            "   . . . .\n"
+            "frame pairs with boards: 12 (50 needed, target 200), boards: 30 (20 needed)\n"
+            "next: move boards to 8.5-15 m, 15-25 m, 25+ m (1 of 4 distance bins, 3 needed); "
+            "boards needed in the image's top-right, bottom-left, bottom-right (3 of 16 image "
+            "cells, 4 needed)\n");
+  // Covered: what is still short.
+  c.distance_bins = 0b1110;
+  c.image_cells = 0xF00F;
+  EXPECT_NE(CoverageChart(c).find("next: coverage complete: keep collecting (12 of 50 frame "
+                                  "pairs)"),
+            std::string::npos);
+}
+
 TEST(TesterHex, ParseAndFormat) {
   std::vector<uint8_t> bytes;
   ASSERT_TRUE(ParseHex("22 F1 90", &bytes));

@@ -232,6 +232,20 @@ TEST_F(UdsServerTest, ReadDataByIdentifierSupplierScalings) {
   backend_.state = CalibrationState::kRecalibrationRequired;
   backend_.snapshot.status = RoutineStatus::kActive;
   EXPECT_EQ(Tx({0x22, 0xFD, 0x05}), (Bytes{0x62, 0xFD, 0x05, 0x02, 0x01}));
+  // Capture coverage: static session, bins 0 and 2 seen of 3 needed, cells 0, 5 and 15 of 4
+  // needed, 37 of 50 frame pairs (target 200), 70000 boards (saturates at 0xFFFF) of 20.
+  backend_.coverage = {false, 0b101, 3, (1u << 0) | (1u << 5) | (1u << 15), 4, 37, 50,
+                       200,   70000, 20};
+  const Bytes coverage{0x62, 0xFD, 0x06, 0x01, 0x05, 0x03, 0x80, 0x21, 0x04, 0x00,
+                       0x25, 0x00, 0x32, 0x00, 0xC8, 0xFF, 0xFF, 0x00, 0x14};
+  EXPECT_EQ(Tx({0x22, 0xFD, 0x06}), coverage);
+  const CaptureCoverage back = DecodeCoverage(coverage.data() + 3);
+  EXPECT_FALSE(back.moving);
+  EXPECT_EQ(back.distance_bins, 0b101u);
+  EXPECT_EQ(back.image_cells, backend_.coverage.image_cells);
+  EXPECT_EQ(back.frames_with_boards, 37);
+  EXPECT_EQ(back.boards, 0xFFFF);
+  EXPECT_EQ(back.min_boards, 20);
 }
 
 TEST(DidCodecTest, ScalingSaturatesAndRounds) {

@@ -33,6 +33,7 @@ class FakeUdsBackend : public uds::UdsBackend {
   uds::ExtrinsicFigures current, reference;
   uds::QualityFigures quality;
   uds::CalibrationState state = uds::CalibrationState::kNotPerformed;
+  CaptureCoverage coverage;
 
   // What the server did.
   int starts = 0, stops = 0, aborts = 0, commits = 0, restores = 0, resets = 0;
@@ -84,6 +85,7 @@ class FakeUdsBackend : public uds::UdsBackend {
   std::string_view LidarSerial() const override { return lidar_serial; }
   std::string_view CameraSerial() const override { return camera_serial; }
   uds::CalibrationState State() const override { return state; }
+  CaptureCoverage Coverage() const override { return coverage; }
   void ResetRequested() override { ++resets; }
 };
 

@@ -20,6 +20,7 @@
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
 #include "calibd/drivers/can_link.hpp"
+#include "clock.hpp"
 
 namespace calibd {
 
@@ -28,18 +29,6 @@ namespace {
 constexpr double kRad2Deg = 180.0 / M_PI;
 constexpr int kTickMs = 50;     ///< poll loop timer: status, health and time limits are checked
 constexpr int kFrameQueue = 2;  ///< LCM messages waiting per sensor channel (udpm drops beyond)
-
-int64_t MonotonicUs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
-}
-
-int64_t WallUs() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
-}
 
 // RAII for the poll loop's own descriptors.
 struct Fd {

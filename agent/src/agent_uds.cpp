@@ -9,6 +9,7 @@
 
 #include "calibd/agent/agent.hpp"
 #include "calibd/drivers/atomic_file.hpp"
+#include "clock.hpp"
 
 namespace calibd {
 
@@ -18,12 +19,6 @@ constexpr double kRad2Deg = 180.0 / M_PI;
 /// A sensor counts as alive when its last frame arrived within this; silent longer while a
 /// session collects sets its data-timeout DTC.
 constexpr int64_t kSensorAliveUs = 1000000;
-
-int64_t NowUs(clockid_t clock) {
-  timespec ts{};
-  clock_gettime(clock, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
-}
 
 uds::ExtrinsicFigures Figures(const StoredCalibration* c) {
   uds::ExtrinsicFigures e;
@@ -67,14 +62,34 @@ uds::RoutineReason ReasonCode(const std::string& reason) {
   return R::kOther;
 }
 
+// The verdict as the routine results record (routines.hpp) and the status frame
+// (status_frame.hpp, deploy/calibd.dbc) code it: both name the same three verdicts.
+template <typename WireVerdict>
+WireVerdict VerdictCode(CalibrationOutcome::Verdict verdict) {
+  switch (verdict) {
+    case CalibrationOutcome::Verdict::kVerified:
+      return WireVerdict::kVerified;
+    case CalibrationOutcome::Verdict::kUpdated:
+      return WireVerdict::kUpdated;
+    case CalibrationOutcome::Verdict::kRejected:
+      break;
+  }
+  return WireVerdict::kRejected;
+}
+
+/// True when a sensor's last frame (monotonic us, 0: none yet) arrived within kSensorAliveUs.
+bool SensorAlive(int64_t last_us, int64_t now_us) {
+  return last_us > 0 && now_us - last_us <= kSensorAliveUs;
+}
+
 }  // namespace
 
 uds::RoutineConditions Agent::Conditions() const {
   uds::RoutineConditions c;
-  const int64_t now = NowUs(CLOCK_MONOTONIC);
+  const int64_t now = MonotonicUs();
   c.interlock_asserted = diag_.Interlock();
-  c.lidar_alive = last_lidar_us_ > 0 && now - last_lidar_us_ <= kSensorAliveUs;
-  c.camera_alive = last_camera_us_ > 0 && now - last_camera_us_ <= kSensorAliveUs;
+  c.lidar_alive = SensorAlive(last_lidar_us_, now);
+  c.camera_alive = SensorAlive(last_camera_us_, now);
   return c;
 }
 
@@ -90,14 +105,14 @@ uds::BackendReply Agent::StartCalibration(const uds::CalibrateOptions& options) 
 }
 
 uds::BackendReply Agent::StopCalibration() {
-  const RequestReply reply = machine_.Stop(NowUs(CLOCK_MONOTONIC));
+  const RequestReply reply = machine_.Stop(MonotonicUs());
   if (!reply.accepted) return uds::BackendReply::kSequenceError;
   Log("session " + std::to_string(machine_.session()) + " stopped over UDS");
   return uds::BackendReply::kAccepted;
 }
 
 void Agent::AbortCalibration() {
-  if (machine_.Stop(NowUs(CLOCK_MONOTONIC), "session_ended").accepted)
+  if (machine_.Stop(MonotonicUs(), "session_ended").accepted)
     Log("session " + std::to_string(machine_.session()) +
         " aborted: the extended diagnostic session ended");
 }
@@ -129,17 +144,7 @@ uds::RoutineSnapshot Agent::CalibrationStatus() const {
       break;
   }
   if (s == SessionState::kDone && has_outcome_) {
-    switch (outcome_.verdict) {
-      case CalibrationOutcome::Verdict::kVerified:
-        r.verdict = uds::RoutineVerdict::kVerified;
-        break;
-      case CalibrationOutcome::Verdict::kUpdated:
-        r.verdict = uds::RoutineVerdict::kUpdated;
-        break;
-      case CalibrationOutcome::Verdict::kRejected:
-        r.verdict = uds::RoutineVerdict::kRejected;
-        break;
-    }
+    r.verdict = VerdictCode<uds::RoutineVerdict>(outcome_.verdict);
     r.reason = ReasonCode(outcome_.reason);
     if (outcome_.solved) {
       r.delta_rotation_deg = outcome_.delta_rotation_deg;
@@ -156,7 +161,7 @@ uds::BackendReply Agent::RestoreReference() {
     return uds::BackendReply::kConditionsNotCorrect;
   }
   std::string error;
-  if (!store_.RestoreReference(NowUs(CLOCK_REALTIME) / 1000000, &error)) {
+  if (!store_.RestoreReference(WallUs() / 1000000, &error)) {
     last_error_ = "restore failed: " + error;
     Log(last_error_ + " (the previous calibration stays in use)");
     return uds::BackendReply::kFailure;
@@ -224,7 +229,7 @@ void Agent::ReportDtcs(int64_t now_us) {
   auto check = [&](int64_t last_us, bool* reported, uds::Dtc dtc, const char* name) {
     const int64_t reference = std::max(last_us, since);
     const bool silent = collecting && now_us - reference > kSensorAliveUs;
-    const bool alive = last_us > 0 && now_us - last_us <= kSensorAliveUs;
+    const bool alive = SensorAlive(last_us, now_us);
     if (silent && !*reported) {
       diag_.Report(dtc, true);
       *reported = true;
@@ -273,17 +278,7 @@ DiagnosticsView Agent::DiagnosticsNow() const {
     f.progress_percent = static_cast<int>(std::lround(
         std::clamp(s == SessionState::kCollecting ? machine_.progress() : 1.0, 0.0, 1.0) * 100.0));
   if (has_outcome_) {
-    switch (outcome_.verdict) {
-      case CalibrationOutcome::Verdict::kVerified:
-        f.last_verdict = StatusFrame::Verdict::kVerified;
-        break;
-      case CalibrationOutcome::Verdict::kUpdated:
-        f.last_verdict = StatusFrame::Verdict::kUpdated;
-        break;
-      case CalibrationOutcome::Verdict::kRejected:
-        f.last_verdict = StatusFrame::Verdict::kRejected;
-        break;
-    }
+    f.last_verdict = VerdictCode<StatusFrame::Verdict>(outcome_.verdict);
     if (outcome_.solved) f.rotation_delta_deg = outcome_.delta_rotation_deg;
   }
   switch (State()) {
@@ -300,8 +295,7 @@ DiagnosticsView Agent::DiagnosticsNow() const {
   if (const StoredCalibration* c = store_.current()) {
     const int64_t since = std::max(c->created_unix_s, c->verified_unix_s);
     f.calibration_age_h =
-        std::max<double>(0.0, static_cast<double>(NowUs(CLOCK_REALTIME) / 1000000 - since)) /
-        3600.0;
+        std::max<double>(0.0, static_cast<double>(WallUs() / 1000000 - since)) / 3600.0;
   }
   return v;
 }

@@ -12,12 +12,6 @@ namespace {
 constexpr double kCollectingShare = 0.9;  // of the progress; the solve takes the rest
 constexpr size_t kTextCapacity = 512;     // longest guidance is about 200 characters
 
-// Names of the distance bins between kDistanceBinEdgesM, for the operator.
-constexpr const char* kDistanceBinNames[kDistanceBins] = {"0-8.5 m", "8.5-15 m", "15-25 m",
-                                                          "25+ m"};
-// Image quadrants (row 0 at the top of the image).
-constexpr const char* kQuadrantNames[4] = {"top-left", "top-right", "bottom-left", "bottom-right"};
-
 int CountBits(uint32_t bits) { return static_cast<int>(std::bitset<32>(bits).count()); }
 
 // Appends without allocating while the string has the capacity (std::to_string would allocate).
@@ -25,18 +19,6 @@ void AppendInt(std::string* s, int64_t v) {
   char buf[24];
   const auto result = std::to_chars(buf, buf + sizeof(buf), v);
   s->append(buf, result.ptr);
-}
-
-// Quadrants holding at least one covered cell, bit q = (lower half) * 2 + (right half).
-uint32_t CoveredQuadrants(uint32_t cells) {
-  uint32_t quadrants = 0;
-  for (int cell = 0; cell < kImageCells; ++cell) {
-    if (!(cells & (1u << cell))) continue;
-    const int row = cell / kImageGridSide, col = cell % kImageGridSide;
-    const int q = (2 * row >= kImageGridSide ? 2 : 0) + (2 * col >= kImageGridSide ? 1 : 0);
-    quadrants |= 1u << q;
-  }
-  return quadrants;
 }
 
 }  // namespace
@@ -299,6 +281,21 @@ void SessionMachine::CommitFailed(const std::string& detail) {
   UpdateGuidance();
 }
 
+CaptureCoverage SessionMachine::Coverage() const {
+  CaptureCoverage c;
+  c.moving = request_.mode == SessionMode::kMoving;
+  c.distance_bins = figures_.distance_bins;
+  c.min_distance_bins = config_.min_distance_bins;
+  c.image_cells = figures_.image_cells;
+  c.min_image_cells = config_.min_image_cells;
+  c.frames_with_boards = figures_.frames_with_boards;
+  c.min_frames = config_.min_frames;
+  c.target_frames = config_.target_frames;
+  c.boards = figures_.boards;
+  c.min_boards = config_.min_boards;
+  return c;
+}
+
 void SessionMachine::UpdateGuidance() {
   guidance_.clear();
   if (state_ == SessionState::kDone) {
@@ -307,76 +304,7 @@ void SessionMachine::UpdateGuidance() {
     return;
   }
   if (state_ != SessionState::kCollecting) return;
-  const bool moving = request_.mode == SessionMode::kMoving;
-  const CollectionFigures& f = figures_;
-  if (f.frames_with_boards == 0) {
-    guidance_ = moving ? "no board seen yet: drive towards the boards"
-                       : "no board seen yet: place the boards in view of both sensors";
-    return;
-  }
-
-  const int bins = CountBits(f.distance_bins);
-  if (bins < config_.min_distance_bins) {
-    guidance_ += moving ? "drive so that boards are seen at " : "move boards to ";
-    bool first = true;
-    for (int b = 0; b < kDistanceBins; ++b) {
-      if (f.distance_bins & (1u << b)) continue;
-      if (!first) guidance_ += ", ";
-      guidance_ += kDistanceBinNames[b];
-      first = false;
-    }
-    guidance_ += " (";
-    AppendInt(&guidance_, bins);
-    guidance_ += " of ";
-    AppendInt(&guidance_, kDistanceBins);
-    guidance_ += " distance bins, ";
-    AppendInt(&guidance_, config_.min_distance_bins);
-    guidance_ += " needed)";
-  }
-
-  const int cells = CountBits(f.image_cells);
-  if (cells < config_.min_image_cells) {
-    if (!guidance_.empty()) guidance_ += "; ";
-    const uint32_t quadrants = CoveredQuadrants(f.image_cells);
-    if (quadrants == 0xfu) {
-      guidance_ += "spread the boards across the image";
-    } else {
-      guidance_ += "boards needed in the image's ";
-      bool first = true;
-      for (int q = 0; q < 4; ++q) {
-        if (quadrants & (1u << q)) continue;
-        if (!first) guidance_ += ", ";
-        guidance_ += kQuadrantNames[q];
-        first = false;
-      }
-    }
-    guidance_ += " (";
-    AppendInt(&guidance_, cells);
-    guidance_ += " of ";
-    AppendInt(&guidance_, kImageCells);
-    guidance_ += " image cells, ";
-    AppendInt(&guidance_, config_.min_image_cells);
-    guidance_ += " needed)";
-  }
-
-  if (!guidance_.empty()) return;
-  if (f.frames_with_boards < config_.min_frames) {
-    guidance_ = "coverage complete: keep collecting (";
-    AppendInt(&guidance_, f.frames_with_boards);
-    guidance_ += " of ";
-    AppendInt(&guidance_, config_.min_frames);
-    guidance_ += " frame pairs)";
-  } else if (f.boards < config_.min_boards) {
-    guidance_ = "coverage complete: keep collecting (";
-    AppendInt(&guidance_, f.boards);
-    guidance_ += " of ";
-    AppendInt(&guidance_, config_.min_boards);
-    guidance_ += " boards)";
-  } else {
-    guidance_ = "coverage complete: collecting up to ";
-    AppendInt(&guidance_, config_.target_frames);
-    guidance_ += " frame pairs";
-  }
+  AppendCaptureGuidance(Coverage(), &guidance_);
 }
 
 }  // namespace calibd

@@ -9,12 +9,11 @@
 #include <cstring>
 #include <filesystem>
 #include <iomanip>
-#include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 #include <ostream>
 
 #include "calibd/calibration_result_t.hpp"
-#include "calibd/channels.hpp"
+#include "calibd/drivers/agent_outputs.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/health_t.hpp"
 #include "live_publisher.hpp"
@@ -35,20 +34,6 @@ struct SessionRun {
   bool has_result = false;
   double wall_s = 0.0;
 };
-
-// Reads the last health and result message of the agent's published log.
-void ReadOutputs(const std::string& path, SessionRun* run) {
-  lcm::LogFile log(path, "r");
-  if (!log.good()) return;
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
-    const int size = static_cast<int>(ev->datalen);
-    if (ev->channel == channels::kHealth.name) {
-      run->health.decode(ev->data, 0, size);
-    } else if (ev->channel == channels::kResult.name) {
-      run->has_result = run->result.decode(ev->data, 0, size) == size;
-    }
-  }
-}
 
 // Starts the agent; its pid, or -1.
 pid_t StartAgent(const std::string& agent, const std::string& config, const std::string& out_log) {
@@ -157,7 +142,13 @@ bool RunAgentMemoryBench(const AgentMemoryBenchOptions& o, std::ostream& out,
     run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     run.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB
-    ReadOutputs(out_log, &run);
+    AgentOutputs outputs;
+    std::string read_error;
+    if (ReadAgentOutputs(out_log, &outputs, &read_error)) {
+      run.health = outputs.last_health;
+      run.has_result = outputs.results > 0;
+      run.result = outputs.last_result;
+    }
     runs.push_back(run);
   }
 

@@ -26,14 +26,17 @@ Commands:
   unlock                     extended session + SecurityAccess 0x27 01/02 (needs --secret)
   calibrate [--static] [--max-duration S] [--no-wait]
                              start routine 0xF0A0 and follow it (results every 500 ms, progress
-                             on stderr) until its verdict; needs --secret unless already unlocked
+                             and where boards are still missing on stderr) until its verdict;
+                             needs --secret unless already unlocked
   verify [--static] [--max-duration S] [--no-wait]
                              as calibrate with routine 0xF0A3 (never changes the calibration)
   results [verify]           one requestRoutineResults of calibrate (or verify)
   stop                       stop the running calibrate/verify routine
   commit                     commit the last updated result (routine 0xF0A1)
   restore-reference          make the factory reference current (routine 0xF0A2)
-  read DID[,DID...]          ReadDataByIdentifier, decoded (F18C F190 F195 F19B FD00-FD05)
+  read DID[,DID...]          ReadDataByIdentifier, decoded (F18C F190 F195 F19B FD00-FD06)
+  coverage                   where boards are still missing in the running session: distance
+                             bins, the image grid and what to do next (DID FD06)
   write-vin VIN              WriteDataByIdentifier 0xF190 (extended session, unlocked)
   dtc [--clear]              read the DTCs (0x19 02 mask 0xFF) with their status bits, or clear
                              them (0x14 FFFFFF)
@@ -64,6 +67,9 @@ missing or down, or an ISO-TP transfer failed.
 namespace {
 
 constexpr const char* kPrefix = "calibd-tester: ";
+// The routine's progress (results byte 1) stays below this while the session collects; the
+// solve reports 90 % (SessionMachine::progress).
+constexpr int kSolvingPercent = 90;
 
 bool ParseInt(const std::string& text, long min, long max, long* value) {
   char* end = nullptr;
@@ -265,6 +271,10 @@ int RunRoutine(UdsClient& client, const TesterOptions& o, std::ostream& out, std
   const int64_t deadline_us = MonotonicUs() + (int64_t{limit_s} + 120) * 1000000;
   const bool tty = !o.quiet && ::isatty(STDERR_FILENO);
   int last_shown = -1;
+  // Capture guidance while collecting (DID 0xFD06), printed when it changes; an agent without
+  // the DID is followed without it.
+  bool coverage_available = true;
+  std::string guidance, last_guidance;
   Results r;
   for (;;) {
     code = ReadResults(client, rid, err, &r);
@@ -274,6 +284,18 @@ int RunRoutine(UdsClient& client, const TesterOptions& o, std::ostream& out, std
     }
     if (!o.quiet) ShowProgress(r, tty, &last_shown, err);
     if (r.status != static_cast<uint8_t>(uds::RoutineStatus::kActive)) break;
+    if (!o.quiet && coverage_available) {
+      CaptureCoverage coverage;
+      coverage_available = ReadCoverage(client, &coverage) == kExitOk;
+      if (coverage_available && r.progress < kSolvingPercent) {
+        guidance.clear();
+        AppendCaptureGuidance(coverage, &guidance);
+        if (guidance != last_guidance) {
+          err << (tty ? "\n" : "") << "next: " << guidance << "\n";
+          last_guidance = guidance;
+        }
+      }
+    }
     if (MonotonicUs() > deadline_us) {
       if (tty) err << "\n";
       err << kPrefix << "the routine is still active " << limit_s + 120
@@ -293,6 +315,20 @@ int RunRoutine(UdsClient& client, const TesterOptions& o, std::ostream& out, std
       r.verdict == static_cast<uint8_t>(uds::RoutineVerdict::kUpdated))
     out << "commit it with: calibd-tester --secret FILE commit\n";
   return VerdictExit(r);
+}
+
+// Reads DID 0xFD06; errors (e.g. an agent without it) are not printed.
+int ReadCoverage(UdsClient& client, CaptureCoverage* coverage) {
+  UdsReply reply;
+  std::ostream quiet(nullptr);
+  const int code = Call(client,
+                        {uds::kSidReadDataByIdentifier, uds::kDidCaptureCoverage >> 8,
+                         uds::kDidCaptureCoverage & 0xFF},
+                        quiet, &reply);
+  if (code != kExitOk) return code;
+  if (!ExpectSize(reply, 3 + uds::kCoverageSize, quiet)) return kExitFailure;
+  *coverage = uds::DecodeCoverage(reply.bytes.data() + 3);
+  return kExitOk;
 }
 
 int RunRead(UdsClient& client, const TesterOptions& o, std::ostream& out, std::ostream& err) {
@@ -356,6 +392,15 @@ int RunCommand(UdsClient& client, const TesterOptions& o, std::ostream& out, std
   if (c == "session")
     return EnterSession(client, o.args[0] == "extended" ? 0x03 : 0x01, out, err, true);
   if (c == "read") return RunRead(client, o, out, err);
+  if (c == "coverage") {
+    std::vector<uint8_t> request = {uds::kSidReadDataByIdentifier, uds::kDidCaptureCoverage >> 8,
+                                    uds::kDidCaptureCoverage & 0xFF};
+    const int code = Call(client, request, err, &reply);
+    if (code != kExitOk) return code;
+    if (!ExpectSize(reply, 3 + uds::kCoverageSize, err)) return kExitFailure;
+    out << CoverageChart(uds::DecodeCoverage(reply.bytes.data() + 3));
+    return kExitOk;
+  }
   if (c == "dtc") return RunDtc(client, o, out, err);
   if (c == "tester-present") {
     const int code = Call(client, {uds::kSidTesterPresent, 0x00}, err, &reply, o.functional);
@@ -538,7 +583,8 @@ bool ParseTesterArgs(const std::vector<std::string>& argv, TesterOptions* o, boo
       *error = "results takes nothing or 'verify' (got '" + o->args[0] + "')";
       return false;
     }
-  } else if (c == "stop" || c == "commit" || c == "restore-reference" || c == "tester-present") {
+  } else if (c == "stop" || c == "commit" || c == "restore-reference" || c == "tester-present" ||
+             c == "coverage") {
     if (!args_count(0, 0, (c + (c == "tester-present" ? " [--functional]" : "")).c_str()))
       return false;
   } else if (c == "dtc") {

@@ -3,6 +3,7 @@
 #include <cctype>
 #include <cstdio>
 
+#include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/uds/did_codec.hpp"
 #include "calibd/agent/uds/dtc_store.hpp"
 #include "calibd/agent/uds/routines.hpp"
@@ -269,6 +270,8 @@ size_t DidSize(uint16_t did) {
       return uds::kSensorSerialSize;
     case uds::kDidCalibrationState:
       return 2;
+    case uds::kDidCaptureCoverage:
+      return uds::kCoverageSize;
     default:
       return 0;
   }
@@ -296,6 +299,8 @@ const char* DidName(uint16_t did) {
       return "camera serial number";
     case uds::kDidCalibrationState:
       return "calibration state";
+    case uds::kDidCaptureCoverage:
+      return "capture coverage";
     default:
       return "unknown DID";
   }
@@ -314,9 +319,49 @@ std::string DecodeDid(uint16_t did, const uint8_t* data, size_t size) {
     case uds::kDidCalibrationState:
       return std::string(CalibrationStateName(data[0])) + ", calibrate routine " +
              RoutineStatusName(data[1]);
+    case uds::kDidCaptureCoverage:
+      return CoverageSummary(uds::DecodeCoverage(data));
     default:
       return Ascii(data, size);
   }
+}
+
+std::string CoverageSummary(const CaptureCoverage& c) {
+  int bins = 0, cells = 0;
+  for (int b = 0; b < kDistanceBins; ++b) bins += (c.distance_bins >> b) & 1u;
+  for (int i = 0; i < kImageCells; ++i) cells += (c.image_cells >> i) & 1u;
+  char line[192];
+  std::snprintf(line, sizeof(line),
+                "%s session, distance bins %d of %d (%d needed), image cells %d of %d (%d "
+                "needed), frame pairs %d (%d needed, target %d), boards %d (%d needed)",
+                c.moving ? "moving" : "static", bins, kDistanceBins, c.min_distance_bins, cells,
+                kImageCells, c.min_image_cells, c.frames_with_boards, c.min_frames, c.target_frames,
+                c.boards, c.min_boards);
+  return line;
+}
+
+std::string CoverageChart(const CaptureCoverage& c) {
+  std::string s = "distance bins:";
+  for (int b = 0; b < kDistanceBins; ++b) {
+    s += (c.distance_bins >> b) & 1u ? "  [x] " : "  [ ] ";
+    s += DistanceBinName(b);
+  }
+  s += "   (" + std::to_string(c.min_distance_bins) + " needed)\n";
+  s += "image cells (x: a board centre seen; " + std::to_string(c.min_image_cells) + " needed):\n";
+  for (int row = 0; row < kImageGridSide; ++row) {
+    s += "  ";
+    for (int col = 0; col < kImageGridSide; ++col)
+      s += (c.image_cells >> (row * kImageGridSide + col)) & 1u ? " x" : " .";
+    s += "\n";
+  }
+  s += "frame pairs with boards: " + std::to_string(c.frames_with_boards) + " (" +
+       std::to_string(c.min_frames) + " needed, target " + std::to_string(c.target_frames) +
+       "), boards: " + std::to_string(c.boards) + " (" + std::to_string(c.min_boards) +
+       " needed)\n";
+  s += "next: ";
+  AppendCaptureGuidance(c, &s);
+  s += "\n";
+  return s;
 }
 
 const char* RoutineStatusName(uint8_t status) {

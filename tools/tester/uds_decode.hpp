@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "calibd/agent/capture_guidance.hpp"
+
 namespace calibd::tester {
 
 /// "RoutineControl" for 0x31; "unknown service" otherwise.
@@ -40,6 +42,12 @@ const char* DidName(uint16_t did);
 /// The decoded value of one record, e.g. "x 12.34 mm, y ... roll 0.500000 deg ..." for 0xFD00,
 /// the text without trailing spaces for serials. Unknown DIDs or wrong sizes: the hex bytes.
 std::string DecodeDid(uint16_t did, const uint8_t* data, size_t size);
+
+/// DID 0xFD06 on one line ("moving session, distance bins 2 of 4 (3 needed), ...").
+std::string CoverageSummary(const CaptureCoverage& coverage);
+/// DID 0xFD06 for the operator: the distance bins and the image grid with what is covered, the
+/// counts, and the agent's own guidance text ("next: ...").
+std::string CoverageChart(const CaptureCoverage& coverage);
 
 const char* RoutineStatusName(uint8_t status);    ///< "idle", "active", "success", ...
 const char* RoutineVerdictName(uint8_t verdict);  ///< "none", "verified", "updated", "rejected"

@@ -1,5 +1,6 @@
 #include "calibd/agent/uds/did_codec.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <ctime>
@@ -70,6 +71,35 @@ size_t EncodeQuality(const QualityFigures& q, uint8_t* out) {
   n += PutU16(out + n, ScaleToUint16(q.frames_used, 1.0));
   n += PutU16(out + n, ScaleToUint16(q.boards_used, 1.0));
   return n;
+}
+
+size_t EncodeCoverage(const CaptureCoverage& c, uint8_t* out) {
+  auto byte = [](int v) { return static_cast<uint8_t>(std::clamp(v, 0, 0xFF)); };
+  size_t n = 0;
+  out[n++] = c.moving ? 0 : 1;
+  out[n++] = static_cast<uint8_t>(c.distance_bins & 0xFFu);
+  out[n++] = byte(c.min_distance_bins);
+  n += PutU16(out + n, static_cast<uint16_t>(c.image_cells & 0xFFFFu));
+  out[n++] = byte(c.min_image_cells);
+  for (const int v : {c.frames_with_boards, c.min_frames, c.target_frames, c.boards, c.min_boards})
+    n += PutU16(out + n, ScaleToUint16(v, 1.0));
+  return n;
+}
+
+CaptureCoverage DecodeCoverage(const uint8_t* in) {
+  auto u16 = [in](int at) { return (in[at] << 8) | in[at + 1]; };
+  CaptureCoverage c;
+  c.moving = in[0] == 0;
+  c.distance_bins = in[1];
+  c.min_distance_bins = in[2];
+  c.image_cells = static_cast<uint32_t>(u16(3));
+  c.min_image_cells = in[5];
+  c.frames_with_boards = u16(6);
+  c.min_frames = u16(8);
+  c.target_frames = u16(10);
+  c.boards = u16(12);
+  c.min_boards = u16(14);
+  return c;
 }
 
 size_t EncodeBcdDate(int64_t unix_s, uint8_t* out) {

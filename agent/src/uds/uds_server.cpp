@@ -263,6 +263,9 @@ size_t UdsServer::ReadOneDid(uint16_t did, uint8_t* out, size_t room) {
     case kDidCalibrationState:
       need = 2;
       break;
+    case kDidCaptureCoverage:
+      need = kCoverageSize;
+      break;
     default:
       return 0;
   }
@@ -300,6 +303,9 @@ size_t UdsServer::ReadOneDid(uint16_t did, uint8_t* out, size_t room) {
     case kDidCalibrationState:
       data[0] = static_cast<uint8_t>(backend_->State());
       data[1] = static_cast<uint8_t>(backend_->CalibrationStatus().status);
+      break;
+    case kDidCaptureCoverage:
+      EncodeCoverage(backend_->Coverage(), data);
       break;
     default:
       break;

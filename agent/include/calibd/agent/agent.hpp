@@ -99,6 +99,7 @@ class Agent : private uds::UdsBackend {
   std::string_view LidarSerial() const override;
   std::string_view CameraSerial() const override;
   uds::CalibrationState State() const override;
+  CaptureCoverage Coverage() const override { return machine_.Coverage(); }
   void ResetRequested() override { reset_requested_ = true; }
 
   /// Drains the intake, advances the machine, starts or collects the solve; `now_us` monotonic.

@@ -18,6 +18,7 @@
 #include <string>
 
 #include "calibd/agent/agent_config.hpp"
+#include "calibd/agent/capture_guidance.hpp"
 #include "calibd/core/calibration_engine.hpp"
 
 namespace calibd {
@@ -139,6 +140,8 @@ class SessionMachine {
   /// What the operator should do next: while collecting, the distance bins and image regions
   /// still lacking boards; after an uncommitted `updated` result, to commit it. Else empty.
   const std::string& guidance() const { return guidance_; }
+  /// The session's coverage against the gates (what guidance() words while collecting).
+  CaptureCoverage Coverage() const;
   /// The solve's verdict (meaningful in kDone).
   CalibrationOutcome::Verdict verdict() const { return verdict_; }
   bool committed() const { return committed_; }

@@ -17,6 +17,11 @@
 /// - 0xFD04 camera serial number, 32 bytes ASCII
 /// - 0xFD05 calibration state, 2 bytes: CalibrationState, then the calibrate routine's
 ///   RoutineStatus (routines.hpp)
+/// - 0xFD06 capture coverage of the running (or last) session, 16 bytes (capture_guidance.hpp):
+///   byte 0 mode (0 moving, 1 static), byte 1 distance bins seen (bit b: bin b), byte 2 bins
+///   needed, bytes 3-4 image cells seen (bit c: cell c of the 4 x 4 grid, row-major from the
+///   top-left), byte 5 cells needed, then u16 each: frame pairs with boards, frame pairs needed,
+///   target frame pairs, boards, boards needed
 ///
 /// ExtrinsicFigures (T_camera_lidar: p_camera = R * p_lidar + t): x, y, z of t in 0.01 mm, then
 /// roll, pitch, yaw in micro-degrees (R = Rz(yaw) * Ry(pitch) * Rx(roll)), each int32 rounded to
@@ -27,6 +32,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <string_view>
+
+#include "calibd/agent/capture_guidance.hpp"
 
 namespace calibd::uds {
 
@@ -41,6 +48,7 @@ enum DataIdentifier : uint16_t {
   kDidLidarSerial = 0xFD03,
   kDidCameraSerial = 0xFD04,
   kDidCalibrationState = 0xFD05,
+  kDidCaptureCoverage = 0xFD06,
 };
 
 inline constexpr size_t kVinSize = 17;
@@ -49,6 +57,7 @@ inline constexpr size_t kSoftwareVersionSize = 16;
 inline constexpr size_t kSensorSerialSize = 32;
 inline constexpr size_t kExtrinsicSize = 24;
 inline constexpr size_t kQualitySize = 12;
+inline constexpr size_t kCoverageSize = 16;
 inline constexpr int32_t kExtrinsicNotAvailable = 0x7FFFFFFF;
 
 /// Scalings (one LSB).
@@ -85,6 +94,9 @@ size_t PutI32(uint8_t* out, int32_t v);
 size_t PutPaddedAscii(uint8_t* out, std::string_view text, size_t size);
 size_t EncodeExtrinsic(const ExtrinsicFigures& e, uint8_t* out);
 size_t EncodeQuality(const QualityFigures& q, uint8_t* out);
+size_t EncodeCoverage(const CaptureCoverage& c, uint8_t* out);
+/// Reads kCoverageSize bytes of DID 0xFD06 back (calibd-tester).
+CaptureCoverage DecodeCoverage(const uint8_t* in);
 /// BCD date of a UTC time (YYYY MM DD); 4 zero bytes for unix_s <= 0.
 size_t EncodeBcdDate(int64_t unix_s, uint8_t* out);
 

@@ -24,7 +24,7 @@
 /// requestRoutineResults (0x03) of calibrate/verify returns kCalibrationResultSize bytes after the
 /// RID:
 ///   byte 0    RoutineStatus
-///   byte 1    progress, % (0-100)
+///   byte 1    progress, % (0-100): below 90 while collecting, 90 while solving, 100 done
 ///   byte 2    RoutineVerdict
 ///   byte 3    RoutineReason (why it failed, aborted or was rejected; 0 otherwise)
 ///   bytes 4-5 rotation change vs the prior calibration, u16 in 0.001 deg (saturates at 65.535)

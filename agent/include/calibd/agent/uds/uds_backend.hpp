@@ -58,6 +58,8 @@ class UdsBackend {
   virtual std::string_view LidarSerial() const = 0;
   virtual std::string_view CameraSerial() const = 0;
   virtual CalibrationState State() const = 0;
+  /// The running (or last) session's coverage against its gates (DID 0xFD06).
+  virtual CaptureCoverage Coverage() const = 0;
 
   /// 0x11 hardReset was accepted: restart once the positive response has been sent.
   virtual void ResetRequested() = 0;
