@@ -12,8 +12,11 @@ bool LidarKindFromName(const std::string& name, LidarKind* kind, std::string* er
     *kind = LidarKind::kM1;
   else if (name == "falcon")
     *kind = LidarKind::kFalcon;
+  else if (name == "generic")
+    *kind = LidarKind::kGeneric;
   else {
-    if (error) *error = "unknown LiDAR model '" + name + "' (expected ot128, m1 or falcon)";
+    if (error)
+      *error = "unknown LiDAR model '" + name + "' (expected ot128, m1, falcon or generic)";
     return false;
   }
   return true;
@@ -114,6 +117,25 @@ LidarModel MakeFalcon() {
   return m;
 }
 
+LidarModel MakeGenericPlaceholder() {
+  LidarModel m;
+  m.kind = LidarKind::kGeneric;
+  m.name = "generic";
+  m.has_rings = false;  // rows are elevation bins even when the cloud carries a ring field
+  m.azimuth_resolution_deg = 0.2;
+  m.elevation_resolution_deg = 0.2;
+  m.azimuth_min_deg = -180.0;
+  m.azimuth_max_deg = 180.0;
+  m.elevation_min_deg = -25.0;
+  m.elevation_max_deg = 15.0;
+  m.min_range_m = 0.3;
+  m.max_range_m = 200.0;
+  m.range_quantization_m = 0.005;
+  m.frame_rate_hz = 10.0;
+  m.nominal_points_per_frame = 200000;
+  return m;
+}
+
 }  // namespace
 
 LidarModel MakeLidarModel(LidarKind kind) {
@@ -124,6 +146,8 @@ LidarModel MakeLidarModel(LidarKind kind) {
       return MakeM1();
     case LidarKind::kFalcon:
       return MakeFalcon();
+    case LidarKind::kGeneric:
+      return MakeGenericPlaceholder();
   }
   return MakeOt128();
 }

@@ -171,6 +171,8 @@ int PatternNeighbours(LidarKind kind, int i, int n, int out[4]) {
       if (i + kFalconSamples < n) out[c++] = i + kFalconSamples;
       break;
     }
+    case LidarKind::kGeneric:  // no pattern to simulate (SessionOptions rejects it)
+      break;
   }
   return c;
 }
@@ -268,6 +270,8 @@ void MakeScanPattern(const LidarModel& model, int frame_index, std::vector<Beam>
     case LidarKind::kFalcon:
       beams->reserve(static_cast<size_t>(model.nominal_points_per_frame));
       MakeFalconPattern(model, period_us, beams);
+      break;
+    case LidarKind::kGeneric:  // described only by its clouds: nothing to simulate
       break;
   }
 }

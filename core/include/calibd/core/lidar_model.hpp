@@ -12,11 +12,14 @@ enum class LidarKind {
   kOt128,   ///< Hesai OT128-like mechanical spinning LiDAR, 128 rings (Pandar128E4X table)
   kM1,      ///< RoboSense M1-like MEMS LiDAR: 5 lasers, ~120x25 deg, no rings
   kFalcon,  ///< Seyond/Innovusion Falcon-like polygon-mirror LiDAR, denser central band, no rings
+  /// Any sensor described only by its point cloud (no ring, unknown pattern): resolution and field
+  /// of view are estimated from its frames or set in the config (lidar_resolution.hpp).
+  kGeneric,
 };
 
 struct LidarModel {
   LidarKind kind = LidarKind::kOt128;
-  std::string name;                        ///< "ot128", "m1", "falcon"
+  std::string name;                        ///< "ot128", "m1", "falcon", "generic"
   bool has_rings = true;                   ///< ring index is meaningful (row of the range image)
   std::vector<double> ring_elevation_deg;  ///< per ring index, degrees (empty without rings)
   double azimuth_resolution_deg = 0.2;     ///< horizontal angular step of the pattern
@@ -33,10 +36,11 @@ struct LidarModel {
   int nominal_points_per_frame = 0;  ///< typical returns per frame (for buffer sizing)
 };
 
-/// Parses "ot128", "m1" or "falcon". Returns false and sets `error` for any other name.
+/// Parses "ot128", "m1", "falcon" or "generic". Returns false and sets `error` for any other name.
 bool LidarKindFromName(const std::string& name, LidarKind* kind, std::string* error);
 
-/// The built-in description of a LiDAR kind.
+/// The built-in description of a LiDAR kind. For kGeneric only a ringless placeholder (0.2 deg,
+/// 360 x 40 deg): use MakeGenericLidarModel() with the estimate or the config's values.
 LidarModel MakeLidarModel(LidarKind kind);
 
 }  // namespace calibd
