@@ -11,6 +11,8 @@ PACKAGES=(
   libeigen3-dev libopencv-dev libapriltag-dev libceres-dev
   liblcm-dev liblcm-bin libglib2.0-dev libgpiod-dev
   libyaml-cpp-dev nlohmann-json3-dev zlib1g-dev libsystemd-dev libssl-dev
+  # LZF for PCD files' binary_compressed data (drivers/src/pcd_reader.cpp)
+  liblzf-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # the status frame's DBC decoded by a decoder we did not write (tests/dbc_decode.py)
