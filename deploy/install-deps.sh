@@ -19,6 +19,8 @@ PACKAGES=(
   python3-canmatrix
   # an independent UDS client over its own user-space ISO-TP (tests/vm/uds_scapy_client.py)
   python3-scapy
+  # the HTML report rendered in a real browser, headless (tests/test_html_report_browser.cpp)
+  chromium
   # VM tests (tests/vm/): qemu boots Debian's kernel with an initramfs of busybox and modules;
   # gpio-sim.ko is built out of tree against the headers of linux-image-amd64's current ABI (the
   # kernel image and source are fetched into the cache with apt-get download, not installed);

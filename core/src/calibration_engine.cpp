@@ -155,7 +155,9 @@ const char* VerdictName(CalibrationOutcome::Verdict v) {
 
 CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& session,
                              const RangeImage& projection, const EngineConfig& engine,
-                             ObservationSet* correspondences) {
+                             ObservationSet* correspondences,
+                             std::vector<double>* reprojection_px) {
+  if (reprojection_px) reprojection_px->clear();
   CalibrationOutcome out;
   out.prior_T_camera_lidar = config.prior_T_camera_lidar;
   out.T_camera_lidar = config.prior_T_camera_lidar;
@@ -266,6 +268,19 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   for (int t = 1; t < threads; ++t) workers.emplace_back(work);
   work();
   for (auto& w : workers) w.join();
+  if (reprojection_px) {
+    reprojection_px->assign(n, std::numeric_limits<double>::quiet_NaN());
+    for (size_t k = 0; k < n; ++k) {
+      double sum = 0.0;
+      int corners = 0;
+      for (size_t c = 4 * k; c < 4 * k + 4; ++c)
+        if (!std::isnan(errors_px[c])) {
+          sum += errors_px[c];
+          ++corners;
+        }
+      if (corners > 0) (*reprojection_px)[k] = sum / corners;
+    }
+  }
   ReprojectionFigures(std::move(errors_px), &q);
   for (const DirectResult& h : half) {
     if (!h.usable) continue;

@@ -20,6 +20,7 @@
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
 #include "calibd/drivers/config_file.hpp"
+#include "html_report.hpp"
 #include "log_session.hpp"
 #include "overlay.hpp"
 
@@ -51,6 +52,11 @@ Options:
                        Written for verified and updated results only (not when rejected)
   --overlay DIR        PNG pictures of LiDAR points projected with the result (4 frames across the
                        distance range), detected corners in green, LiDAR-fitted corners in red
+  --html FILE          the result as one self-contained HTML page (no network resources): verdict
+                       and reason, T_camera_lidar and its inverse, change vs prior, quality
+                       figures against the gates applied, reprojection errors per board and
+                       against distance (plots), the overlay pictures, provenance (version,
+                       config SHA-256, input, frames used)
   --truth FILE         the simulator's truth JSON: adds the error against ground truth to the
                        report (evaluation only; the calibration never sees it)
   --method NAME        direct (default) or indirect (Huang & Grizzle baseline)
@@ -91,6 +97,7 @@ std::vector<int> OverlayFrames(const ObservationSet& corr) {
 
 int main(int argc, char** argv) {
   std::string log_path, config_path, report_path, overlay_dir, truth_path, export_dir;
+  std::string html_path;  // --html
   std::string method = "direct";
   bool motion_compensation = true;
   bool board_pose_refinement = true;
@@ -120,6 +127,8 @@ int main(int argc, char** argv) {
       report_path = value;
     else if (arg == "--overlay")
       overlay_dir = value;
+    else if (arg == "--html")
+      html_path = value;
     else if (arg == "--export")
       export_dir = value;
     else if (arg == "--truth")
@@ -190,7 +199,9 @@ int main(int argc, char** argv) {
   engine.motion.enabled = motion_compensation;
   engine.direct.refine_board_poses = board_pose_refinement;
   ObservationSet corr;
-  const CalibrationOutcome out = Calibrate(config, session, projection, engine, &corr);
+  std::vector<double> reprojection_px;  // per correspondence, for --html
+  const CalibrationOutcome out =
+      Calibrate(config, session, projection, engine, &corr, &reprojection_px);
   const auto& q = out.quality;
 
   nlohmann::json report;
@@ -290,8 +301,9 @@ int main(int argc, char** argv) {
     }
   }
 
-  if (!overlay_dir.empty() && !corr.observations.empty()) {
-    std::filesystem::create_directories(overlay_dir);
+  tools::HtmlReportInput html;  // --html: filled with the pictures here, the rest below
+  if ((!overlay_dir.empty() || !html_path.empty()) && !corr.observations.empty()) {
+    if (!overlay_dir.empty()) std::filesystem::create_directories(overlay_dir);
     const std::vector<int> frames = OverlayFrames(corr);
     std::vector<tools::FramePairData> kept;
     SessionObservations unused;
@@ -324,12 +336,60 @@ int main(int argc, char** argv) {
       }
       viz::DrawMarkers(detected, 0.5, cv::Scalar(0, 255, 0), &bgr);
       viz::DrawMarkers(fitted, 0.5, cv::Scalar(0, 0, 255), &bgr);
+      if (!html_path.empty()) {
+        tools::ReportImage image;
+        image.caption = "frame pair " + std::to_string(f.pair_index) +
+                        ": LiDAR points through the result, detected tag corners in green, "
+                        "LiDAR-fitted corners in red";
+        cv::imencode(".png", bgr, image.png);
+        html.images.push_back(std::move(image));
+      }
+      if (overlay_dir.empty()) continue;
       const std::string path = overlay_dir + "/pair_" + std::to_string(f.pair_index) + ".png";
       if (!cv::imwrite(path, bgr)) {
         std::cerr << "calibd-calibrate: cannot write '" << path << "'\n";
         return 1;
       }
     }
+  }
+
+  if (!html_path.empty()) {
+    const auto t_html = std::chrono::steady_clock::now();
+    html.outcome = out;
+    html.gates = engine.verdict;
+    html.camera_frame = config.camera_frame;
+    html.lidar_frame = config.lidar_frame;
+    html.board_names = tools::BoardNames(config.boards);
+    html.reprojection = tools::ReprojectionPerCorrespondence(corr, reprojection_px);
+    html.truth_rotation_deg = truth_rot;
+    html.truth_translation_m = truth_trans;
+    tools::ReportProvenance& p = html.provenance;
+    p.software_version = std::string("calibd ") + CALIBD_VERSION;
+    p.input_path = log_path;
+    p.config_path = config_path;
+    std::string config_bytes;
+    if (ReadWholeFile(config_path, &config_bytes, &error))
+      p.config_sha256 = tools::Sha256Hex(config_bytes);
+    p.method = method;
+    p.generated_unix_s = static_cast<int64_t>(std::time(nullptr));
+    p.camera_frames = stats.camera_frames;
+    p.lidar_frames = stats.lidar_frames;
+    p.pairs = stats.pairs;
+    p.unpaired_camera = stats.unpaired_camera;
+    p.unpaired_lidar = stats.unpaired_lidar;
+    p.bad_messages = stats.bad_messages;
+    p.camera_boards = static_cast<int>(session.camera.size());
+    p.lidar_boards = static_cast<int>(session.lidar.size());
+    if (!tools::WriteHtmlReport(html_path, html, &error)) {
+      std::cerr << "calibd-calibrate: " << error << "\n";
+      return 1;
+    }
+    if (!quiet)
+      std::cerr << "calibd-calibrate: HTML report " << html_path << " in "
+                << std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                             t_html)
+                       .count()
+                << " ms (pictures rendered before)\n";
   }
 
   if (!quiet) {

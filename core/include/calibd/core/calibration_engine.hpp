@@ -127,8 +127,13 @@ bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeomet
 /// Runs the whole session-level calibration. `projection` is a RangeImage configured for the
 /// config's LiDAR model (the grid search projects into it). `correspondences` (optional) receives
 /// the camera-LiDAR board pairs the grid search found (for pictures and reports).
+/// `reprojection_px` (optional, for reports) receives the paper Table I error of each of those
+/// correspondences, index for index: the mean over its tag corners (px) of the errors behind
+/// QualityFigures::reprojection_mean_px, NaN where the board's fit failed; empty when the
+/// calibration stopped before the solve. Without it nothing more is allocated.
 CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& session,
                              const RangeImage& projection, const EngineConfig& engine,
-                             ObservationSet* correspondences = nullptr);
+                             ObservationSet* correspondences = nullptr,
+                             std::vector<double>* reprojection_px = nullptr);
 
 }  // namespace calibd
