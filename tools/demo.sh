@@ -16,7 +16,8 @@ echo
 echo "== 2/3 calibrating from the log and the config (the truth is only used to score the result)"
 status=0
 "$build/tools/calibrate/calibd-calibrate" --log "$out/session.lcmlog" --config "$out/calib.yaml" \
-  --report "$out/report.json" --overlay "$out/overlay" --truth "$out/truth.json" || status=$?
+  --report "$out/report.json" --overlay "$out/overlay" --html "$out/report.html" \
+  --truth "$out/truth.json" || status=$?
 echo
 echo "== 3/3 the agent: calibd-agent replays the log as live frames (--calibrate-now), auto-commit on"
 rm -rf "$out/store"
@@ -29,7 +30,8 @@ agent_status=0
   --publish-url "file://$(realpath "$out")/agent-out.lcmlog?mode=w" || agent_status=$?
 echo "agent exit code $agent_status; stored calibration: $out/store/current.json"
 echo
-echo "== report: $out/report.json   pictures: $out/overlay/   config: $out/calib.yaml"
+echo "== report: $out/report.json (for people: $out/report.html)   pictures: $out/overlay/"
+echo "   config: $out/calib.yaml"
 echo "   agent: $out/agent.yaml, store $out/store/, published messages $out/agent-out.lcmlog"
 [ "$status" -eq 0 ] || exit $status
 exit $agent_status
