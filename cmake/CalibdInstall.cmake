@@ -1,6 +1,7 @@
 # Install rules (issue 5, Deploy): `make install` or `cmake --install <build> [--prefix P]`, with
 # DESTDIR honoured (staging, packaging). GNUInstallDirs layout:
-#   bin/calibd-agent, bin/calibd-calibrate, bin/calibd-sim   the daemon and the operator tools
+#   bin/calibd-agent, bin/calibd-calibrate, bin/calibd-import, bin/calibd-sim
+#                                                             the daemon and the operator tools
 #   <sysconfdir>/calibd/calibd.yaml                           the config (never overwritten)
 #   share/calibd/calibd.yaml                                  the documented default, for reference
 #   lib/systemd/system/calibd.service                         the unit (CALIBD_SYSTEMD_UNIT_DIR)
@@ -17,7 +18,7 @@ set(CALIBD_UDEV_RULES_DIR "lib/udev/rules.d" CACHE STRING
   "udev rules directory: relative to the install prefix, or absolute")
 
 install(TARGETS calibd-agent RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
-foreach(tool calibd-calibrate calibd-sim calibd-tester)
+foreach(tool calibd-calibrate calibd-import calibd-sim calibd-tester)
   if(TARGET ${tool})
     install(TARGETS ${tool} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
   endif()

@@ -18,7 +18,7 @@ check_file() { [ -f "$1" ] || fail "missing $1"; }
 stage=$work/stage
 DESTDIR=$stage "$cmake" --install "$build" --prefix /usr >"$work/install.log" 2>&1 ||
   { cat "$work/install.log"; fail "cmake --install --prefix /usr failed"; }
-for exe in calibd-agent calibd-calibrate calibd-sim calibd-tester; do
+for exe in calibd-agent calibd-calibrate calibd-import calibd-sim calibd-tester; do
   [ -x "$stage/usr/bin/$exe" ] || fail "missing executable $stage/usr/bin/$exe"
 done
 unit=$stage/usr/lib/systemd/system/calibd.service

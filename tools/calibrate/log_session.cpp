@@ -1,5 +1,6 @@
 #include "log_session.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <lcm/lcm-cpp.hpp>
 #include <optional>
@@ -9,6 +10,7 @@
 #include "calibd/core/frame_pairing.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
+#include "calibd/drivers/recorded_folder.hpp"
 #include "calibd/lidar_frame_t.hpp"
 
 namespace calibd::tools {
@@ -17,6 +19,136 @@ namespace {
 double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
+// Pairs frames by time and detects the boards of every pair: the part a log and a folder share.
+class SessionBuilder {
+ public:
+  SessionBuilder(const CalibConfig& config, const LogReadOptions& options,
+                 SessionObservations* session, LogReadStats* stats,
+                 const std::function<void(int)>& progress, const std::vector<int>& keep,
+                 std::vector<FramePairData>* kept)
+      : config_(config),
+        options_(options),
+        session_(session),
+        stats_(stats),
+        progress_(progress),
+        keep_(keep),
+        kept_(kept) {}
+
+  /// Builds the pairer and the detectors; false with `error` from the config.
+  bool Init(std::string* error) {
+    LidarKind kind;
+    if (!LidarKindFromName(config_.lidar_model, &kind, error)) return false;
+    const LidarModel model = MakeLidarModel(kind);
+    FramePairingConfig pairing;
+    pairing.pair_tolerance_us = options_.pair_tolerance_us;
+    pairing.sweep_us = static_cast<int64_t>(1e6 / model.frame_rate_hz);
+    if (!pairing.IsValid(error)) {
+      if (error) *error = "frame pairing: " + *error;
+      return false;
+    }
+    sweep_us_ = pairing.sweep_us;
+    pairer_.emplace(pairing);
+    // Detectors are built only when they will run (their references take a few hundred ms).
+    if (options_.detect) {
+      camera_detector_.emplace(options_.camera, config_.camera, config_.boards);
+      lidar_detector_.emplace(options_.lidar, model, config_.boards);
+    }
+    if (camera_detector_ && !camera_detector_->ok()) {
+      if (error) *error = "camera detector: " + camera_detector_->error();
+      return false;
+    }
+    if (lidar_detector_ && !lidar_detector_->ok()) {
+      if (error) *error = "LiDAR detector: " + lidar_detector_->error();
+      return false;
+    }
+    return true;
+  }
+
+  int64_t sweep_us() const { return sweep_us_; }
+
+  void Reserve() {
+    if (options_.detect)
+      session_->Reserve(options_.max_frames, static_cast<int>(config_.boards.size()) + 4,
+                        options_.lidar.max_board_points);
+  }
+
+  void Bad(const std::string& what) {
+    if (stats_->bad_messages++ == 0) stats_->first_bad_message = what;
+  }
+
+  void OnCamera(camera_frame_t&& msg) {
+    if (msg.camera_id != config_.camera_id) return;
+    if (!pairer_->OnCamera(msg.utime).accepted) return;  // out of order: counted by the pairer
+    pending_ = std::move(msg);  // a frame it displaces is counted unpaired by the pairer
+  }
+
+  void OnLidar(const lidar_frame_t& lidar_msg) {
+    if (lidar_msg.lidar_id != config_.lidar_id) return;
+    // Unpaired or out of order: counted by the pairer; the pending camera frame keeps waiting.
+    if (!pairer_->OnLidar(lidar_msg.utime).paired) return;
+    ImageView view;
+    PointCloudView cloud;
+    std::string why;
+    if (!CameraFrameToView(*pending_, limits_, &decoded_, &view, &why) ||
+        !LidarFrameToView(lidar_msg, limits_, &cloud, &why)) {
+      Bad(why);
+      pending_.reset();
+      return;
+    }
+    const int pair_index = stats_->pairs++;
+    if (options_.detect) {
+      auto t0 = std::chrono::steady_clock::now();
+      camera_detector_->Detect(view, &cd_);
+      stats_->camera_ms.push_back(MsSince(t0));
+      t0 = std::chrono::steady_clock::now();
+      lidar_detector_->Detect(cloud, &ld_);
+      stats_->lidar_ms.push_back(MsSince(t0));
+      if (!session_->AddFrame(cd_, ld_, config_.boards,
+                              FrameTimes{pending_->utime, lidar_msg.utime}))
+        ++stats_->frames_over_capacity;
+    }
+    if (kept_ && std::find(keep_.begin(), keep_.end(), pair_index) != keep_.end()) {
+      FramePairData d;
+      d.pair_index = pair_index;
+      cv::Mat(view.height, view.width, CV_8UC1, const_cast<uint8_t*>(view.data),
+              static_cast<size_t>(view.stride))
+          .copyTo(d.image);
+      d.x.assign(cloud.x, cloud.x + cloud.size);
+      d.y.assign(cloud.y, cloud.y + cloud.size);
+      d.z.assign(cloud.z, cloud.z + cloud.size);
+      kept_->push_back(std::move(d));
+    }
+    pending_.reset();
+    if (progress_ && stats_->pairs % 20 == 0) progress_(stats_->pairs);
+  }
+
+  void Finish() {
+    pairer_->Flush();
+    const FramePairingCounters& counts = pairer_->counters();
+    stats_->unpaired_camera = static_cast<int>(counts.unpaired_camera);
+    stats_->unpaired_lidar = static_cast<int>(counts.unpaired_lidar);
+    stats_->out_of_order = static_cast<int>(counts.out_of_order_camera + counts.out_of_order_lidar);
+  }
+
+ private:
+  const CalibConfig& config_;
+  const LogReadOptions& options_;
+  SessionObservations* session_;
+  LogReadStats* stats_;
+  const std::function<void(int)>& progress_;
+  const std::vector<int>& keep_;
+  std::vector<FramePairData>* kept_;
+  int64_t sweep_us_ = 100000;
+  std::optional<FramePairer> pairer_;
+  std::optional<CameraDetector> camera_detector_;
+  std::optional<LidarDetector> lidar_detector_;
+  const FrameLimits limits_;
+  std::optional<camera_frame_t> pending_;  // the pairer's pending camera frame
+  cv::Mat decoded_;
+  CameraDetections cd_;
+  LidarDetections ld_;
+};
+
 }  // namespace
 
 bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
@@ -24,112 +156,75 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
                     LogReadStats* stats, std::string* error,
                     const std::function<void(int)>& progress, const std::vector<int>& keep,
                     std::vector<FramePairData>* kept) {
-  LidarKind kind;
-  if (!LidarKindFromName(config.lidar_model, &kind, error)) return false;
-  const LidarModel model = MakeLidarModel(kind);
-  FramePairingConfig pairing;
-  pairing.pair_tolerance_us = options.pair_tolerance_us;
-  pairing.sweep_us = static_cast<int64_t>(1e6 / model.frame_rate_hz);
-  if (!pairing.IsValid(error)) {
-    if (error) *error = "frame pairing: " + *error;
-    return false;
-  }
-  // Detectors are built only when they will run (their references take a few hundred ms).
-  std::optional<CameraDetector> camera_detector;
-  std::optional<LidarDetector> lidar_detector;
-  if (options.detect) {
-    camera_detector.emplace(options.camera, config.camera, config.boards);
-    lidar_detector.emplace(options.lidar, model, config.boards);
-  }
-  if (camera_detector && !camera_detector->ok()) {
-    if (error) *error = "camera detector: " + camera_detector->error();
-    return false;
-  }
-  if (lidar_detector && !lidar_detector->ok()) {
-    if (error) *error = "LiDAR detector: " + lidar_detector->error();
-    return false;
-  }
+  SessionBuilder builder(config, options, session, stats, progress, keep, kept);
+  if (!builder.Init(error)) return false;
   lcm::LogFile log(log_path, "r");
   if (!log.good()) {
     if (error) *error = "cannot open LCM log '" + log_path + "'";
     return false;
   }
-  if (options.detect)
-    session->Reserve(options.max_frames, static_cast<int>(config.boards.size()) + 4,
-                     options.lidar.max_board_points);
-
+  builder.Reserve();
   const std::string cam_channel(channels::kCamera.name), lidar_channel(channels::kLidar.name);
-  const FrameLimits limits;
-  FramePairer pairer(pairing);
-  std::optional<camera_frame_t> pending;  // the pairer's pending camera frame
   lidar_frame_t lidar_msg;
-  cv::Mat decoded;
-  CameraDetections cd;
-  LidarDetections ld;
-  auto bad = [&](const std::string& what) {
-    if (stats->bad_messages++ == 0) stats->first_bad_message = what;
-  };
-
   while (const lcm::LogEvent* ev = log.readNextEvent()) {
     if (ev->channel == cam_channel) {
       ++stats->camera_frames;
       camera_frame_t msg;
       if (msg.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
-        bad("camera_frame_t does not decode");
+        builder.Bad("camera_frame_t does not decode");
         continue;
       }
-      if (msg.camera_id != config.camera_id) continue;
-      if (!pairer.OnCamera(msg.utime).accepted) continue;  // out of order: counted by the pairer
-      pending = std::move(msg);  // a frame it displaces is counted unpaired by the pairer
+      builder.OnCamera(std::move(msg));
     } else if (ev->channel == lidar_channel) {
       ++stats->lidar_frames;
       if (lidar_msg.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
-        bad("lidar_frame_t does not decode");
+        builder.Bad("lidar_frame_t does not decode");
         continue;
       }
-      if (lidar_msg.lidar_id != config.lidar_id) continue;
-      // Unpaired or out of order: counted by the pairer; the pending camera frame keeps waiting.
-      if (!pairer.OnLidar(lidar_msg.utime).paired) continue;
-      ImageView view;
-      PointCloudView cloud;
-      std::string why;
-      if (!CameraFrameToView(*pending, limits, &decoded, &view, &why) ||
-          !LidarFrameToView(lidar_msg, limits, &cloud, &why)) {
-        bad(why);
-        pending.reset();
-        continue;
-      }
-      const int pair_index = stats->pairs++;
-      if (options.detect) {
-        auto t0 = std::chrono::steady_clock::now();
-        camera_detector->Detect(view, &cd);
-        stats->camera_ms.push_back(MsSince(t0));
-        t0 = std::chrono::steady_clock::now();
-        lidar_detector->Detect(cloud, &ld);
-        stats->lidar_ms.push_back(MsSince(t0));
-        if (!session->AddFrame(cd, ld, config.boards, FrameTimes{pending->utime, lidar_msg.utime}))
-          ++stats->frames_over_capacity;
-      }
-      if (kept && std::find(keep.begin(), keep.end(), pair_index) != keep.end()) {
-        FramePairData d;
-        d.pair_index = pair_index;
-        cv::Mat(view.height, view.width, CV_8UC1, const_cast<uint8_t*>(view.data),
-                static_cast<size_t>(view.stride))
-            .copyTo(d.image);
-        d.x.assign(cloud.x, cloud.x + cloud.size);
-        d.y.assign(cloud.y, cloud.y + cloud.size);
-        d.z.assign(cloud.z, cloud.z + cloud.size);
-        kept->push_back(std::move(d));
-      }
-      pending.reset();
-      if (progress && stats->pairs % 20 == 0) progress(stats->pairs);
+      builder.OnLidar(lidar_msg);
     }
   }
-  pairer.Flush();
-  const FramePairingCounters& counts = pairer.counters();
-  stats->unpaired_camera = static_cast<int>(counts.unpaired_camera);
-  stats->unpaired_lidar = static_cast<int>(counts.unpaired_lidar);
-  stats->out_of_order = static_cast<int>(counts.out_of_order_camera + counts.out_of_order_lidar);
+  builder.Finish();
+  return true;
+}
+
+bool ReadSessionFolder(const std::string& folder_path, const CalibConfig& config,
+                       const LogReadOptions& options, SessionObservations* session,
+                       LogReadStats* stats, std::string* error,
+                       const std::function<void(int)>& progress, const std::vector<int>& keep,
+                       std::vector<FramePairData>* kept) {
+  SessionBuilder builder(config, options, session, stats, progress, keep, kept);
+  if (!builder.Init(error)) return false;
+  RecordedFolderOptions folder_options;
+  folder_options.sweep_us = builder.sweep_us();
+  RecordedFolder folder;
+  if (!ScanRecordedFolder(folder_path, folder_options, &folder, error)) return false;
+  stats->unmatched_clouds = folder.unmatched_clouds;
+  stats->unmatched_images = folder.unmatched_images;
+  builder.Reserve();
+  lidar_frame_t lidar_msg;
+  PcdInfo info;
+  std::string why;
+  for (const RecordedEntry& entry : folder.entries) {
+    if (entry.sensor == RecordedEntry::Sensor::kCamera) {
+      ++stats->camera_frames;
+      camera_frame_t msg;
+      if (!LoadRecordedImage(entry, config.camera_id, false, &msg, &why)) {
+        builder.Bad(why);
+        continue;
+      }
+      builder.OnCamera(std::move(msg));
+    } else {
+      ++stats->lidar_frames;
+      if (!LoadRecordedCloud(entry, config.lidar_id, &lidar_msg, &info, &why)) {
+        builder.Bad(why);
+        continue;
+      }
+      stats->nan_points_dropped += info.nan_dropped;
+      builder.OnLidar(lidar_msg);
+    }
+  }
+  builder.Finish();
   return true;
 }
 

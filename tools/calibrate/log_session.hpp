@@ -1,7 +1,8 @@
 #pragma once
 /// \file
-/// Reads a recorded session (an LCM log of calibd's camera and LiDAR channels), pairs camera and
-/// LiDAR frames by time, runs both board detectors on every pair and records the observations.
+/// Reads a recorded session (an LCM log of calibd's camera and LiDAR channels, or a folder of PCD
+/// clouds and images, see calibd/drivers/recorded_folder.hpp), pairs camera and LiDAR frames by
+/// time, runs both board detectors on every pair and records the observations.
 
 #include <functional>
 #include <opencv2/core.hpp>
@@ -34,6 +35,10 @@ struct LogReadStats {
   /// Dropped: time not after the previous frame of the same sensor (duplicates included).
   int out_of_order = 0;
   std::vector<double> camera_ms, lidar_ms;  ///< detection time per pair
+  /// Folder only: points with a non-finite x, y or z dropped from the clouds (organized PCDs),
+  /// and files whose stem has no partner (no frames.csv).
+  int64_t nan_points_dropped = 0;
+  int unmatched_clouds = 0, unmatched_images = 0;
 };
 
 /// One frame pair's images and points, for pictures after the calibration.
@@ -51,5 +56,17 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
                     LogReadStats* stats, std::string* error,
                     const std::function<void(int)>& progress = {},
                     const std::vector<int>& keep = {}, std::vector<FramePairData>* kept = nullptr);
+
+/// As ReadSessionLog, from a folder of recorded frames (ScanRecordedFolder): its frames go
+/// through the same pairing and detection as a log's, messages given the config's camera and
+/// LiDAR ids. A file that cannot be read or is malformed counts as a bad message (the first one's
+/// error, naming the file, in `first_bad_message`), as a malformed log message does. False with
+/// `error` when the folder cannot be listed or its frames.csv is malformed.
+bool ReadSessionFolder(const std::string& folder_path, const CalibConfig& config,
+                       const LogReadOptions& options, SessionObservations* session,
+                       LogReadStats* stats, std::string* error,
+                       const std::function<void(int)>& progress = {},
+                       const std::vector<int>& keep = {},
+                       std::vector<FramePairData>* kept = nullptr);
 
 }  // namespace calibd::tools

@@ -20,6 +20,8 @@
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
 #include "calibd/drivers/config_file.hpp"
+#include "calibd/drivers/intrinsics_file.hpp"
+#include "calibd/drivers/recorded_folder.hpp"
 #include "html_report.hpp"
 #include "log_session.hpp"
 #include "overlay.hpp"
@@ -33,13 +35,30 @@ constexpr const char* kHelp =
     R"(calibd-calibrate: LiDAR-camera extrinsic calibration of a recorded session.
 
 Usage: calibd-calibrate --log session.lcmlog --config calib.yaml [--report report.json] [options]
+       calibd-calibrate --folder DIR --config calib.yaml [--intrinsics FILE] [options]
 
-Reads the camera and LiDAR frames of the log (calibd's LCM channels), pairs them by time, detects
-the configured boards in both sensors, runs the coarse grid search around the config's prior
-extrinsic and the direct optimisation (paper Eq. 4-5), and judges the result against the prior.
+Reads the camera and LiDAR frames of the log (calibd's LCM channels) or of a folder of recorded
+frames, pairs them by time, detects the configured boards in both sensors, runs the coarse grid
+search around the config's prior extrinsic and the direct optimisation (paper Eq. 4-5), and judges
+the result against the prior.
 
 Options:
-  --log FILE           LCM log with CALIBD_CAMERA and CALIBD_LIDAR frames (required)
+  --log FILE           LCM log with CALIBD_CAMERA and CALIBD_LIDAR frames
+  --folder DIR         instead of --log: a folder of point clouds (*.pcd: ascii, binary or
+                       binary_compressed; fields x y z, optional intensity, ring and a point time
+                       `time`/`t`/`timestamp`, float seconds or integer nanoseconds) and images
+                       (*.png, *.jpg; converted to grey). With DIR/frames.csv the frames pair by
+                       time (below); without it a cloud and an image pair by name stem
+                       (000123.pcd + 000123.png) and carry no times (pairs are stamped 1 s apart,
+                       so motion compensation leaves boards as they are).
+                       Unreadable or malformed files are counted (report frames.bad_messages,
+                       the first one's error in frames.first_bad_message) and skipped
+  --intrinsics FILE    camera intrinsics replacing the config's: OpenCV FileStorage YAML
+                       (camera_matrix or K, distortion_coefficients or D, image_width,
+                       image_height), ROS camera_info YAML (camera_matrix.data,
+                       distortion_coefficients.data, distortion_model plumb_bob,
+                       rational_polynomial with k4-k6 = 0, or equidistant), or JSON
+                       {"K": 3x3 or 9 numbers, "D": [...], "width": W, "height": H}
   --config FILE        calibration config: intrinsics, boards, LiDAR model, prior (required)
   --report FILE        JSON report: verdict, reason, T_camera_lidar and T_lidar_camera (4x4,
                        xyz, quaternion xyzw, rpy), frame names, quality, timings
@@ -72,6 +91,8 @@ Options:
   --pair-tolerance-ms  camera time allowed outside the LiDAR sweep (default 20)
   --quiet              no progress or summary
 
+%CSV%
+
 Exit codes: 0 verified or updated, 3 rejected (reason in the report), 1 failed, 2 bad option.
 )";
 
@@ -96,7 +117,8 @@ std::vector<int> OverlayFrames(const ObservationSet& corr) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string log_path, config_path, report_path, overlay_dir, truth_path, export_dir;
+  std::string log_path, folder_path, intrinsics_path, config_path, report_path, overlay_dir,
+      truth_path, export_dir;
   std::string html_path;  // --html
   std::string method = "direct";
   bool motion_compensation = true;
@@ -106,7 +128,9 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--help" || arg == "-h") {
-      std::cout << kHelp;
+      std::string help = kHelp;
+      help.replace(help.find("%CSV%"), 5, kFramesCsvHelp);
+      std::cout << help;
       return 0;
     }
     if (arg == "--quiet") {
@@ -121,6 +145,10 @@ int main(int argc, char** argv) {
     char* end = nullptr;
     if (arg == "--log")
       log_path = value;
+    else if (arg == "--folder")
+      folder_path = value;
+    else if (arg == "--intrinsics")
+      intrinsics_path = value;
     else if (arg == "--config")
       config_path = value;
     else if (arg == "--report")
@@ -161,8 +189,9 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (log_path.empty() || config_path.empty()) {
-    std::cerr << "calibd-calibrate: --log and --config are required (see --help)\n";
+  if (log_path.empty() == folder_path.empty() || config_path.empty()) {
+    std::cerr << "calibd-calibrate: --config and one of --log or --folder are required (see "
+                 "--help)\n";
     return 2;
   }
   if (method != "direct" && method != "indirect") {
@@ -176,13 +205,26 @@ int main(int argc, char** argv) {
     std::cerr << "calibd-calibrate: " << error << "\n";
     return 2;
   }
+  if (!intrinsics_path.empty() && !LoadIntrinsicsFile(intrinsics_path, &config.camera, &error)) {
+    std::cerr << "calibd-calibrate: --intrinsics: " << error << "\n";
+    return 2;
+  }
+  // The log or the folder, read the same way (pairing, detection, counters).
+  auto read_session = [&](const tools::LogReadOptions& options, SessionObservations* into,
+                          tools::LogReadStats* counters, const std::function<void(int)>& report,
+                          const std::vector<int>& keep, std::vector<tools::FramePairData>* kept) {
+    return folder_path.empty() ? tools::ReadSessionLog(log_path, config, options, into, counters,
+                                                       &error, report, keep, kept)
+                               : tools::ReadSessionFolder(folder_path, config, options, into,
+                                                          counters, &error, report, keep, kept);
+  };
   const auto t_start = std::chrono::steady_clock::now();
   SessionObservations session;
   tools::LogReadStats stats;
   auto progress = [&](int pairs) {
     if (!quiet) std::cerr << "calibd-calibrate: " << pairs << " frame pairs detected\n";
   };
-  if (!tools::ReadSessionLog(log_path, config, read_options, &session, &stats, &error, progress)) {
+  if (!read_session(read_options, &session, &stats, progress, {}, nullptr)) {
     std::cerr << "calibd-calibrate: " << error << "\n";
     return 1;
   }
@@ -251,6 +293,9 @@ int main(int argc, char** argv) {
                       {"unpaired_lidar", stats.unpaired_lidar},
                       {"bad_messages", stats.bad_messages},
                       {"first_bad_message", stats.first_bad_message},
+                      {"nan_points_dropped", stats.nan_points_dropped},
+                      {"unmatched_clouds", stats.unmatched_clouds},
+                      {"unmatched_images", stats.unmatched_images},
                       {"over_capacity", stats.frames_over_capacity},
                       {"camera_boards", session.camera.size()},
                       {"lidar_boards", session.lidar.size()}};
@@ -310,8 +355,7 @@ int main(int argc, char** argv) {
     tools::LogReadStats pass_stats;
     tools::LogReadOptions pictures_only = read_options;
     pictures_only.detect = false;  // the pairs were detected above; only their data is needed
-    if (!tools::ReadSessionLog(log_path, config, pictures_only, &unused, &pass_stats, &error, {},
-                               frames, &kept)) {
+    if (!read_session(pictures_only, &unused, &pass_stats, {}, frames, &kept)) {
       std::cerr << "calibd-calibrate: " << error << "\n";
       return 1;
     }

@@ -1,0 +1,205 @@
+#include "calibd/drivers/recorded_folder.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "calibd/drivers/atomic_file.hpp"
+
+namespace calibd {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+bool Fail(std::string* error, const std::string& m) {
+  if (error) *error = m;
+  return false;
+}
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool IsImage(const std::string& ext) { return ext == ".png" || ext == ".jpg" || ext == ".jpeg"; }
+
+bool IsNumber(const std::string& s) {
+  return !s.empty() && s.size() < 19 &&
+         std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+// Stem order: numeric when both are numbers (9 before 10), else by text.
+bool StemLess(const std::string& a, const std::string& b) {
+  if (IsNumber(a) && IsNumber(b)) {
+    const long long x = std::stoll(a), y = std::stoll(b);
+    if (x != y) return x < y;
+  }
+  return a < b;
+}
+
+std::string Trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t\r");
+  if (b == std::string::npos) return "";
+  const size_t e = s.find_last_not_of(" \t\r");
+  return s.substr(b, e - b + 1);
+}
+
+bool ReadCsv(const std::string& dir, const fs::path& csv, const RecordedFolderOptions& options,
+             RecordedFolder* folder, std::string* error) {
+  std::string text;
+  if (!ReadWholeFile(csv.string(), &text, error)) return false;
+  std::istringstream in(text);
+  std::string line;
+  int line_no = 0;
+  bool header = false;
+  std::vector<std::pair<int64_t, RecordedEntry>> keyed;  // delivery time, entry
+  while (std::getline(in, line)) {
+    ++line_no;
+    line = Trim(line);
+    if (line.empty() || line[0] == '#') continue;
+    const std::string where = csv.string() + ": line " + std::to_string(line_no) + ": ";
+    std::vector<std::string> cols;
+    std::stringstream ls(line);
+    std::string col;
+    while (std::getline(ls, col, ',')) cols.push_back(Trim(col));
+    if (!header) {
+      if (cols != std::vector<std::string>{"time_us", "sensor", "file"})
+        return Fail(error, where + "the header must be `time_us,sensor,file` (got `" + line + "`)");
+      header = true;
+      continue;
+    }
+    if (cols.size() != 3)
+      return Fail(error, where + std::to_string(cols.size()) +
+                             " columns, expected 3 (time_us,sensor,file)");
+    char* end = nullptr;
+    errno = 0;
+    const long long t = std::strtoll(cols[0].c_str(), &end, 10);
+    if (cols[0].empty() || *end != '\0' || errno != 0)
+      return Fail(error, where + "time_us '" + cols[0] + "' is not an integer (microseconds)");
+    RecordedEntry e;
+    e.utime = t;
+    if (cols[1] == "lidar")
+      e.sensor = RecordedEntry::Sensor::kLidar;
+    else if (cols[1] == "camera")
+      e.sensor = RecordedEntry::Sensor::kCamera;
+    else
+      return Fail(error, where + "sensor must be lidar or camera (got '" + cols[1] + "')");
+    if (cols[2].empty()) return Fail(error, where + "file is empty");
+    e.path = (fs::path(dir) / cols[2]).string();
+    std::error_code ec;
+    if (!fs::is_regular_file(e.path, ec))
+      return Fail(error, where + "file '" + cols[2] + "' does not exist in " + dir);
+    const int64_t delivered = e.sensor == RecordedEntry::Sensor::kLidar ? t + options.sweep_us : t;
+    keyed.emplace_back(delivered, std::move(e));
+  }
+  if (!header) return Fail(error, csv.string() + ": empty (header `time_us,sensor,file` expected)");
+  if (keyed.empty()) return Fail(error, csv.string() + ": lists no files");
+  // Delivery order; at equal times the camera first (it waits for its sweep).
+  std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
+    if (a.first != b.first) return a.first < b.first;
+    return a.second.sensor == RecordedEntry::Sensor::kCamera &&
+           b.second.sensor == RecordedEntry::Sensor::kLidar;
+  });
+  for (auto& k : keyed) folder->entries.push_back(std::move(k.second));
+  folder->timed = true;
+  return true;
+}
+
+}  // namespace
+
+bool ScanRecordedFolder(const std::string& dir, const RecordedFolderOptions& options,
+                        RecordedFolder* folder, std::string* error) {
+  *folder = RecordedFolder{};
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    return Fail(error, "folder '" + dir + "' does not exist or is not a directory");
+  const fs::path csv = fs::path(dir) / "frames.csv";
+  if (fs::exists(csv, ec)) return ReadCsv(dir, csv, options, folder, error);
+
+  std::map<std::string, std::string> clouds, images;  // stem -> path
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (!it->is_regular_file(ec)) continue;
+    const fs::path& p = it->path();
+    const std::string ext = Lower(p.extension().string());
+    const std::string stem = p.stem().string();
+    auto& into = ext == ".pcd" ? clouds : images;
+    if (ext != ".pcd" && !IsImage(ext)) continue;
+    if (!into.emplace(stem, p.string()).second)
+      return Fail(error, "folder '" + dir + "': two " + (ext == ".pcd" ? "clouds" : "images") +
+                             " with the stem '" + stem + "' (" + into[stem] + ", " + p.string() +
+                             ")");
+  }
+  if (ec) return Fail(error, "folder '" + dir + "': cannot list it: " + ec.message());
+  std::vector<std::string> stems;
+  for (const auto& [stem, path] : clouds) {
+    if (images.count(stem))
+      stems.push_back(stem);
+    else
+      ++folder->unmatched_clouds;
+  }
+  folder->unmatched_images = static_cast<int>(images.size() - stems.size());
+  if (stems.empty())
+    return Fail(error, "folder '" + dir + "': no frames: no frames.csv and no .pcd file with an " +
+                           "image of the same name stem (.png, .jpg) (" +
+                           std::to_string(clouds.size()) + " clouds, " +
+                           std::to_string(images.size()) + " images)");
+  std::sort(stems.begin(), stems.end(), StemLess);
+  for (size_t k = 0; k < stems.size(); ++k) {
+    const int64_t t = static_cast<int64_t>(k + 1) * options.stem_spacing_us;
+    folder->entries.push_back({RecordedEntry::Sensor::kCamera, t, images[stems[k]]});
+    folder->entries.push_back({RecordedEntry::Sensor::kLidar, t, clouds[stems[k]]});
+  }
+  return true;
+}
+
+bool LoadRecordedImage(const RecordedEntry& entry, const std::string& camera_id, bool keep_jpeg,
+                       camera_frame_t* msg, std::string* error) {
+  std::string bytes;
+  if (!ReadWholeFile(entry.path, &bytes, error)) return false;
+  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data());
+  cv::Mat image;
+  try {
+    image = cv::imdecode(raw, cv::IMREAD_GRAYSCALE);
+  } catch (const cv::Exception& e) {
+    return Fail(error, entry.path + ": cannot decode the image: " + e.what());
+  }
+  if (image.empty() || image.type() != CV_8UC1)
+    return Fail(error, entry.path + ": cannot decode the image (PNG or JPEG expected)");
+  msg->utime = entry.utime;
+  msg->camera_id = camera_id;
+  msg->width = image.cols;
+  msg->height = image.rows;
+  const std::string ext = Lower(fs::path(entry.path).extension().string());
+  if (keep_jpeg && (ext == ".jpg" || ext == ".jpeg")) {
+    msg->encoding = camera_frame_t::ENCODING_JPEG;
+    msg->stride = 0;
+    msg->data.assign(bytes.begin(), bytes.end());
+  } else {
+    msg->encoding = camera_frame_t::ENCODING_MONO8;
+    msg->stride = image.cols;
+    msg->data.resize(static_cast<size_t>(image.cols) * static_cast<size_t>(image.rows));
+    for (int r = 0; r < image.rows; ++r)
+      std::copy(image.ptr<uint8_t>(r), image.ptr<uint8_t>(r) + image.cols,
+                msg->data.begin() + static_cast<std::ptrdiff_t>(r) * image.cols);
+  }
+  msg->size = static_cast<int32_t>(msg->data.size());
+  return true;
+}
+
+bool LoadRecordedCloud(const RecordedEntry& entry, const std::string& lidar_id, lidar_frame_t* msg,
+                       PcdInfo* info, std::string* error) {
+  PcdInfo local;
+  if (!ReadPcdFile(entry.path, PcdReadOptions{}, msg, info ? info : &local, error)) return false;
+  msg->utime = entry.utime;
+  msg->lidar_id = lidar_id;
+  return true;
+}
+
+}  // namespace calibd

@@ -1,0 +1,204 @@
+// Recorded data in, end to end: the short simulated session of test_calibrate_cli written out as
+// a folder of PCD clouds (binary_compressed, with ring and per-point time) and PNG/JPEG images
+// with a frames.csv, then calibrated with calibd-calibrate --folder (intrinsics from a ROS
+// camera_info file) and through calibd-import + calibd-calibrate --log: both near the truth, and
+// the same result.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "calibd/camera_frame_t.hpp"
+#include "calibd/channels.hpp"
+#include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/config_file.hpp"
+#include "calibd/lidar_frame_t.hpp"
+#include "pcd_writer.hpp"
+#include "run_command.hpp"
+#include "temp_dir.hpp"
+
+namespace calibd {
+namespace {
+
+int RunCommand(const std::string& cmd) { return testing::RunCommand(cmd + " >/dev/null 2>&1"); }
+
+nlohmann::json ReadJson(const std::string& path) {
+  std::string text, error;
+  EXPECT_TRUE(ReadWholeFile(path, &text, &error)) << error;
+  return nlohmann::json::parse(text);
+}
+
+// Writes the log's frames into `dir`: frame k as k.pcd and k.png (even k) or k.jpg (odd k, the
+// log's JPEG bytes as they are), and frames.csv with the log's times. The LiDAR's sweep start is
+// its message utime (the log event comes at the sweep's end). Returns the number of frame pairs.
+int ExportFolder(const std::string& log_path, const std::string& dir) {
+  lcm::LogFile log(log_path, "r");
+  EXPECT_TRUE(log.good());
+  std::ofstream csv(dir + "/frames.csv");
+  csv << "time_us,sensor,file\n";
+  int cameras = 0, lidars = 0;
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    if (ev->channel == channels::kCamera.name) {
+      camera_frame_t m;
+      EXPECT_GE(m.decode(ev->data, 0, static_cast<int>(ev->datalen)), 0);
+      EXPECT_EQ(m.encoding, +camera_frame_t::ENCODING_JPEG);
+      const std::string stem = std::to_string(cameras++);
+      std::string file;
+      if (cameras % 2 == 1) {
+        file = stem + ".png";
+        const cv::Mat grey = cv::imdecode(m.data, cv::IMREAD_GRAYSCALE);
+        EXPECT_TRUE(cv::imwrite(dir + "/" + file, grey));
+      } else {
+        file = stem + ".jpg";
+        std::ofstream(dir + "/" + file, std::ios::binary)
+            .write(reinterpret_cast<const char*>(m.data.data()),
+                   static_cast<std::streamsize>(m.data.size()));
+      }
+      csv << m.utime << ",camera," << file << "\n";
+    } else if (ev->channel == channels::kLidar.name) {
+      lidar_frame_t m;
+      EXPECT_GE(m.decode(ev->data, 0, static_cast<int>(ev->datalen)), 0);
+      testing::PcdSpec s;
+      s.fields = {{"x", 'F', 4, 1},         {"y", 'F', 4, 1},    {"z", 'F', 4, 1},
+                  {"intensity", 'F', 4, 1}, {"ring", 'U', 2, 1}, {"t", 'U', 4, 1}};
+      s.rows.reserve(static_cast<size_t>(m.num_points));
+      for (int i = 0; i < m.num_points; ++i)
+        s.rows.push_back({m.x[i], m.y[i], m.z[i], m.intensity[i], static_cast<double>(m.ring[i]),
+                          m.time_offset_us[i] * 1000.0});  // Ouster-style ns
+      const std::string file = std::to_string(lidars++) + ".pcd";
+      std::ofstream(dir + "/" + file, std::ios::binary)
+          << testing::WritePcd(s, "binary_compressed");
+      csv << m.utime << ",lidar," << file << "\n";
+    }
+  }
+  EXPECT_EQ(cameras, lidars);
+  return lidars;
+}
+
+std::string RosCameraInfo(const CameraIntrinsics& c) {
+  std::ostringstream o;
+  o << std::setprecision(17) << "image_width: " << c.width << "\nimage_height: " << c.height
+    << "\ncamera_name: front\ncamera_matrix:\n  rows: 3\n  cols: 3\n  data: [" << c.fx << ", 0, "
+    << c.cx << ", 0, " << c.fy << ", " << c.cy << ", 0, 0, 1]\ndistortion_model: plumb_bob\n"
+    << "distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [" << c.k1 << ", " << c.k2 << ", "
+    << c.p1 << ", " << c.p2 << ", " << c.k3 << "]\n";
+  return o.str();
+}
+
+TEST(RecordedFolderCliTest, FolderAndImportedLogCalibrateNearTheTruth) {
+  testing::TempDir dir;
+  // test_calibrate_cli's session: 40 frame pairs, 6-30 m, prior 4 deg / 4 cm off.
+  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --seed 5 --lidar ot128 --rate 2 " +
+                       "--prior-rot-deg 4 --prior-trans-m 0.04 --image-encoding jpeg --out " +
+                       dir.file("s.lcmlog") + " --truth " + dir.file("truth.json") +
+                       " --config-out " + dir.file("calib.yaml")),
+            0);
+  std::filesystem::create_directories(dir.file("rec"));
+  ASSERT_EQ(ExportFolder(dir.file("s.lcmlog"), dir.file("rec")), 40);
+  std::filesystem::remove(dir.file("s.lcmlog"));  // 250 MB
+
+  // The intrinsics come from a camera_info file; the config's camera is spoilt to show they do.
+  CalibConfig config;
+  std::string error;
+  ASSERT_TRUE(LoadConfigFile(dir.file("calib.yaml"), &config, &error)) << error;
+  ASSERT_TRUE(WriteFileAtomic(dir.file("camera_info.yaml"), RosCameraInfo(config.camera), &error));
+  CalibConfig spoilt = config;
+  spoilt.camera.fx *= 1.05;
+  ASSERT_TRUE(SaveConfigFile(dir.file("spoilt.yaml"), spoilt, &error)) << error;
+
+  const std::string calibrate =
+      std::string(CALIBD_CALIBRATE_EXE) + " --truth " + dir.file("truth.json") + " --intrinsics " +
+      dir.file("camera_info.yaml") + " --config " + dir.file("spoilt.yaml");
+  const int code = RunCommand(calibrate + " --folder " + dir.file("rec") + " --report " +
+                              dir.file("folder.json"));
+  const auto folder = ReadJson(dir.file("folder.json"));
+  EXPECT_EQ(code, 0) << folder.dump(2);
+  EXPECT_EQ(folder["verdict"], "updated") << folder["reason"] << ": " << folder["detail"];
+  EXPECT_LT(folder["error_vs_truth"]["rotation_deg"].get<double>(), 0.15);
+  EXPECT_LT(folder["error_vs_truth"]["translation_m"].get<double>(), 0.02);
+  EXPECT_EQ(folder["frames"]["pairs"].get<int>(), 40);
+  EXPECT_EQ(folder["frames"]["bad_messages"].get<int>(), 0) << folder["frames"];
+  EXPECT_EQ(folder["frames"]["unpaired_camera"].get<int>(), 0);
+
+  // calibd-import: the same folder as a log, replayed by calibd-calibrate --log.
+  ASSERT_EQ(RunCommand(std::string(CALIBD_IMPORT_EXE) + " --folder " + dir.file("rec") +
+                       " --config " + dir.file("spoilt.yaml") + " --intrinsics " +
+                       dir.file("camera_info.yaml") + " --out " + dir.file("imported.lcmlog") +
+                       " --config-out " + dir.file("imported.yaml")),
+            0);
+  CalibConfig imported;
+  ASSERT_TRUE(LoadConfigFile(dir.file("imported.yaml"), &imported, &error)) << error;
+  EXPECT_EQ(imported.camera.fx, config.camera.fx);  // --config-out carries the intrinsics
+  EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --truth " + dir.file("truth.json") +
+                       " --config " + dir.file("imported.yaml") + " --log " +
+                       dir.file("imported.lcmlog") + " --report " + dir.file("log.json")),
+            0);
+  const auto log = ReadJson(dir.file("log.json"));
+  EXPECT_EQ(log["frames"]["pairs"].get<int>(), 40);
+  // Same pixels (the same decoder), same points, same times: the same result.
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c)
+      EXPECT_NEAR(log["T_camera_lidar"]["matrix"][r][c].get<double>(),
+                  folder["T_camera_lidar"]["matrix"][r][c].get<double>(), 1e-9)
+          << r << "," << c;
+}
+
+TEST(RecordedFolderCliTest, StemPairsBadFilesAndExitCodes) {
+  testing::TempDir dir;
+  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --frames 1 --out " +
+                       dir.file("one.lcmlog") + " --config-out " + dir.file("calib.yaml") +
+                       " --image-encoding jpeg"),
+            0);
+  const std::string rec = dir.file("rec");
+  std::filesystem::create_directories(rec);
+  ASSERT_EQ(ExportFolder(dir.file("one.lcmlog"), rec), 1);
+  std::filesystem::remove(rec + "/frames.csv");  // pair by stem: 0.pcd + 0.png
+  // A malformed cloud with its own image: counted as a bad message, the good pair calibrates
+  // (and is rejected as too few frames: exit 3).
+  std::ofstream(rec + "/1.pcd") << "VERSION 0.7\nFIELDS x y\nSIZE 4 4\nTYPE F F\nWIDTH 1\n"
+                                   "HEIGHT 1\nPOINTS 1\nDATA ascii\n1 2\n";
+  std::filesystem::copy_file(rec + "/0.png", rec + "/1.png");
+  std::ofstream(rec + "/2.pcd") << "only a cloud";  // no partner: not read
+  const std::string calibrate = std::string(CALIBD_CALIBRATE_EXE) + " --config " +
+                                dir.file("calib.yaml") + " --report " + dir.file("r.json");
+  EXPECT_EQ(RunCommand(calibrate + " --folder " + rec), 3);
+  const auto report = ReadJson(dir.file("r.json"));
+  EXPECT_EQ(report["reason"], "too_few_frames");
+  EXPECT_EQ(report["frames"]["pairs"].get<int>(), 1);
+  EXPECT_EQ(report["frames"]["bad_messages"].get<int>(), 1);
+  EXPECT_EQ(report["frames"]["unmatched_clouds"].get<int>(), 1);
+  EXPECT_NE(
+      report["frames"]["first_bad_message"].get<std::string>().find("1.pcd: field 'z' is missing"),
+      std::string::npos)
+      << report["frames"];
+
+  const std::string import = std::string(CALIBD_IMPORT_EXE) + " --config " +
+                             dir.file("calib.yaml") + " --out " + dir.file("o.lcmlog");
+  EXPECT_EQ(RunCommand(std::string(CALIBD_IMPORT_EXE) + " --help"), 0);
+  EXPECT_EQ(RunCommand(import), 2);  // no --folder
+  EXPECT_EQ(RunCommand(import + " --folder " + rec + " --bogus 1"), 2);
+  EXPECT_EQ(RunCommand(import + " --folder " + rec + " --intrinsics /nonexistent.yaml"), 2);
+  EXPECT_EQ(RunCommand(import + " --folder " + rec), 1);  // the malformed 1.pcd stops it
+  EXPECT_EQ(RunCommand(import + " --folder /nonexistent"), 1);
+  std::filesystem::remove(rec + "/1.pcd");
+  EXPECT_EQ(RunCommand(import + " --folder " + rec), 0);
+  EXPECT_EQ(RunCommand(calibrate + " --folder /nonexistent"), 1);
+  EXPECT_EQ(RunCommand(calibrate + " --folder " + rec + " --log x.lcmlog"), 2);  // not both
+  EXPECT_EQ(RunCommand(calibrate + " --folder " + rec + " --intrinsics /nonexistent.yaml"), 2);
+  // A frames.csv names its bad line.
+  std::ofstream(rec + "/frames.csv") << "time_us,sensor,file\n100,radar,0.pcd\n";
+  EXPECT_EQ(RunCommand(calibrate + " --folder " + rec), 1);
+  EXPECT_EQ(testing::RunCommand(calibrate + " --folder " + rec + " 2>&1 | grep -q " +
+                                "'frames.csv: line 2: sensor must be lidar or camera'"),
+            0);
+}
+
+}  // namespace
+}  // namespace calibd
