@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <vector>
+
 #include "calibd/core/calibration_engine.hpp"
 #include "recorded_session.hpp"
 
@@ -82,6 +85,35 @@ TEST(CalibrationEngineTest, OnlyFarFramesAreRejectedForTheirPrecision) {
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
   EXPECT_TRUE(out.reason == "poor_observability" || out.reason == "unstable_solution")
       << out.reason << ": " << out.detail;
+}
+
+// Calibrate's optional per-correspondence errors (for reports): one per correspondence, and
+// they are the quality figure's own (each board's 4 corners: the mean of the means is the mean).
+TEST(CalibrationEngineTest, PerCorrespondenceReprojectionErrorsAreTheQualityFigures) {
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  auto r = Drive(o);
+  ObservationSet corr;
+  std::vector<double> px{1.0, 2.0};  // replaced, not appended to
+  const CalibrationOutcome out =
+      Calibrate(r->config, r->obs, r->projection, EngineConfig{}, &corr, &px);
+  ASSERT_TRUE(out.solved) << out.reason << ": " << out.detail;
+  ASSERT_EQ(px.size(), corr.observations.size());
+  double sum = 0.0;
+  int finite = 0;
+  for (double e : px)
+    if (std::isfinite(e)) {
+      sum += e;
+      ++finite;
+    }
+  EXPECT_GT(finite, static_cast<int>(px.size()) * 9 / 10);
+  EXPECT_NEAR(sum / finite, out.quality.reprojection_mean_px,
+              0.05 * out.quality.reprojection_mean_px);
+  // Stopped before the solve: none.
+  SessionObservations camera_only = r->obs;
+  camera_only.lidar.clear();
+  Calibrate(r->config, camera_only, r->projection, EngineConfig{}, &corr, &px);
+  EXPECT_TRUE(px.empty());
 }
 
 TEST(CalibrationEngineTest, NoLidarBoardsOrNoCameraBoardsAreExplicit) {
