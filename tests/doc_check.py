@@ -18,6 +18,8 @@
    - chown USER[:GROUP] FILE: the user and group must be created by calibd.sysusers and FILE
      must exist (the command itself is not run: the build machine has no such user).
    - candump IFACE,ID:MASK: the id must be the status frame's in deploy/calibd.dbc.
+   - a command reading a recorded `--folder DIR` that does not exist here: it must exit with 1
+     naming DIR (its options, config and intrinsics were accepted; a bad one exits with 2).
 2. Checks that the operator guide's troubleshooting tables name every reason code and DTC the
    sources define (read from the headers, so a new code without documentation fails), and that
    the integration guide names every LCM channel and type, DID, routine, DBC signal and config key.
@@ -182,6 +184,9 @@ class Runner:
             self.check_chown(words, cwd)
         elif program == "candump":
             self.check_candump(words)
+        elif "--folder" in words and not os.path.exists(
+                os.path.join(cwd, self.moved(value_of(words, "--folder")))):
+            self.check_missing_folder(text, words, cwd)
         else:
             want, message = expected_exit(text)
             result = self.run_shell(self.moved(text), cwd)
@@ -192,6 +197,15 @@ class Runner:
                 raise Failure(f"the output lacks the documented '{message}':\n"
                               + tail(result.stdout))
         return cwd
+
+    def check_missing_folder(self, text, words, cwd):
+        """A recorded folder the build machine does not have: the command must get as far as
+        reading it (options, config and intrinsics accepted) and fail naming it (exit code 1)."""
+        folder = value_of(words, "--folder")
+        result = self.run_shell(self.moved(text), cwd)
+        if result.returncode != 1 or folder.rstrip("/") not in result.stdout:
+            raise Failure(f"with the folder {folder} missing: exit code {result.returncode} "
+                          f"(expected 1, naming the folder); output:\n" + tail(result.stdout))
 
     def check_tester(self, words, cwd):
         args = list(words[1:])
@@ -315,6 +329,13 @@ class Runner:
                     raise Failure(f"candump: filter {flt} is not ID:MASK")
                 if int(m.group(1), 16) not in ids:
                     raise Failure(f"candump: id {m.group(1)} is not a frame of calibd.dbc")
+
+
+def value_of(words, option):
+    i = words.index(option)
+    if i + 1 >= len(words):
+        raise Failure(f"{option} without a value")
+    return words[i + 1]
 
 
 def parse_sysusers(path):
