@@ -34,7 +34,8 @@ TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
   const int code =
       RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log " + dir.file("s.lcmlog") +
                  " --config " + dir.file("calib.yaml") + " --truth " + dir.file("truth.json") +
-                 " --report " + dir.file("report.json") + " --export " + dir.file("export"));
+                 " --report " + dir.file("report.json") + " --export " + dir.file("export") +
+                 " --html " + dir.file("report.html"));
   const auto report = ReadJson(dir.file("report.json"));
   EXPECT_EQ(code, 0) << report.dump(2);
   EXPECT_EQ(report["verdict"], "updated") << report["reason"] << ": " << report["detail"];
@@ -58,6 +59,19 @@ TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
     std::string text, error;
     EXPECT_TRUE(ReadWholeFile(dir.file("export/") + name, &text, &error)) << error;
   }
+  // --html: the page for people (its content is test_html_report's, its rendering
+  // test_html_report_browser's): the verdict, both plots, the 4 overlay pictures, nothing fetched.
+  std::string html, error;
+  ASSERT_TRUE(ReadWholeFile(dir.file("report.html"), &html, &error)) << error;
+  EXPECT_NE(html.find("<p class=\"word\">UPDATED</p>"), std::string::npos);
+  EXPECT_NE(html.find("id=\"per-distance\"><h2>"), std::string::npos);
+  size_t pictures = 0;
+  for (size_t at = html.find("src=\"data:image/png;base64,"); at != std::string::npos;
+       at = html.find("src=\"data:image/png;base64,", at + 1))
+    ++pictures;
+  EXPECT_EQ(pictures, 4u);
+  EXPECT_EQ(html.find("http://"), std::string::npos);
+  EXPECT_EQ(html.find("https://"), std::string::npos);
 }
 
 TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {
@@ -79,9 +93,15 @@ TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {
             1);
   // One frame pair is far too little: rejected (exit 3) with the reason in the report.
   EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log " + dir.file("one.lcmlog") +
-                       " --config " + dir.file("calib.yaml") + " --report " + dir.file("r.json")),
+                       " --config " + dir.file("calib.yaml") + " --report " + dir.file("r.json") +
+                       " --html " + dir.file("r.html")),
             3);
   EXPECT_EQ(ReadJson(dir.file("r.json"))["reason"], "too_few_frames");
+  // The HTML report is written for a rejected result too, saying so.
+  std::string html, error;
+  ASSERT_TRUE(ReadWholeFile(dir.file("r.html"), &html, &error)) << error;
+  EXPECT_NE(html.find("<p class=\"word\">REJECTED</p>"), std::string::npos);
+  EXPECT_NE(html.find("<b>too_few_frames</b>"), std::string::npos);
 }
 
 }  // namespace
