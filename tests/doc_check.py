@@ -10,7 +10,8 @@
    as it goes:
    - calibd-tester: run with the guide's exact arguments against a CAN interface that does not
      exist; it must exit with 7 ("CAN interface missing"), which proves the command line parses
-     (a bad one exits with 2). `calibd-tester --help` must exit with 0.
+     (a bad one exits with 2). `calibd-tester --help` must exit with 0, and every exit code it
+     lists must have a row in the operator guide's exit code table.
    - systemctl / journalctl / systemd-analyze: the unit they name must be deploy/systemd's, the
      verb one systemctl knows; the unit (its template with the built agent's path) must pass
      `systemd-analyze verify` when that exists, else it is parsed for its sections and ExecStart.
@@ -214,6 +215,14 @@ class Runner:
                                     capture_output=True, text=True, timeout=10)
             if result.returncode != 0 or "Usage: calibd-tester" not in result.stdout:
                 raise Failure(f"calibd-tester --help exited {result.returncode}")
+            # Every exit code the tester documents has a row in the operator guide's table.
+            codes = re.findall(r"(?<![\w.])(\d+) (?=[A-Za-z])",
+                               result.stdout.split("Exit codes:")[1])
+            rows = table_rows(read(self.source, GUIDES[0]))
+            for code in codes:
+                if not re.search(rf"^\| {code} \|", rows, re.M):
+                    raise Failure(f"calibd-tester's exit code {code} has no row in the operator "
+                                  "guide's exit code table")
             return
         if "--interface" in args:
             i = args.index("--interface")
