@@ -128,6 +128,38 @@ TEST(ConfigFileTest, FisheyeCameraAndCheckerboardRoundTrip) {
   EXPECT_DOUBLE_EQ(back.boards[0].checker_square_size_m, 0.08);
 }
 
+TEST(ConfigFileTest, GenericLidarKeysRoundTripAndNameTheBadKey) {
+  CalibConfig c = Example();
+  c.lidar_model = "generic";
+  c.lidar_generic.azimuth_resolution_deg = 0.1;
+  c.lidar_generic.elevation_min_deg = -15.0;
+  c.lidar_generic.elevation_max_deg = 15.0;
+  c.lidar_generic.max_points = 250000;
+  const std::string yaml = ConfigToYaml(c);
+  CalibConfig back;
+  std::string error;
+  ASSERT_TRUE(ParseConfigYaml(yaml, &back, &error)) << error << "\n" << yaml;
+  EXPECT_EQ(back.lidar_model, "generic");
+  EXPECT_EQ(back.lidar_generic.azimuth_resolution_deg, 0.1);
+  EXPECT_EQ(back.lidar_generic.elevation_resolution_deg, 0.0);  // estimated
+  EXPECT_EQ(back.lidar_generic.elevation_min_deg, -15.0);
+  EXPECT_EQ(back.lidar_generic.max_points, 250000);
+  // Only the model name is needed: every generic value has a default.
+  std::string minimal = ConfigToYaml(Example());
+  minimal.replace(minimal.find("model: m1"), 9, "model: generic");
+  ASSERT_TRUE(ParseConfigYaml(minimal, &back, &error)) << error;
+  EXPECT_EQ(back.lidar_generic.max_points, GenericLidarConfig{}.max_points);
+  // A misspelt or out-of-range key names itself.
+  std::string bad = yaml;
+  bad.replace(bad.find("max_points: 250000"), 18, "max_point: 250000");
+  EXPECT_FALSE(ParseConfigYaml(bad, &back, &error));
+  EXPECT_EQ(error.rfind("lidar.generic.max_point", 0), 0u) << error;
+  bad = yaml;
+  bad.replace(bad.find("azimuth_resolution_deg: 0.1"), 27, "azimuth_resolution_deg: -1");
+  EXPECT_FALSE(ParseConfigYaml(bad, &back, &error));
+  EXPECT_EQ(error.rfind("lidar.generic.azimuth_resolution_deg", 0), 0u) << error;
+}
+
 TEST(ConfigFileTest, MissingFileNamesThePath) {
   CalibConfig c;
   std::string error;

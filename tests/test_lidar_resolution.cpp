@@ -160,6 +160,29 @@ TEST(ResolutionTest, ConfiguredValuesOverrideTheEstimate) {
   EXPECT_NE(error.find("lidar.generic.max_points"), std::string::npos) << error;
 }
 
+TEST(ResolutionTest, WithoutFramesGenericNeedsEveryValue) {
+  // The agent sizes its buffers at start-up, before any frame: generic needs lidar.generic.*.
+  LidarModel m;
+  std::string error;
+  ASSERT_TRUE(LidarModelFromConfig("falcon", GenericLidarConfig{}, &m, &error)) << error;
+  EXPECT_EQ(m.kind, LidarKind::kFalcon);
+  EXPECT_FALSE(LidarModelFromConfig("generic", GenericLidarConfig{}, &m, &error));
+  EXPECT_NE(error.find("lidar.generic"), std::string::npos) << error;
+  GenericLidarConfig g;
+  g.azimuth_resolution_deg = 0.2;
+  g.elevation_resolution_deg = 0.1;
+  g.azimuth_min_deg = -60.0;
+  g.azimuth_max_deg = 60.0;
+  g.elevation_min_deg = -13.0;
+  g.elevation_max_deg = 13.0;
+  ASSERT_TRUE(LidarModelFromConfig("generic", g, &m, &error)) << error;
+  EXPECT_EQ(m.kind, LidarKind::kGeneric);
+  EXPECT_FALSE(m.has_rings);
+  EXPECT_EQ(m.elevation_resolution_deg, 0.1);
+  EXPECT_EQ(m.nominal_points_per_frame, g.max_points / 2);  // the detector sizes twice this
+  EXPECT_FALSE(LidarModelFromConfig("velodyne", g, &m, &error));
+}
+
 TEST(ResolutionTest, GarbageGivesAClearErrorNotACrash) {
   std::string error;
   // No frames at all.

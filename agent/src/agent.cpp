@@ -17,6 +17,7 @@
 #include "calibd/calibration_status_t.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/core/lidar_model.hpp"
+#include "calibd/core/lidar_resolution.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
 #include "calibd/drivers/can_link.hpp"
@@ -125,9 +126,11 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
   intake_.SetReadyEvent(&wake_);
   if (!intake_.Init(IntakeConfigFrom(config_), config_.calib, error)) return false;
 
-  LidarKind kind;
-  if (!LidarKindFromName(config_.calib.lidar_model, &kind, error)) return false;
-  projection_.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
+  LidarModel lidar_model;
+  if (!LidarModelFromConfig(config_.calib.lidar_model, config_.calib.lidar_generic, &lidar_model,
+                            error))
+    return false;
+  projection_.Configure(lidar_model, 0.5, 200.0, 1);
   recorder_.Init(config_);
 
   const std::string url = options.lcm_url.empty() ? config_.lcm_url : options.lcm_url;

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "calibd/core/lidar_model.hpp"
+#include "calibd/core/lidar_resolution.hpp"
 
 namespace calibd {
 
@@ -65,9 +66,8 @@ FrameIntake::~FrameIntake() {
 
 bool FrameIntake::Init(const IntakeConfig& config, const CalibConfig& calib, std::string* error) {
   if (!config.IsValid(error)) return false;
-  LidarKind kind;
-  if (!LidarKindFromName(calib.lidar_model, &kind, error)) return false;
-  const LidarModel model = MakeLidarModel(kind);
+  LidarModel model;
+  if (!LidarModelFromConfig(calib.lidar_model, calib.lidar_generic, &model, error)) return false;
   config_ = config;
   calib_ = calib;
   camera_detector_ = std::make_unique<CameraDetector>(config.camera, calib.camera, calib.boards);

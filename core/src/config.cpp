@@ -52,6 +52,10 @@ bool CalibConfig::IsValid(std::string* error) const {
     return fail("lidar.frame_id", "must differ from camera.frame_id ('" + camera_frame + "')");
   LidarKind kind;
   if (!LidarKindFromName(lidar_model, &kind, &why)) return fail("lidar.model", why);
+  if (kind == LidarKind::kGeneric && !lidar_generic.IsValid(&why)) {
+    if (error) *error = why;  // already names its lidar.generic key
+    return false;
+  }
   if (boards.empty()) return fail("boards", "at least one board is required");
   std::set<int> ids, tags;
   for (size_t i = 0; i < boards.size(); ++i) {

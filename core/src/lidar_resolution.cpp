@@ -30,12 +30,20 @@ class GapHistogram {
   static constexpr int kBins = 350;  // ceil(ln(1000) / ln(1.02))
   static constexpr int kBridgeBins = 12;
 
-  void Add(double gap_deg) {
-    const int b = static_cast<int>(std::floor(std::log(gap_deg / kMinDeg) / std::log(kRatio)));
-    if (b >= 0 && b < kBins) {
-      ++counts_[static_cast<size_t>(b)];
-      ++total_;
+  // Bin of a gap of d quanta, d < bin_of_quanta->size(): from a table (a log per gap would cost
+  // a third of the estimate).
+  static void MakeTable(size_t max_quanta, std::vector<int16_t>* bin_of_quanta) {
+    bin_of_quanta->resize(max_quanta + 1);
+    for (size_t d = 0; d <= max_quanta; ++d) {
+      const double g = static_cast<double>(d) * kQuantumDeg;
+      const double b = d == 0 ? -1.0 : std::floor(std::log(g / kMinDeg) / std::log(kRatio));
+      (*bin_of_quanta)[d] = static_cast<int16_t>(b >= 0.0 && b < kBins ? b : -1);
     }
+  }
+  void Add(int bin) {
+    if (bin < 0) return;
+    ++counts_[static_cast<size_t>(bin)];
+    ++total_;
   }
   int total() const { return total_; }
 
@@ -117,8 +125,8 @@ void RadixSort(std::vector<uint64_t>* keys, std::vector<uint64_t>* tmp, uint64_t
 // `bucket_deg`: the elevation gaps in azimuth columns, or the azimuth gaps in elevation bands.
 // Angles are in [-180, 180] (azimuth) or [-90, 90] (elevation): offset by 180 before quantizing.
 void AddGaps(const float* along, const float* across, size_t n, double bucket_deg,
-             const LidarResolutionConfig& config, std::vector<uint64_t>* keys,
-             std::vector<uint64_t>* tmp, GapHistogram* histogram) {
+             const LidarResolutionConfig& config, const std::vector<int16_t>& bin_of_quanta,
+             std::vector<uint64_t>* keys, std::vector<uint64_t>* tmp, GapHistogram* histogram) {
   keys->resize(n);
   uint64_t max_key = 0;
   for (size_t i = 0; i < n; ++i) {
@@ -130,13 +138,13 @@ void AddGaps(const float* along, const float* across, size_t n, double bucket_de
   }
   RadixSort(keys, tmp, max_key);
   const auto same_line = static_cast<uint64_t>(std::llround(config.same_line_deg / kQuantumDeg));
-  const auto max_gap = static_cast<uint64_t>(std::llround(config.max_gap_deg / kQuantumDeg));
+  const uint64_t max_gap = bin_of_quanta.size() - 1;
   for (size_t i = 1; i < n; ++i) {
     const uint64_t a = (*keys)[i - 1], b = (*keys)[i];
     if ((a >> 20) != (b >> 20)) continue;  // another bucket
     const uint64_t d = b - a;
     if (d < same_line || d > max_gap) continue;  // one scan line, or a hole
-    histogram->Add(static_cast<double>(d) * kQuantumDeg);
+    histogram->Add(bin_of_quanta[d]);
   }
 }
 
@@ -154,7 +162,7 @@ double HistogramQuantile(const std::vector<int>& hist, int64_t total, double q, 
 // Circular mean of the angles modulo `period` (degrees): the sample phase in [0, period), or
 // 0 when the angles show no common phase (resultant shorter than 0.3). Every stride-th angle.
 double SamplePhase(const std::vector<float>& angles, double period) {
-  const size_t stride = std::max<size_t>(1, angles.size() / 20000);
+  const size_t stride = std::max<size_t>(1, angles.size() / 5000);
   double s = 0.0, c = 0.0;
   size_t n = 0;
   for (size_t i = 0; i < angles.size(); i += stride, ++n) {
@@ -300,10 +308,13 @@ LidarResolutionEstimate EstimateLidarResolution(const PointCloudView* frames, si
   std::vector<uint64_t> keys, tmp;
   keys.reserve(largest);
   tmp.reserve(largest);
+  std::vector<int16_t> bin_of_quanta;
+  GapHistogram::MakeTable(static_cast<size_t>(std::llround(config.max_gap_deg / kQuantumDeg)),
+                          &bin_of_quanta);
   GapHistogram vertical;
   for (size_t f = 0; f < begin.size(); ++f)
     AddGaps(el.data() + begin[f], az.data() + begin[f], end[f] - begin[f], column_deg, config,
-            &keys, &tmp, &vertical);
+            bin_of_quanta, &keys, &tmp, &vertical);
   double el_res = 0.0;
   est.vertical_gaps = vertical.total();
   if (!vertical.FinestCluster(config.min_cluster_fraction, &el_res,
@@ -318,8 +329,8 @@ LidarResolutionEstimate EstimateLidarResolution(const PointCloudView* frames, si
   const double band_deg = std::max(0.5 * el_res, 0.01);
   GapHistogram horizontal;
   for (size_t f = 0; f < begin.size(); ++f)
-    AddGaps(az.data() + begin[f], el.data() + begin[f], end[f] - begin[f], band_deg, config, &keys,
-            &tmp, &horizontal);
+    AddGaps(az.data() + begin[f], el.data() + begin[f], end[f] - begin[f], band_deg, config,
+            bin_of_quanta, &keys, &tmp, &horizontal);
   double az_res = 0.0;
   est.horizontal_gaps = horizontal.total();
   if (!horizontal.FinestCluster(config.min_cluster_fraction, &az_res,
@@ -430,6 +441,26 @@ bool MakeGenericLidarModel(const GenericLidarConfig& config,
   }
   *model = m;
   return true;
+}
+
+bool LidarModelFromConfig(const std::string& name, const GenericLidarConfig& generic,
+                          LidarModel* model, std::string* error) {
+  LidarKind kind;
+  if (!LidarKindFromName(name, &kind, error)) return false;
+  if (kind != LidarKind::kGeneric) {
+    *model = MakeLidarModel(kind);
+    return true;
+  }
+  if (!generic.complete()) {
+    if (error)
+      *error =
+          "lidar.generic: the agent sizes its buffers at start-up and needs the generic LiDAR's "
+          "azimuth_resolution_deg, elevation_resolution_deg, azimuth_min/max_deg and "
+          "elevation_min/max_deg (calibd-calibrate on a recording prints and reports the "
+          "estimate)";
+    return false;
+  }
+  return MakeGenericLidarModel(generic, nullptr, model, error);
 }
 
 std::string DescribeGenericLidar(const LidarModel& model, const LidarResolutionEstimate* estimate) {

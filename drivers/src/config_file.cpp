@@ -87,10 +87,31 @@ void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
   }
 
   const YAML::Node lidar = Child(root, "lidar", "lidar");
-  CheckKnown(lidar, {"id", "frame_id", "model"}, "lidar");
+  CheckKnown(lidar, {"id", "frame_id", "model", "generic"}, "lidar");
   c->lidar_id = Get<std::string>(lidar, "id", "lidar.id");
   c->lidar_frame = GetOr<std::string>(lidar, "frame_id", "lidar.frame_id", c->lidar_frame);
   c->lidar_model = Get<std::string>(lidar, "model", "lidar.model");
+  if (const YAML::Node g = lidar["generic"]) {
+    // lidar.model generic: every value optional, 0 (or absent) = estimated from the data.
+    CheckKnown(g,
+               {"azimuth_resolution_deg", "elevation_resolution_deg", "azimuth_min_deg",
+                "azimuth_max_deg", "elevation_min_deg", "elevation_max_deg", "max_points",
+                "frame_rate_hz", "estimation_frames"},
+               "lidar.generic");
+    GenericLidarConfig& gc = c->lidar_generic;
+    for (auto [name, field] :
+         {std::pair<const char*, double*>{"azimuth_resolution_deg", &gc.azimuth_resolution_deg},
+          {"elevation_resolution_deg", &gc.elevation_resolution_deg},
+          {"azimuth_min_deg", &gc.azimuth_min_deg},
+          {"azimuth_max_deg", &gc.azimuth_max_deg},
+          {"elevation_min_deg", &gc.elevation_min_deg},
+          {"elevation_max_deg", &gc.elevation_max_deg},
+          {"frame_rate_hz", &gc.frame_rate_hz}})
+      *field = GetOr<double>(g, name, std::string("lidar.generic.") + name, *field);
+    gc.max_points = GetOr<int>(g, "max_points", "lidar.generic.max_points", gc.max_points);
+    gc.estimation_frames =
+        GetOr<int>(g, "estimation_frames", "lidar.generic.estimation_frames", gc.estimation_frames);
+  }
 
   const YAML::Node boards = Child(root, "boards", "boards");
   if (!boards.IsSequence()) throw KeyError{"boards", "must be a list"};
@@ -201,6 +222,18 @@ std::string ConfigToYaml(const CalibConfig& c) {
   }
   o << "lidar:\n  id: " << c.lidar_id << "\n  frame_id: " << c.lidar_frame
     << "\n  model: " << c.lidar_model << "\n";
+  if (c.lidar_model == "generic") {
+    const GenericLidarConfig& g = c.lidar_generic;
+    o << "  generic:  # 0: estimated from the first frames\n    azimuth_resolution_deg: "
+      << Num(g.azimuth_resolution_deg)
+      << "\n    elevation_resolution_deg: " << Num(g.elevation_resolution_deg)
+      << "\n    azimuth_min_deg: " << Num(g.azimuth_min_deg)
+      << "\n    azimuth_max_deg: " << Num(g.azimuth_max_deg)
+      << "\n    elevation_min_deg: " << Num(g.elevation_min_deg)
+      << "\n    elevation_max_deg: " << Num(g.elevation_max_deg)
+      << "\n    max_points: " << g.max_points << "\n    frame_rate_hz: " << Num(g.frame_rate_hz)
+      << "\n    estimation_frames: " << g.estimation_frames << "\n";
+  }
   o << "boards:\n";
   for (const auto& b : c.boards) {
     o << "  - id: " << b.board_id << "\n    width_m: " << Num(b.width_m)

@@ -38,7 +38,7 @@ class SessionBuilder {
   bool Init(std::string* error) {
     LidarKind kind;
     if (!LidarKindFromName(config_.lidar_model, &kind, error)) return false;
-    const LidarModel model = MakeLidarModel(kind);
+    const LidarModel model = options_.lidar_model ? *options_.lidar_model : MakeLidarModel(kind);
     FramePairingConfig pairing;
     pairing.pair_tolerance_us = options_.pair_tolerance_us;
     pairing.sweep_us = static_cast<int64_t>(1e6 / model.frame_rate_hz);

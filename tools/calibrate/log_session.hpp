@@ -6,6 +6,7 @@
 
 #include <functional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,9 @@ struct LogReadOptions {
   int64_t pair_tolerance_us = 20000;  ///< camera time may lie this far outside the LiDAR sweep
   CameraDetectorConfig camera;
   LidarDetectorConfig lidar;
+  /// The LiDAR model to detect with instead of the config's lidar.model (LidarModelForLog(): a
+  /// generic model resolved from the first frames).
+  std::optional<LidarModel> lidar_model;
   /// False: only pair frames and copy the `keep` pairs (no detection, `session` untouched), e.g.
   /// to fetch pictures after a calibration.
   bool detect = true;

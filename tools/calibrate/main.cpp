@@ -23,6 +23,7 @@
 #include "calibd/drivers/intrinsics_file.hpp"
 #include "calibd/drivers/recorded_folder.hpp"
 #include "html_report.hpp"
+#include "lidar_model_source.hpp"
 #include "log_session.hpp"
 #include "overlay.hpp"
 
@@ -59,7 +60,12 @@ Options:
                        distortion_coefficients.data, distortion_model plumb_bob,
                        rational_polynomial with k4-k6 = 0, or equidistant), or JSON
                        {"K": 3x3 or 9 numbers, "D": [...], "width": W, "height": H}
-  --config FILE        calibration config: intrinsics, boards, LiDAR model, prior (required)
+  --config FILE        calibration config: intrinsics, boards, LiDAR model, prior (required).
+                       lidar.model ot128, m1, falcon or generic: any LiDAR described only by its
+                       points; its resolution and field of view are estimated from the first
+                       lidar.generic.estimation_frames (3) LiDAR frames of the log unless
+                       lidar.generic.* gives them, printed and written to the report's
+                       lidar_model block
   --report FILE        JSON report: verdict, reason, T_camera_lidar and T_lidar_camera (4x4,
                        xyz, quaternion xyzw, rpy), frame names, quality, timings
   --export DIR         the result in other stacks' formats, one file each (DIR is created):
@@ -218,6 +224,16 @@ int main(int argc, char** argv) {
                                : tools::ReadSessionFolder(folder_path, config, options, into,
                                                           counters, &error, report, keep, kept);
   };
+  // The LiDAR model; for generic, estimated from the first frames and shown to the user.
+  LidarModel lidar_model;
+  LidarResolutionEstimate lidar_estimate;
+  if (!tools::LidarModelForLog(log_path, config, &lidar_model, &lidar_estimate, &error)) {
+    std::cerr << "calibd-calibrate: " << error << "\n";
+    return 1;
+  }
+  read_options.lidar_model = lidar_model;
+  if (!quiet && lidar_model.kind == LidarKind::kGeneric)
+    std::cerr << "calibd-calibrate: " << DescribeGenericLidar(lidar_model, &lidar_estimate) << "\n";
   const auto t_start = std::chrono::steady_clock::now();
   SessionObservations session;
   tools::LogReadStats stats;
@@ -231,10 +247,8 @@ int main(int argc, char** argv) {
   const double read_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 
-  LidarKind kind;
-  LidarKindFromName(config.lidar_model, &kind, nullptr);
   RangeImage projection;
-  projection.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
+  projection.Configure(lidar_model, 0.5, 200.0, 1);
   EngineConfig engine;
   engine.method =
       method == "indirect" ? EngineConfig::Method::kIndirect : EngineConfig::Method::kDirect;
@@ -283,6 +297,17 @@ int main(int argc, char** argv) {
   report["motion_compensation"] = {{"compensated_boards", out.motion.compensated},
                                    {"uncompensated_boards", out.motion.uncompensated},
                                    {"max_shift_m", out.motion.max_shift_m}};
+  report["lidar_model"] = {
+      {"name", lidar_model.name},
+      {"azimuth_resolution_deg", lidar_model.azimuth_resolution_deg},
+      {"elevation_resolution_deg", lidar_model.elevation_resolution_deg},
+      {"azimuth_fov_deg", {lidar_model.azimuth_min_deg, lidar_model.azimuth_max_deg}},
+      {"elevation_fov_deg", {lidar_model.elevation_min_deg, lidar_model.elevation_max_deg}}};
+  if (lidar_model.kind == LidarKind::kGeneric)
+    report["lidar_model"]["estimated_from"] = {{"frames", lidar_estimate.frames_used},
+                                               {"points", lidar_estimate.points_used},
+                                               {"ok", lidar_estimate.ok},
+                                               {"error", lidar_estimate.error}};
   report["board_pose_refinement"] = {{"refined_boards", out.refined_boards},
                                      {"mean_rotation_change_deg", out.board_rotation_change_deg},
                                      {"mean_translation_change_m", out.board_translation_change_m}};

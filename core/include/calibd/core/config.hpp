@@ -9,6 +9,7 @@
 #include "calibd/core/board.hpp"
 #include "calibd/core/camera_model.hpp"
 #include "calibd/core/geometry.hpp"
+#include "calibd/core/lidar_resolution.hpp"
 
 namespace calibd {
 
@@ -17,6 +18,9 @@ struct CalibConfig {
   CameraIntrinsics camera;
   std::string lidar_id = "roof";
   std::string lidar_model = "ot128";  ///< LidarKindFromName() names
+  /// lidar.generic.*: overrides of the estimated scan geometry when lidar_model is "generic"
+  /// (lidar_resolution.hpp); ignored otherwise.
+  GenericLidarConfig lidar_generic;
   /// Frame names written into the exported calibration files (ROS tf, Autoware, JSON): the
   /// camera's and the LiDAR's frame ids. Letters, digits and `_ - . /`, not starting with `/`
   /// (tf2 rejects a leading slash); the two must differ.

@@ -1,0 +1,77 @@
+#include "resolution_bench.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <string>
+#include <vector>
+
+#include "calibd/core/lidar_resolution.hpp"
+#include "session.hpp"
+
+namespace calibd::bench {
+
+namespace {
+// CPU time of this thread, ms: on a loaded machine wall time also counts the waits for a core.
+double ThreadCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+}  // namespace
+
+int RunResolutionBench(int argc, char** argv) {
+  int repeat = 50;
+  for (int i = 0; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--repeat" && i + 1 < argc) {
+      repeat = std::atoi(argv[++i]);
+      if (repeat >= 1 && repeat <= 10000) continue;
+    }
+    std::fprintf(stderr, "calibd-bench resolution: bad option '%s' (--repeat N, 1-10000)\n",
+                 arg.c_str());
+    return 2;
+  }
+  std::printf("%-7s %8s %9s %9s %9s %9s\n", "lidar", "points", "az [deg]", "el [deg]", "median ms",
+              "p95 ms");
+  for (const char* lidar : {"ot128", "m1", "falcon"}) {
+    sim::SessionOptions o;
+    o.lidar_model = lidar;
+    o.trajectory.mode = "static";
+    o.trajectory.static_distance_m = 12.0;
+    sim::SessionSimulator s;
+    std::string error;
+    if (!s.Init(o, &error)) {
+      std::fprintf(stderr, "calibd-bench resolution: %s\n", error.c_str());
+      return 1;
+    }
+    sim::LidarScan scan;
+    sim::FrameTruth truth;
+    s.SimulateFrame(0, nullptr, &scan, &truth);
+    const PointCloudView view{scan.x.data(), scan.y.data(), scan.z.data(), nullptr, scan.size()};
+    LidarResolutionEstimate est = EstimateLidarResolution(&view, 1);  // warm-up
+    std::vector<double> ms, cpu;
+    for (int r = 0; r < repeat; ++r) {
+      const double c0 = ThreadCpuMs();
+      const auto t0 = std::chrono::steady_clock::now();
+      est = EstimateLidarResolution(&view, 1);
+      ms.push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      cpu.push_back(ThreadCpuMs() - c0);
+    }
+    std::sort(ms.begin(), ms.end());
+    std::sort(cpu.begin(), cpu.end());
+    if (!est.ok) {
+      std::fprintf(stderr, "calibd-bench resolution: %s: %s\n", lidar, est.error.c_str());
+      return 1;
+    }
+    std::printf("%-7s %8zu %9.4f %9.4f %9.2f %9.2f %9.2f\n", lidar, scan.size(),
+                est.azimuth_resolution_deg, est.elevation_resolution_deg, ms[ms.size() / 2],
+                ms[std::min(ms.size() - 1, ms.size() * 95 / 100)], cpu[cpu.size() / 2]);
+  }
+  return 0;
+}
+
+}  // namespace calibd::bench
