@@ -23,7 +23,9 @@
      naming DIR (its options, config and intrinsics were accepted; a bad one exits with 2).
 2. Checks that the operator guide's troubleshooting tables name every reason code and DTC the
    sources define (read from the headers, so a new code without documentation fails), and that
-   the integration guide names every LCM channel and type, DID, routine, DBC signal and config key.
+   the integration guide names every LCM channel, type and field, DID, routine, DBC signal,
+   LiDAR model and config key (deploy/config/calibd.yaml's and every key the config loader
+   accepts).
 
 A failure prints the guide, the line and the command. Usage:
   doc_check.py --source DIR --bin-dir DIR [--bin-dir DIR ...] [--tmp DIR] [--only FILE]
@@ -438,12 +440,24 @@ def config_keys(source):
         if path not in keys:
             keys.append(path)
         stack.append([indent, m.group(3)])
+    # The calibration part's loader names every key it accepts: CheckKnown(node, {names}, "prefix")
+    # (a board's prefix is a variable: boards[i]).
     loader = read(source, "drivers/src/config_file.cpp")
-    for known in re.findall(r"CheckKnown\(\s*\w+,\s*\{([^}]*)\}", loader):
-        names = re.findall(r'"(\w+)"', known)
-        if "checker_inner_rows" in names:
-            keys += [f"boards[].{n}" for n in names if f"boards[].{n}" not in keys]
+    for names, prefix in re.findall(r"CheckKnown\(\s*\w+,\s*\{([^}]*)\},\s*(\"[\w.]*\"|\w+)\)",
+                                    loader):
+        prefix = prefix.strip('"') if prefix.startswith('"') else "boards[]"
+        for name in re.findall(r'"(\w+)"', names):
+            key = f"{prefix}.{name}" if prefix else name
+            if key not in keys:
+                keys.append(key)
     return keys
+
+
+def lidar_models(source):
+    """The LiDAR model names the config accepts (LidarKindFromName)."""
+    text = read(source, "core/src/lidar_model.cpp")
+    body = text.split("bool LidarKindFromName")[1].split("return false")[0]
+    return re.findall(r'name == "(\w+)"', body)
 
 
 def check_coverage(source, operator, integration):
@@ -492,6 +506,9 @@ def check_coverage(source, operator, integration):
     for key in config_keys(source):
         if f"`{key}`" not in integration:
             missing.append(f"integration guide: config key `{key}` not named")
+    for model in lidar_models(source):
+        if f"`{model}`" not in rows:
+            missing.append(f"integration guide: LiDAR model `{model}` not in a table")
     if "](operator-guide.md" not in integration:
         missing.append("integration guide: no link to the operator guide")
     if "](integration-guide.md" not in operator:
