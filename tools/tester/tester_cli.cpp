@@ -251,6 +251,20 @@ void ShowProgress(const Results& r, bool tty, int* last_shown, std::ostream& err
   *last_shown = r.progress;
 }
 
+// Reads DID 0xFD06; errors (e.g. an agent without it) are not printed.
+int ReadCoverage(UdsClient& client, CaptureCoverage* coverage) {
+  UdsReply reply;
+  std::ostream quiet(nullptr);
+  const int code = Call(client,
+                        {uds::kSidReadDataByIdentifier, uds::kDidCaptureCoverage >> 8,
+                         uds::kDidCaptureCoverage & 0xFF},
+                        quiet, &reply);
+  if (code != kExitOk) return code;
+  if (!ExpectSize(reply, 3 + uds::kCoverageSize, quiet)) return kExitFailure;
+  *coverage = uds::DecodeCoverage(reply.bytes.data() + 3);
+  return kExitOk;
+}
+
 int RunRoutine(UdsClient& client, const TesterOptions& o, std::ostream& out, std::ostream& err) {
   const uint16_t rid = o.command == "verify" ? uds::kRoutineVerify : uds::kRoutineCalibrate;
   std::vector<uint8_t> start = RoutineRequest(uds::kStartRoutine, rid);
@@ -315,20 +329,6 @@ int RunRoutine(UdsClient& client, const TesterOptions& o, std::ostream& out, std
       r.verdict == static_cast<uint8_t>(uds::RoutineVerdict::kUpdated))
     out << "commit it with: calibd-tester --secret FILE commit\n";
   return VerdictExit(r);
-}
-
-// Reads DID 0xFD06; errors (e.g. an agent without it) are not printed.
-int ReadCoverage(UdsClient& client, CaptureCoverage* coverage) {
-  UdsReply reply;
-  std::ostream quiet(nullptr);
-  const int code = Call(client,
-                        {uds::kSidReadDataByIdentifier, uds::kDidCaptureCoverage >> 8,
-                         uds::kDidCaptureCoverage & 0xFF},
-                        quiet, &reply);
-  if (code != kExitOk) return code;
-  if (!ExpectSize(reply, 3 + uds::kCoverageSize, quiet)) return kExitFailure;
-  *coverage = uds::DecodeCoverage(reply.bytes.data() + 3);
-  return kExitOk;
 }
 
 int RunRead(UdsClient& client, const TesterOptions& o, std::ostream& out, std::ostream& err) {
