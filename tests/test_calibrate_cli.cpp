@@ -74,6 +74,32 @@ TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
   EXPECT_EQ(html.find("https://"), std::string::npos);
 }
 
+// Board geometry from the config (issue 7): two rectangular 0.8 x 0.6 m boards, one with an
+// AprilTag, one with a 5 x 7 inner-corner checkerboard. Two boards only: a session whose
+// checkerboard went undetected would have one board left and be rejected for observability
+// (CalibrationEngineTest.OneBoardIsRejectedForObservability), so `updated` near the truth shows
+// the checkerboard's observations were used.
+TEST(CalibrateCliTest, RectangularTagAndCheckerboardBoardsAreCalibrated) {
+  testing::TempDir dir;
+  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --seed 8 --lidar ot128 --rate 2 " +
+                       "--boards 2 --board-size 0.8,0.6 --tag-size 0.5 --checkerboard 1,5,7,0.08 " +
+                       "--prior-rot-deg 3 --prior-trans-m 0.05 --image-encoding jpeg --out " +
+                       dir.file("s.lcmlog") + " --truth " + dir.file("truth.json") +
+                       " --config-out " + dir.file("calib.yaml")),
+            0);
+  std::string config, error;
+  ASSERT_TRUE(ReadWholeFile(dir.file("calib.yaml"), &config, &error)) << error;
+  EXPECT_NE(config.find("pattern: checkerboard"), std::string::npos) << config;
+  const int code = RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log " + dir.file("s.lcmlog") +
+                              " --config " + dir.file("calib.yaml") + " --truth " +
+                              dir.file("truth.json") + " --report " + dir.file("report.json"));
+  const auto report = ReadJson(dir.file("report.json"));
+  EXPECT_EQ(code, 0) << report.dump(2);
+  EXPECT_EQ(report["verdict"], "updated") << report["reason"] << ": " << report["detail"];
+  EXPECT_LT(report["error_vs_truth"]["rotation_deg"].get<double>(), 0.2);
+  EXPECT_LT(report["error_vs_truth"]["translation_m"].get<double>(), 0.02);
+}
+
 TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {
   testing::TempDir dir;
   EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --help"), 0);

@@ -59,6 +59,8 @@ Boards and scene:
   --tag-size M             side of the tag's black square, m (default 0.48)
   --tag-family NAME        tag36h11 | tag25h9 | tag16h5 | tagStandard41h12 (default tag36h11)
   --tag-ids A,B,...        tag id of each board (default 0,1,2,...)
+  --checkerboard I,R,C,S   board I (0-based) carries a checkerboard instead of a tag: R x C
+                           inner corners, squares of S m (e.g. 2,5,7,0.07)
   --layout NAME            spread | line | stack (default spread)
   --board-spacing M        lateral distance between boards, m (default 2.2)
   --no-clutter             no poles, crates, car, people or door panel
@@ -206,6 +208,13 @@ int main(int argc, char** argv) {
       {"--tag-size", number(&o.workshop.tag_size_m, 0.01, 5)},
       {"--tag-family", text(&o.workshop.tag_family)},
       {"--tag-ids", list(1, 12, [&](auto& n) { o.workshop.tag_ids.assign(n.begin(), n.end()); })},
+      {"--checkerboard", list(4, 4,
+                              [&](auto& n) {
+                                o.workshop.checkerboard_board = static_cast<int>(n[0]);
+                                o.workshop.checker_inner_rows = static_cast<int>(n[1]);
+                                o.workshop.checker_inner_cols = static_cast<int>(n[2]);
+                                o.workshop.checker_square_m = n[3];
+                              })},
       {"--layout", text(&o.workshop.layout)},
       {"--board-spacing", number(&o.workshop.board_spacing_m, 0.1, 20)},
       {"--range-noise", number(&o.lidar_noise.range_sigma_m, 0, 0.5)},

@@ -11,6 +11,16 @@ namespace calibd::sim {
 
 bool BoardFace::Build(const BoardGeometry& g, std::string* error) {
   std::string why;
+  if (g.pattern == BoardGeometry::PatternKind::kCheckerboard) {
+    if (!g.IsValid(&why)) {
+      if (error) *error = "board " + std::to_string(g.board_id) + ": " + why;
+      return false;
+    }
+    geometry = g;
+    grid = grid_at_border = 0;
+    bits.clear();
+    return true;
+  }
   TagLayout layout;
   if (!g.IsValid(&why) || !MakeTagLayout(g.tag_family, g.tag_id, &layout, &why)) {
     if (error) *error = "board " + std::to_string(g.board_id) + ": " + why;
@@ -39,6 +49,18 @@ bool BoardFace::Build(const BoardGeometry& g, std::string* error) {
 }
 
 float BoardFace::AlbedoAt(double x_board, double y_board) const {
+  if (geometry.pattern == BoardGeometry::PatternKind::kCheckerboard) {
+    // (inner_cols + 1) x (inner_rows + 1) squares centred on tag_offset_m; square (i, j) counted
+    // from the top-left, which is black (BoardGeometry::CheckerCornersInBoard's order).
+    const double s = geometry.checker_square_size_m;
+    const double half_w = (geometry.checker_inner_cols + 1) * s / 2.0;
+    const double half_h = (geometry.checker_inner_rows + 1) * s / 2.0;
+    const double x = x_board - geometry.tag_offset_m.x(), y = y_board - geometry.tag_offset_m.y();
+    if (!(std::abs(x) < half_w && std::abs(y) < half_h)) return white_albedo;
+    const int i = static_cast<int>(std::floor((half_h - y) / s));
+    const int j = static_cast<int>(std::floor((x + half_w) / s));
+    return (i + j) % 2 == 0 ? black_albedo : white_albedo;
+  }
   if (grid <= 0) return white_albedo;
   // The black square (width_at_border modules) is geometry.tag_size_m wide and centred on
   // tag_offset_m; the whole grid shares that centre. Row 0 is the top of the upright tag, so

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// The printed face of a board: white board with an AprilTag drawn from the AprilTag library's own
-/// family codes (no tag images are shipped).
+/// family codes (no tag images are shipped), or with a checkerboard.
 
 #include <cstdint>
 #include <string>
@@ -19,8 +19,8 @@ struct BoardFace {
   float white_albedo = 0.85f;
   float black_albedo = 0.06f;
 
-  /// Builds the face from the geometry's family and tag id; false with `error` when the family is
-  /// unknown or the id out of range.
+  /// Builds the face from the geometry's family and tag id (or its checkerboard); false with
+  /// `error` when the family is unknown, the id out of range or the pattern off the board.
   bool Build(const BoardGeometry& g, std::string* error);
 
   /// Albedo at (x, y) in the board frame (metres, x right, y up on the printed side).

@@ -98,6 +98,9 @@ bool WorkshopOptions::IsValid(std::string* error) const {
                 ")");
   if (std::set<int>(tag_ids.begin(), tag_ids.end()).size() != tag_ids.size())
     return fail("--tag-ids must be distinct");
+  if (checkerboard_board >= num_boards)
+    return fail("--checkerboard: board index " + std::to_string(checkerboard_board) +
+                " but there are " + std::to_string(num_boards) + " boards");
   if (layout != "spread" && layout != "line" && layout != "stack")
     return fail("--layout must be spread, line or stack (got '" + layout + "')");
   if (!(board_spacing_m >= std::max(board_width_m, board_height_m) + 0.1))
@@ -133,6 +136,12 @@ bool BuildWorkshop(const WorkshopOptions& o, uint64_t seed, Workshop* out, std::
     g.height_m = o.board_height_m;
     g.tag_family = o.tag_family;
     g.tag_size_m = o.tag_size_m;
+    if (i == o.checkerboard_board) {
+      g.pattern = BoardGeometry::PatternKind::kCheckerboard;
+      g.checker_inner_rows = o.checker_inner_rows;
+      g.checker_inner_cols = o.checker_inner_cols;
+      g.checker_square_size_m = o.checker_square_m;
+    }
     BoardFace face;
     if (!face.Build(g, error)) return false;
 

@@ -22,6 +22,13 @@ struct WorkshopOptions {
   std::string tag_family = "tag36h11";
   double tag_size_m = 0.48;  ///< side of the tag's black square
   std::vector<int> tag_ids;  ///< one per board; empty: 0, 1, 2, ...
+  /// Index of the board printed with a checkerboard instead of a tag (-1: none; the camera
+  /// detector takes one checkerboard beside any number of tags), its inner corners per row and
+  /// per column and its square side.
+  int checkerboard_board = -1;
+  int checker_inner_rows = 5;
+  int checker_inner_cols = 7;
+  double checker_square_m = 0.07;
   /// Board layout: "spread" (default: boards side by side, varied heights, yaw and tilt), "line"
   /// (side by side, all facing straight at the vehicle: a degenerate case for calibration tests) or
   /// "stack" (boards one above the other).
