@@ -116,7 +116,7 @@ INSTANTIATE_TEST_SUITE_P(Encodings, PcdRoundTrip,
                                                   {"ring", 'I', 2, 1},
                                                   {"timestamp", 'F', 8, 1},
                                                   true}),
-                         [](const auto& info) { return info.param.name; });
+                         [](const auto& p) { return p.param.name; });
 
 TEST(PcdReaderTest, OnlyXyzAndVersion06) {
   PcdSpec s;
