@@ -434,7 +434,7 @@ int main(int argc, char** argv) {
     html.truth_translation_m = truth_trans;
     tools::ReportProvenance& p = html.provenance;
     p.software_version = std::string("calibd ") + CALIBD_VERSION;
-    p.input_path = log_path;
+    p.input_path = folder_path.empty() ? log_path : folder_path + " (folder)";
     p.config_path = config_path;
     std::string config_bytes;
     if (ReadWholeFile(config_path, &config_bytes, &error))
