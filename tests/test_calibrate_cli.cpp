@@ -74,15 +74,13 @@ TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
   EXPECT_EQ(html.find("https://"), std::string::npos);
 }
 
-// Board geometry from the config (issue 7): two rectangular 0.8 x 0.6 m boards, one with an
-// AprilTag, one with a 5 x 7 inner-corner checkerboard. Two boards only: a session whose
-// checkerboard went undetected would have one board left and be rejected for observability
-// (CalibrationEngineTest.OneBoardIsRejectedForObservability), so `updated` near the truth shows
-// the checkerboard's observations were used.
+// Board geometry from the config (issue 7): three rectangular 0.8 x 0.6 m boards, the middle one
+// printed with a 5 x 7 inner-corner checkerboard, the others with AprilTags. The checkerboard's
+// detections are counted: more camera boards than the two tag boards can give.
 TEST(CalibrateCliTest, RectangularTagAndCheckerboardBoardsAreCalibrated) {
   testing::TempDir dir;
   ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --seed 8 --lidar ot128 --rate 2 " +
-                       "--boards 2 --board-size 0.8,0.6 --tag-size 0.5 --checkerboard 1,5,7,0.08 " +
+                       "--boards 3 --board-size 0.8,0.6 --tag-size 0.5 --checkerboard 1,5,7,0.08 " +
                        "--prior-rot-deg 3 --prior-trans-m 0.05 --image-encoding jpeg --out " +
                        dir.file("s.lcmlog") + " --truth " + dir.file("truth.json") +
                        " --config-out " + dir.file("calib.yaml")),
@@ -98,6 +96,9 @@ TEST(CalibrateCliTest, RectangularTagAndCheckerboardBoardsAreCalibrated) {
   EXPECT_EQ(report["verdict"], "updated") << report["reason"] << ": " << report["detail"];
   EXPECT_LT(report["error_vs_truth"]["rotation_deg"].get<double>(), 0.2);
   EXPECT_LT(report["error_vs_truth"]["translation_m"].get<double>(), 0.02);
+  const int pairs = report["frames"]["pairs"].get<int>();
+  EXPECT_EQ(pairs, 40);
+  EXPECT_GT(report["frames"]["camera_boards"].get<int>(), 2 * pairs + 20);  // >= 21 checkerboards
 }
 
 TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {

@@ -38,6 +38,26 @@ TEST(ConfigFileTest, RoundTripsThroughYaml) {
   EXPECT_TRUE(back.prior_T_camera_lidar.isApprox(c.prior_T_camera_lidar, 1e-15));
 }
 
+// A checkerboard carries no tag: beside a tag with id 0 it round-trips (its tag_id, not
+// written, reads back as 0 and is no identity); two tags with one id stay an error.
+TEST(ConfigFileTest, CheckerboardBesideATagWithIdZeroRoundTrips) {
+  CalibConfig c = Example();
+  c.boards[0].tag_id = 0;
+  c.boards[1].pattern = BoardGeometry::PatternKind::kCheckerboard;
+  c.boards[1].width_m = 0.8;
+  c.boards[1].checker_square_size_m = 0.08;
+  CalibConfig back;
+  std::string error;
+  ASSERT_TRUE(ParseConfigYaml(ConfigToYaml(c), &back, &error)) << error;
+  ASSERT_EQ(back.boards.size(), 3u);
+  EXPECT_EQ(back.boards[1].pattern, BoardGeometry::PatternKind::kCheckerboard);
+  EXPECT_EQ(back.boards[1].checker_inner_cols, 7);
+  c.boards[1].pattern = BoardGeometry::PatternKind::kAprilTag;
+  c.boards[1].tag_id = 0;
+  EXPECT_FALSE(c.IsValid(&error));
+  EXPECT_EQ(error.rfind("boards[1].tag_id", 0), 0u) << error;
+}
+
 TEST(ConfigFileTest, SaveAndLoadThroughAFile) {
   testing::TempDir dir;
   std::string error;

@@ -40,7 +40,7 @@ TEST_P(GenericLidarTest, DriveCalibratedAsGenericMatchesTheNamedModel) {
   std::string error;
   ASSERT_TRUE(s.Init(o, &error)) << error;
   const CalibConfig config = s.UserConfig();
-  const int count = 40, stride = 5;  // 40 pairs over the default 20 s drive (6-30 m and back)
+  const int count = 32, stride = 6;  // 32 pairs over the default 20 s drive (6-30 m and back)
 
   // The frames, simulated once.
   std::vector<sim::LidarScan> scans(count);

@@ -62,7 +62,10 @@ bool CalibConfig::IsValid(std::string* error) const {
     const std::string key = "boards[" + std::to_string(i) + "]";
     if (!boards[i].IsValid(&why)) return fail(key, why);
     if (!ids.insert(boards[i].board_id).second) return fail(key + ".id", "duplicate board id");
-    if (!tags.insert(boards[i].tag_id).second) return fail(key + ".tag_id", "duplicate tag id");
+    // A checkerboard carries no tag: its tag_id (unwritten, 0) is not an identity.
+    if (boards[i].pattern == BoardGeometry::PatternKind::kAprilTag &&
+        !tags.insert(boards[i].tag_id).second)
+      return fail(key + ".tag_id", "duplicate tag id");
   }
   const Eigen::Matrix3d R = prior_T_camera_lidar.linear();
   if (!prior_T_camera_lidar.matrix().allFinite() ||
