@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calibd/drivers/atomic_file.hpp"
+#include "json_file.hpp"
 #include "run_command.hpp"
 #include "temp_dir.hpp"
 
@@ -16,11 +17,7 @@ namespace {
 // Quietly: the programs' own output is not part of what these tests check.
 int RunCommand(const std::string& cmd) { return testing::RunCommand(cmd + " >/dev/null 2>&1"); }
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::string text, error;
-  EXPECT_TRUE(ReadWholeFile(path, &text, &error)) << error;
-  return nlohmann::json::parse(text);
-}
+using testing::ReadJson;
 
 TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
   testing::TempDir dir;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -15,11 +16,13 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "agent_outputs.hpp"
 #include "calibd/camera_frame_t.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "calibd/lidar_frame_t.hpp"
+#include "json_file.hpp"
 #include "pcd_writer.hpp"
 #include "run_command.hpp"
 #include "temp_dir.hpp"
@@ -29,11 +32,7 @@ namespace {
 
 int RunCommand(const std::string& cmd) { return testing::RunCommand(cmd + " >/dev/null 2>&1"); }
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::string text, error;
-  EXPECT_TRUE(ReadWholeFile(path, &text, &error)) << error;
-  return nlohmann::json::parse(text);
-}
+using testing::ReadJson;
 
 // Writes the log's frames into `dir`: frame k as k.pcd and k.png (even k) or k.jpg (odd k, the
 // log's JPEG bytes as they are), and frames.csv with the log's times. The LiDAR's sweep start is
@@ -148,6 +147,33 @@ TEST(RecordedFolderCliTest, FolderAndImportedLogCalibrateNearTheTruth) {
       EXPECT_NEAR(log["T_camera_lidar"]["matrix"][r][c].get<double>(),
                   folder["T_camera_lidar"]["matrix"][r][c].get<double>(), 1e-9)
           << r << "," << c;
+
+  // The agent replays the imported log as if the frames came live and commits its calibration
+  // (its collection gates lowered to the 40 recorded pairs).
+  std::string yaml;
+  ASSERT_TRUE(ReadWholeFile(dir.file("imported.yaml"), &yaml, &error)) << error;
+  yaml += "agent:\n  auto_commit: true\n  min_frames: 30\n  store:\n    directory: " +
+          dir.file("store") + "\n";
+  ASSERT_TRUE(WriteFileAtomic(dir.file("agent.yaml"), yaml, &error)) << error;
+  EXPECT_EQ(RunCommand(std::string(CALIBD_AGENT_EXE) + " --quiet --once --calibrate-now --config " +
+                       dir.file("agent.yaml") + " --lcm-url 'file://" +
+                       dir.file("imported.lcmlog") + "?speed=0'"),
+            0);
+  std::string stored_text;
+  ASSERT_TRUE(ReadWholeFile(dir.file("store/export/calibration.json"), &stored_text, &error))
+      << error;
+  const auto stored = nlohmann::json::parse(stored_text);
+  const Pose truth = testing::TruthExtrinsic(dir.file("truth.json"));
+  Pose T_stored = Pose::Identity();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c)
+      T_stored.matrix()(r, c) = stored["T_camera_lidar"]["matrix"][r][c].get<double>();
+  const double rot_err_deg = RotationAngle(T_stored.linear(), truth.linear()) * 180.0 / M_PI;
+  const double trans_err_m = (T_stored.translation() - truth.translation()).norm();
+  std::printf("agent on the imported log: %.4f deg, %.4f m from the truth\n", rot_err_deg,
+              trans_err_m);
+  EXPECT_LT(rot_err_deg, 0.15);
+  EXPECT_LT(trans_err_m, 0.02);
 }
 
 TEST(RecordedFolderCliTest, StemPairsBadFilesAndExitCodes) {
@@ -192,6 +218,18 @@ TEST(RecordedFolderCliTest, StemPairsBadFilesAndExitCodes) {
   EXPECT_EQ(RunCommand(calibrate + " --folder /nonexistent"), 1);
   EXPECT_EQ(RunCommand(calibrate + " --folder " + rec + " --log x.lcmlog"), 2);  // not both
   EXPECT_EQ(RunCommand(calibrate + " --folder " + rec + " --intrinsics /nonexistent.yaml"), 2);
+  // lidar.model generic without lidar.generic values: the scan geometry is estimated from the
+  // folder's clouds (as from a log's first frames).
+  std::string yaml, error;
+  ASSERT_TRUE(ReadWholeFile(dir.file("calib.yaml"), &yaml, &error)) << error;
+  const size_t model_at = yaml.find("model: ot128");
+  ASSERT_NE(model_at, std::string::npos) << yaml;
+  yaml.replace(model_at, 12, "model: generic");
+  ASSERT_TRUE(WriteFileAtomic(dir.file("generic.yaml"), yaml, &error)) << error;
+  EXPECT_EQ(testing::RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --config " +
+                                dir.file("generic.yaml") + " --folder " + rec +
+                                " 2>&1 | grep -q 'generic LiDAR: azimuth'"),
+            0);
   // A frames.csv names its bad line.
   std::ofstream(rec + "/frames.csv") << "time_us,sensor,file\n100,radar,0.pcd\n";
   EXPECT_EQ(RunCommand(calibrate + " --folder " + rec), 1);

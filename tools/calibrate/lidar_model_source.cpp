@@ -5,12 +5,67 @@
 
 #include "calibd/channels.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
+#include "calibd/drivers/recorded_folder.hpp"
 #include "calibd/lidar_frame_t.hpp"
 
 namespace calibd::tools {
 
-bool LidarModelForLog(const std::string& log_path, const CalibConfig& config, LidarModel* model,
-                      LidarResolutionEstimate* estimate, std::string* error) {
+namespace {
+
+// The first `count` frames of `lidar_id` in an LCM log; `bad` counts the undecodable ones.
+bool FramesFromLog(const std::string& path, const std::string& lidar_id, int count,
+                   std::vector<lidar_frame_t>* frames, int* bad, std::string* error) {
+  lcm::LogFile log(path, "r");
+  if (!log.good()) {
+    if (error) *error = "cannot open LCM log '" + path + "'";
+    return false;
+  }
+  const std::string channel(channels::kLidar.name);
+  const FrameLimits limits;
+  while (static_cast<int>(frames->size()) < count) {
+    const lcm::LogEvent* ev = log.readNextEvent();
+    if (ev == nullptr) break;
+    if (ev->channel != channel) continue;
+    lidar_frame_t msg;
+    if (msg.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
+      ++*bad;
+      continue;
+    }
+    if (msg.lidar_id != lidar_id) continue;
+    PointCloudView view;
+    std::string why;
+    if (!LidarFrameToView(msg, limits, &view, &why)) {
+      ++*bad;
+      continue;
+    }
+    frames->push_back(std::move(msg));
+  }
+  return true;
+}
+
+// The first `count` readable point clouds of a recorded folder, in delivery order.
+bool FramesFromFolder(const std::string& dir, const std::string& lidar_id, int count,
+                      std::vector<lidar_frame_t>* frames, int* bad, std::string* error) {
+  RecordedFolder folder;
+  if (!ScanRecordedFolder(dir, RecordedFolderOptions{}, &folder, error)) return false;
+  for (const RecordedEntry& entry : folder.entries) {
+    if (static_cast<int>(frames->size()) >= count) break;
+    if (entry.sensor != RecordedEntry::Sensor::kLidar) continue;
+    lidar_frame_t msg;
+    std::string why;
+    if (!LoadRecordedCloud(entry, lidar_id, &msg, nullptr, &why)) {
+      ++*bad;
+      continue;
+    }
+    frames->push_back(std::move(msg));
+  }
+  return true;
+}
+
+}  // namespace
+
+bool LidarModelForSession(const SessionSource& source, const CalibConfig& config, LidarModel* model,
+                          LidarResolutionEstimate* estimate, std::string* error) {
   LidarKind kind;
   if (!LidarKindFromName(config.lidar_model, &kind, error)) return false;
   *estimate = LidarResolutionEstimate{};
@@ -19,36 +74,18 @@ bool LidarModelForLog(const std::string& log_path, const CalibConfig& config, Li
     return true;
   }
   const GenericLidarConfig& generic = config.lidar_generic;
-  if (generic.complete() || log_path.empty())
+  if (generic.complete() || (source.log_path.empty() && source.folder_path.empty()))
     return MakeGenericLidarModel(generic, nullptr, model, error);
-  lcm::LogFile log(log_path, "r");
-  if (!log.good()) {
-    if (error) *error = "cannot open LCM log '" + log_path + "'";
-    return false;
-  }
   // The first frames of the session's LiDAR, copied (the views point into the messages).
-  const std::string channel(channels::kLidar.name);
-  const FrameLimits limits;
   std::vector<lidar_frame_t> frames;
   int bad = 0;
-  while (static_cast<int>(frames.size()) < generic.estimation_frames) {
-    const lcm::LogEvent* ev = log.readNextEvent();
-    if (ev == nullptr) break;
-    if (ev->channel != channel) continue;
-    lidar_frame_t msg;
-    if (msg.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
-      ++bad;
-      continue;
-    }
-    if (msg.lidar_id != config.lidar_id) continue;
-    PointCloudView view;
-    std::string why;
-    if (!LidarFrameToView(msg, limits, &view, &why)) {
-      ++bad;
-      continue;
-    }
-    frames.push_back(std::move(msg));
-  }
+  const bool read = source.folder_path.empty()
+                        ? FramesFromLog(source.log_path, config.lidar_id, generic.estimation_frames,
+                                        &frames, &bad, error)
+                        : FramesFromFolder(source.folder_path, config.lidar_id,
+                                           generic.estimation_frames, &frames, &bad, error);
+  if (!read) return false;
+  const FrameLimits limits;
   std::vector<PointCloudView> views(frames.size());
   for (size_t i = 0; i < frames.size(); ++i) {
     std::string why;
@@ -56,7 +93,8 @@ bool LidarModelForLog(const std::string& log_path, const CalibConfig& config, Li
   }
   *estimate = EstimateLidarResolution(views.data(), views.size());
   if (frames.empty())
-    estimate->error = "the log has no usable LiDAR frame of '" + config.lidar_id + "'" +
+    estimate->error = "the " + std::string(source.folder_path.empty() ? "log" : "folder") +
+                      " has no usable LiDAR frame of '" + config.lidar_id + "'" +
                       (bad > 0 ? " (" + std::to_string(bad) + " malformed)" : "");
   return MakeGenericLidarModel(generic, estimate, model, error);
 }

@@ -22,7 +22,7 @@ struct LogReadOptions {
   int64_t pair_tolerance_us = 20000;  ///< camera time may lie this far outside the LiDAR sweep
   CameraDetectorConfig camera;
   LidarDetectorConfig lidar;
-  /// The LiDAR model to detect with instead of the config's lidar.model (LidarModelForLog(): a
+  /// The LiDAR model to detect with instead of the config's lidar.model (LidarModelForSession(): a
   /// generic model resolved from the first frames).
   std::optional<LidarModel> lidar_model;
   /// False: only pair frames and copy the `keep` pairs (no detection, `session` untouched), e.g.

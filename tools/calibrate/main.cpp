@@ -227,7 +227,8 @@ int main(int argc, char** argv) {
   // The LiDAR model; for generic, estimated from the first frames and shown to the user.
   LidarModel lidar_model;
   LidarResolutionEstimate lidar_estimate;
-  if (!tools::LidarModelForLog(log_path, config, &lidar_model, &lidar_estimate, &error)) {
+  if (!tools::LidarModelForSession({log_path, folder_path}, config, &lidar_model, &lidar_estimate,
+                                   &error)) {
     std::cerr << "calibd-calibrate: " << error << "\n";
     return 1;
   }
