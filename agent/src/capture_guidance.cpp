@@ -1,8 +1,8 @@
 #include "calibd/agent/capture_guidance.hpp"
 
 #include <bitset>
-#include <charconv>
 
+#include "append_int.hpp"
 #include "calibd/agent/agent_config.hpp"
 
 namespace calibd {
@@ -15,13 +15,6 @@ constexpr const char* kDistanceBinNames[kDistanceBins] = {"0-8.5 m", "8.5-15 m",
 constexpr const char* kQuadrantNames[4] = {"top-left", "top-right", "bottom-left", "bottom-right"};
 
 int CountBits(uint32_t bits) { return static_cast<int>(std::bitset<32>(bits).count()); }
-
-// Appends without allocating while the string has the capacity (std::to_string would allocate).
-void AppendInt(std::string* s, int64_t v) {
-  char buf[24];
-  const auto result = std::to_chars(buf, buf + sizeof(buf), v);
-  s->append(buf, result.ptr);
-}
 
 // " (3 of 4 distance bins, 3 needed)"
 void AppendCount(std::string* s, int have, int of, const char* what, int needed) {
@@ -48,6 +41,14 @@ uint32_t CoveredQuadrants(uint32_t cells) {
 
 }  // namespace
 
+int DistanceBinsSeen(const CaptureCoverage& c) {
+  return CountBits(c.distance_bins & ((1u << kDistanceBins) - 1));
+}
+
+int ImageCellsSeen(const CaptureCoverage& c) {
+  return CountBits(c.image_cells & ((1u << kImageCells) - 1));
+}
+
 const char* DistanceBinName(int bin) {
   return bin >= 0 && bin < kDistanceBins ? kDistanceBinNames[bin] : "?";
 }
@@ -63,7 +64,7 @@ void AppendCaptureGuidance(const CaptureCoverage& c, std::string* out) {
     return;
   }
   const size_t start = out->size();
-  const int bins = CountBits(c.distance_bins & ((1u << kDistanceBins) - 1));
+  const int bins = DistanceBinsSeen(c);
   if (bins < c.min_distance_bins) {
     *out += c.moving ? "drive so that boards are seen at " : "move boards to ";
     const char* separator = "";
@@ -75,7 +76,7 @@ void AppendCaptureGuidance(const CaptureCoverage& c, std::string* out) {
     }
     AppendCount(out, bins, kDistanceBins, "distance bins", c.min_distance_bins);
   }
-  const int cells = CountBits(c.image_cells & ((1u << kImageCells) - 1));
+  const int cells = ImageCellsSeen(c);
   if (cells < c.min_image_cells) {
     if (out->size() > start) *out += "; ";
     const uint32_t quadrants = CoveredQuadrants(c.image_cells);

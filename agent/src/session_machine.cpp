@@ -1,9 +1,9 @@
 #include "calibd/agent/session_machine.hpp"
 
 #include <algorithm>
-#include <bitset>
-#include <charconv>
 #include <cmath>
+
+#include "append_int.hpp"
 
 namespace calibd {
 
@@ -11,15 +11,6 @@ namespace {
 
 constexpr double kCollectingShare = 0.9;  // of the progress; the solve takes the rest
 constexpr size_t kTextCapacity = 512;     // longest guidance is about 200 characters
-
-int CountBits(uint32_t bits) { return static_cast<int>(std::bitset<32>(bits).count()); }
-
-// Appends without allocating while the string has the capacity (std::to_string would allocate).
-void AppendInt(std::string* s, int64_t v) {
-  char buf[24];
-  const auto result = std::to_chars(buf, buf + sizeof(buf), v);
-  s->append(buf, result.ptr);
-}
 
 }  // namespace
 
@@ -152,10 +143,9 @@ void SessionMachine::Tick(int64_t now_us) {
 }
 
 bool SessionMachine::CoverageMet() const {
-  return figures_.frames_with_boards >= config_.min_frames &&
-         figures_.boards >= config_.min_boards &&
-         CountBits(figures_.distance_bins) >= config_.min_distance_bins &&
-         CountBits(figures_.image_cells) >= config_.min_image_cells;
+  const CaptureCoverage c = Coverage();
+  return c.frames_with_boards >= c.min_frames && c.boards >= c.min_boards &&
+         DistanceBinsSeen(c) >= c.min_distance_bins && ImageCellsSeen(c) >= c.min_image_cells;
 }
 
 void SessionMachine::CheckCollectionEnd(int64_t now_us) {

@@ -327,9 +327,7 @@ std::string DecodeDid(uint16_t did, const uint8_t* data, size_t size) {
 }
 
 std::string CoverageSummary(const CaptureCoverage& c) {
-  int bins = 0, cells = 0;
-  for (int b = 0; b < kDistanceBins; ++b) bins += (c.distance_bins >> b) & 1u;
-  for (int i = 0; i < kImageCells; ++i) cells += (c.image_cells >> i) & 1u;
+  const int bins = DistanceBinsSeen(c), cells = ImageCellsSeen(c);
   char line[192];
   std::snprintf(line, sizeof(line),
                 "%s session, distance bins %d of %d (%d needed), image cells %d of %d (%d "

@@ -27,6 +27,10 @@ struct CaptureCoverage {
   int min_boards = 20;         ///< gate: boards needed
 };
 
+/// Distance bins and image cells holding a board (bits outside the bins or the grid ignored).
+int DistanceBinsSeen(const CaptureCoverage& coverage);
+int ImageCellsSeen(const CaptureCoverage& coverage);
+
 /// Operator names of the distance bins ("0-8.5 m" ...) and of the image quadrants ("top-left"...).
 const char* DistanceBinName(int bin);
 const char* ImageQuadrantName(int quadrant);
