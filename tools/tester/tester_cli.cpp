@@ -251,16 +251,15 @@ void ShowProgress(const Results& r, bool tty, int* last_shown, std::ostream& err
   *last_shown = r.progress;
 }
 
-// Reads DID 0xFD06; errors (e.g. an agent without it) are not printed.
-int ReadCoverage(UdsClient& client, CaptureCoverage* coverage) {
+// Reads DID 0xFD06; errors go to `err`.
+int ReadCoverage(UdsClient& client, CaptureCoverage* coverage, std::ostream& err) {
   UdsReply reply;
-  std::ostream quiet(nullptr);
   const int code = Call(client,
                         {uds::kSidReadDataByIdentifier, uds::kDidCaptureCoverage >> 8,
                          uds::kDidCaptureCoverage & 0xFF},
-                        quiet, &reply);
+                        err, &reply);
   if (code != kExitOk) return code;
-  if (!ExpectSize(reply, 3 + uds::kCoverageSize, quiet)) return kExitFailure;
+  if (!ExpectSize(reply, 3 + uds::kCoverageSize, err)) return kExitFailure;
   *coverage = uds::DecodeCoverage(reply.bytes.data() + 3);
   return kExitOk;
 }
@@ -300,7 +299,8 @@ int RunRoutine(UdsClient& client, const TesterOptions& o, std::ostream& out, std
     if (r.status != static_cast<uint8_t>(uds::RoutineStatus::kActive)) break;
     if (!o.quiet && coverage_available) {
       CaptureCoverage coverage;
-      coverage_available = ReadCoverage(client, &coverage) == kExitOk;
+      std::ostream quiet(nullptr);  // an agent without the DID is followed without it
+      coverage_available = ReadCoverage(client, &coverage, quiet) == kExitOk;
       if (coverage_available && r.progress < kSolvingPercent) {
         guidance.clear();
         AppendCaptureGuidance(coverage, &guidance);
@@ -393,13 +393,10 @@ int RunCommand(UdsClient& client, const TesterOptions& o, std::ostream& out, std
     return EnterSession(client, o.args[0] == "extended" ? 0x03 : 0x01, out, err, true);
   if (c == "read") return RunRead(client, o, out, err);
   if (c == "coverage") {
-    std::vector<uint8_t> request = {uds::kSidReadDataByIdentifier, uds::kDidCaptureCoverage >> 8,
-                                    uds::kDidCaptureCoverage & 0xFF};
-    const int code = Call(client, request, err, &reply);
-    if (code != kExitOk) return code;
-    if (!ExpectSize(reply, 3 + uds::kCoverageSize, err)) return kExitFailure;
-    out << CoverageChart(uds::DecodeCoverage(reply.bytes.data() + 3));
-    return kExitOk;
+    CaptureCoverage coverage;
+    const int code = ReadCoverage(client, &coverage, err);
+    if (code == kExitOk) out << CoverageChart(coverage);
+    return code;
   }
   if (c == "dtc") return RunDtc(client, o, out, err);
   if (c == "tester-present") {
