@@ -63,8 +63,8 @@ Options:
   --config FILE        calibration config: intrinsics, boards, LiDAR model, prior (required).
                        lidar.model ot128, m1, falcon or generic: any LiDAR described only by its
                        points; its resolution and field of view are estimated from the first
-                       lidar.generic.estimation_frames (3) LiDAR frames of the log unless
-                       lidar.generic.* gives them, printed and written to the report's
+                       lidar.generic.estimation_frames (3) LiDAR frames of the log or folder
+                       unless lidar.generic.* gives them, printed and written to the report's
                        lidar_model block
   --report FILE        JSON report: verdict, reason, T_camera_lidar and T_lidar_camera (4x4,
                        xyz, quaternion xyzw, rpy), frame names, quality, timings
