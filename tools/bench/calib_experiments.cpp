@@ -39,6 +39,7 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
   // As tests/recorded_session.hpp: room for every frame pair, so positions stay aligned.
   drive->observations.Reserve(frames, static_cast<int>(boards.size()) + 4, 4096);
   drive->vehicle_positions.clear();
+  drive->timings.clear();
   drive->incomplete_frames = 0;
   FrameDetections frame;
   for (int k = 0; k < frames; ++k) {
@@ -47,6 +48,8 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
     if (!drive->observations.AddFrame(frame.camera, frame.lidar, boards, times))
       ++drive->incomplete_frames;
     drive->vehicle_positions.push_back(frame.truth.T_world_vehicle.translation());
+    drive->timings.push_back({frame.lidar_ms, frame.camera_ms, frame.lidar_cpu_ms,
+                              frame.camera_cpu_ms, frame.camera.full_frame_search});
   }
   drive->detect_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return true;

@@ -27,6 +27,12 @@ struct RecordedDrive {
   std::vector<Eigen::Vector3d> vehicle_positions;  ///< per frame pair, world frame, m (truth)
   int incomplete_frames = 0;  ///< frame pairs whose detections did not all fit the store
   double detect_s = 0.0;      ///< wall time of simulation and detection
+  /// Per frame pair: wall and process CPU time of each detector (FrameDetections).
+  struct FrameTiming {
+    double lidar_ms = 0.0, camera_ms = 0.0, lidar_cpu_ms = 0.0, camera_cpu_ms = 0.0;
+    bool camera_full_frame = false;  ///< the camera detector searched the whole image
+  };
+  std::vector<FrameTiming> timings;
 };
 
 /// Simulates every frame pair of a drive and runs the real detectors on it into

@@ -8,6 +8,7 @@
 #include "agent_memory_bench.hpp"
 #include "calib_bench.hpp"
 #include "detect_bench.hpp"
+#include "pipeline_bench.hpp"
 #include "resolution_bench.hpp"
 
 namespace {
@@ -18,6 +19,7 @@ constexpr const char* kHelp =
 Usage: calibd-bench detect [options]
        calibd-bench calib [options]
        calibd-bench agent-memory [options]
+       calibd-bench pipeline [options]
        calibd-bench resolution [--repeat N]
 
 detect   camera and LiDAR board detection over the default simulated session (3 boards, clutter,
@@ -66,6 +68,21 @@ agent-memory
                       directory, removed)
   --json FILE         also write the figures as JSON
 
+pipeline the time and CPU of every stage against the paper's (§IV-E: 18.7 s LiDAR and 4.93 s
+         camera detection, 0.12 s grid search, 1.25 s direct and 1.63 s indirect optimisation,
+         200 pairs, 12-thread i7-10750H) and our 2-core targets, per LiDAR model: the default
+         drive (3840x1920) detected in process, frame by frame (wall median/p95 and process CPU),
+         then the engine (the agent's default: grid, refined direct solve, gates, re-solves;
+         and Eq. 4 and the indirect method alone); then the same drive published live over LCM
+         (private network namespace, needs root) to calibd-agent: start to READY=1, last frame
+         to result, the agent's CPU time and peak RSS. About 2.5 min per model on 2 cores.
+  --lidar LIST        comma-separated models (default ot128,m1,falcon)
+  --frames N          frame pairs per drive (default 200)
+  --seed N            simulation seed (default 1)
+  --agent PATH|none   calibd-agent to run (default: this build's; none skips the live part)
+  --work-dir DIR      keep the agent runs' configs, stores and outputs there
+  --json FILE         also write the figures as JSON
+
 resolution
          the generic LiDAR's resolution estimate (core/lidar_resolution.hpp) on one simulated
          workshop sweep of each model (ot128 ~216k points, m1, falcon), without rings: the
@@ -95,7 +112,8 @@ int main(int argc, char** argv) {
   if (command == "resolution") return calibd::bench::RunResolutionBench(argc - 2, argv + 2);
   const bool calib = command == "calib";
   const bool memory = command == "agent-memory";
-  if (command != "detect" && !calib && !memory) {
+  const bool pipeline = command == "pipeline";
+  if (command != "detect" && !calib && !memory && !pipeline) {
     std::cerr << "calibd-bench: unknown command '" << command << "' (see --help)\n";
     return 2;
   }
@@ -103,6 +121,8 @@ int main(int argc, char** argv) {
   calibd::bench::CalibBenchOptions c;
   calibd::bench::AgentMemoryBenchOptions m;
   m.agent_path = CALIBD_AGENT_EXE;
+  calibd::bench::PipelineBenchOptions p;
+  p.agent_path = CALIBD_AGENT_EXE;
   for (int i = 2; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--help" || arg == "-h") {
@@ -147,6 +167,14 @@ int main(int argc, char** argv) {
       }
       continue;
     }
+    if (pipeline && arg == "--agent") {
+      p.agent_path = value == "none" ? "" : value;
+      continue;
+    }
+    if (pipeline && arg == "--work-dir") {
+      p.work_dir = value;
+      continue;
+    }
     if (arg == "--lidar") {
       d.lidars.clear();
       std::stringstream ss(value);
@@ -159,13 +187,13 @@ int main(int argc, char** argv) {
         }
         d.lidars.push_back(item);
       }
-      c.lidars = d.lidars;
+      c.lidars = p.lidars = d.lidars;
     } else if (arg == "--frames" && ParseInt(value, 1, 100000, &n)) {
-      d.frames = c.frames = static_cast<int>(n);
+      d.frames = c.frames = p.frames = static_cast<int>(n);
     } else if (arg == "--seed" && ParseInt(value, 0, 1LL << 53, &n)) {
-      d.seed = c.seed = static_cast<unsigned long long>(n);
+      d.seed = c.seed = p.seed = static_cast<unsigned long long>(n);
     } else if (arg == "--json") {
-      d.json_path = c.json_path = value;
+      d.json_path = c.json_path = p.json_path = value;
     } else if (calib && arg == "--trajectories" && ParseInt(value, 1, 1000, &n)) {
       c.trajectories = static_cast<int>(n);
     } else if (calib && arg == "--trials" && ParseInt(value, 0, 100000, &n)) {
@@ -177,9 +205,10 @@ int main(int argc, char** argv) {
     }
   }
   std::string error;
-  const bool ok = memory  ? calibd::bench::RunAgentMemoryBench(m, std::cout, &std::cerr, &error)
-                  : calib ? calibd::bench::RunCalibBench(c, std::cout, &std::cerr, &error)
-                          : calibd::bench::RunDetectBench(d, std::cout, &std::cerr, &error);
+  const bool ok = memory     ? calibd::bench::RunAgentMemoryBench(m, std::cout, &std::cerr, &error)
+                  : pipeline ? calibd::bench::RunPipelineBench(p, std::cout, &std::cerr, &error)
+                  : calib    ? calibd::bench::RunCalibBench(c, std::cout, &std::cerr, &error)
+                             : calibd::bench::RunDetectBench(d, std::cout, &std::cerr, &error);
   if (!ok) {
     std::cerr << "calibd-bench: " << error << "\n";
     return 1;

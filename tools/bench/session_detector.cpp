@@ -1,5 +1,7 @@
 #include "session_detector.hpp"
 
+#include <time.h>
+
 #include <chrono>
 
 namespace calibd::bench {
@@ -13,6 +15,12 @@ double MsSince(Clock::time_point t0) {
 }
 
 }  // namespace
+
+double ProcessCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
 
 sim::SessionOptions BenchSessionOptions(const std::string& lidar, unsigned long long seed,
                                         int frames) {
@@ -46,14 +54,18 @@ void DetectedSession::Detect(int k, bool with_camera, FrameDetections* out) {
       scan_.z.data(), session_.lidar_model().has_rings ? scan_.ring.data() : nullptr,
       scan_.size(),   scan_.time_offset_us.data()};
   const auto t0 = Clock::now();
+  const double c0 = ProcessCpuMs();
   lidar_detector_->Detect(cloud, &out->lidar);
   out->lidar_ms = MsSince(t0);
-  out->camera_ms = 0.0;
+  out->lidar_cpu_ms = ProcessCpuMs() - c0;
+  out->camera_ms = out->camera_cpu_ms = 0.0;
   if (!with_camera) return;
   const ImageView view{image_.data, image_.cols, image_.rows, static_cast<int>(image_.step[0])};
   const auto tc = Clock::now();
+  const double cc = ProcessCpuMs();
   camera_detector_->Detect(view, &out->camera);
   out->camera_ms = MsSince(tc);
+  out->camera_cpu_ms = ProcessCpuMs() - cc;
 }
 
 }  // namespace calibd::bench

@@ -25,7 +25,13 @@ struct FrameDetections {
   CameraDetections camera;  ///< left untouched when the camera was not run
   double lidar_ms = 0.0;    ///< wall time of LidarDetector::Detect
   double camera_ms = 0.0;   ///< wall time of CameraDetector::Detect (0 when not run)
+  /// CPU time of the process (every thread: AprilTag's workers too) during each detection; the
+  /// simulator's threads have finished by then.
+  double lidar_cpu_ms = 0.0, camera_cpu_ms = 0.0;
 };
+
+/// CPU time of the whole process (CLOCK_PROCESS_CPUTIME_ID), ms.
+double ProcessCpuMs();
 
 class DetectedSession {
  public:

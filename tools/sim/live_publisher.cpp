@@ -125,12 +125,15 @@ bool PublishLive(const LivePublishOptions& options, LivePublishSummary* summary,
       }
       if (!bus.PublishRaw(ev->channel, data, size, error)) return false;
       s.bytes += static_cast<int64_t>(size);
-      if (ev->channel == channels::kCamera.name)
-        ++s.camera;
-      else if (ev->channel == channels::kLidar.name)
-        ++s.lidar;
-      else
-        ++s.other;
+      const bool camera_frame = ev->channel == channels::kCamera.name;
+      const bool lidar_frame = ev->channel == channels::kLidar.name;
+      s.camera += camera_frame ? 1 : 0;
+      s.lidar += lidar_frame ? 1 : 0;
+      s.other += camera_frame || lidar_frame ? 0 : 1;
+      if (camera_frame || lidar_frame)
+        s.last_frame_wall_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                                   std::chrono::system_clock::now().time_since_epoch())
+                                   .count();
     }
     if (progress)
       *progress << "calibd-sim: loop " << loop + 1 << "/" << options.loops << " published ("

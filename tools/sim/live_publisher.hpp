@@ -27,6 +27,9 @@ struct LivePublishSummary {
   /// itself could not keep the rate (disk or CPU), not the receiver.
   int64_t late = 0;
   double max_lateness_ms = 0.0;
+  /// Wall-clock time (CLOCK_REALTIME, us) right after the last camera or LiDAR frame went out:
+  /// the start of the agent's "last frame to result" latency.
+  int64_t last_frame_wall_us = 0;
 };
 
 /// Plays the log; false with `error` when the log or the URL cannot be opened, an event of a

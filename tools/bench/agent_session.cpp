@@ -1,0 +1,191 @@
+#include "agent_session.hpp"
+
+#include <poll.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <string_view>
+
+#include "calibd/drivers/atomic_file.hpp"
+#include "private_network.hpp"
+#include "run.hpp"
+
+namespace calibd::bench {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string Errno(const char* what) { return std::string(what) + ": " + std::strerror(errno); }
+
+// The datagram socket systemd would give a Type=notify service (sd_notify(3)), bound at `path`.
+class NotifySocket {
+ public:
+  ~NotifySocket() {
+    if (fd_ >= 0) ::close(fd_);
+    if (!path_.empty()) ::unlink(path_.c_str());
+  }
+  bool Bind(const std::string& path, std::string* error) {
+    sockaddr_un addr{};
+    if (path.size() >= sizeof(addr.sun_path)) {
+      *error = "notify socket path too long: " + path;
+      return false;
+    }
+    ::unlink(path.c_str());
+    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    addr.sun_family = AF_UNIX;
+    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
+      *error = Errno("notify socket");
+      return false;
+    }
+    path_ = path;
+    return true;
+  }
+  /// Waits up to `timeout_ms` for a datagram with a READY=1 line; false on timeout.
+  bool WaitReady(int timeout_ms) {
+    const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
+    char buf[4096];
+    while (Clock::now() < deadline) {
+      pollfd p{fd_, POLLIN, 0};
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (::poll(&p, 1, static_cast<int>(std::max<long long>(left, 0))) <= 0) continue;
+      const ssize_t n = ::recv(fd_, buf, sizeof(buf), 0);
+      if (n <= 0) continue;
+      const std::string_view text(buf, static_cast<size_t>(n));
+      if (text.substr(0, 8) == "READY=1\n" || text == "READY=1" ||
+          text.find("\nREADY=1") != std::string_view::npos)
+        return true;
+    }
+    return false;
+  }
+  /// Closes the socket: the agent's later notifications fail (ECONNREFUSED) instead of filling a
+  /// buffer nobody reads.
+  void Close() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+    if (!path_.empty()) ::unlink(path_.c_str());
+    path_.clear();
+  }
+
+ private:
+  int fd_ = -1;
+  std::string path_;
+};
+
+void Stop(pid_t pid) {
+  ::kill(pid, SIGTERM);
+  ::waitpid(pid, nullptr, 0);
+}
+
+}  // namespace
+
+bool SimulateDriveLog(const std::string& lidar, unsigned long long seed, int frames,
+                      const std::string& dir, DriveLog* drive, std::string* error) {
+  sim::SessionOptions so;
+  so.seed = seed;
+  so.lidar_model = lidar;
+  so.image_encoding = "mono8";
+  so.trajectory.duration_s = frames / so.trajectory.rate_hz;
+  sim::SimOutputs so_out;
+  so_out.log_path = (std::filesystem::path(dir) / "drive.lcmlog").string();
+  so_out.config_path = (std::filesystem::path(dir) / "calib.yaml").string();
+  sim::SimSummary summary;
+  if (!sim::RunSimulation(so, so_out, &summary, nullptr, error)) return false;
+  drive->log_path = so_out.log_path;
+  return ReadWholeFile(so_out.config_path, &drive->calib_yaml, error);
+}
+
+std::string BenchAgentYaml(const std::string& calib_yaml, const std::string& store_dir,
+                           int target_frames, int max_duration_s) {
+  return calib_yaml + "agent:\n  lcm_url: \"" + sim::kPrivateUdpmUrl +
+         "\"\n  auto_commit: true\n  store:\n    directory: " + store_dir +
+         "\n  target_frames: " + std::to_string(target_frames) +
+         "\n  stop_on_coverage: false\n  max_duration_s: " + std::to_string(max_duration_s) + "\n";
+}
+
+const char* ResultVerdictName(int8_t verdict) {
+  switch (verdict) {
+    case calibration_result_t::VERDICT_VERIFIED:
+      return "verified";
+    case calibration_result_t::VERDICT_UPDATED:
+      return "updated";
+    case calibration_result_t::VERDICT_REJECTED:
+      return "rejected";
+    default:
+      return "none";
+  }
+}
+
+bool RunAgentSession(const AgentSessionSpec& spec, AgentSessionRun* run, std::string* error) {
+  *run = AgentSessionRun{};
+  NotifySocket notify;
+  const std::string notify_path =
+      (std::filesystem::path(spec.out_log).parent_path() / "notify.sock").string();
+  if (!notify.Bind(notify_path, error)) return false;
+  const auto t0 = Clock::now();
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    *error = Errno("fork");
+    return false;
+  }
+  if (pid == 0) {
+    ::setenv("NOTIFY_SOCKET", notify_path.c_str(), 1);
+    const std::string publish = "file://" + spec.out_log + "?mode=w";
+    execl(spec.agent_path.c_str(), spec.agent_path.c_str(), "--quiet", "--once", "--calibrate-now",
+          "--config", spec.config_path.c_str(), "--publish-url", publish.c_str(),
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  if (!notify.WaitReady(static_cast<int>(spec.ready_timeout_s * 1000.0))) {
+    Stop(pid);
+    *error = "calibd-agent did not report READY=1 within " +
+             std::to_string(static_cast<int>(spec.ready_timeout_s)) + " s (config " +
+             spec.config_path + ")";
+    return false;
+  }
+  run->ready_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  notify.Close();
+
+  sim::LivePublishOptions live;
+  live.log_path = spec.drive_log;
+  live.url = spec.lcm_url;
+  live.loops = spec.loops;
+  live.start_delay_s = 0.5;  // the agent has joined its multicast group when READY; some slack
+  if (!sim::PublishLive(live, &run->published, nullptr, error)) {
+    Stop(pid);
+    return false;
+  }
+  int status = 0;
+  rusage usage{};
+  if (::wait4(pid, &status, 0, &usage) != pid) {
+    *error = Errno("wait4");
+    return false;
+  }
+  run->wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  run->exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  run->peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB
+  auto seconds = [](const timeval& tv) {
+    return static_cast<double>(tv.tv_sec) + static_cast<double>(tv.tv_usec) * 1e-6;
+  };
+  run->cpu_s = seconds(usage.ru_utime) + seconds(usage.ru_stime);
+  std::string read_error;
+  if (ReadAgentOutputs(spec.out_log, &run->outputs, &read_error) && run->outputs.results > 0) {
+    run->has_result = true;
+    run->last_frame_to_result_ms =
+        static_cast<double>(run->outputs.last_result.utime - run->published.last_frame_wall_us) *
+        1e-3;
+  }
+  return true;
+}
+
+}  // namespace calibd::bench
