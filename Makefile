@@ -14,7 +14,7 @@ JOBS   ?= $(shell nproc)
 # /usr/bin/calibd-agent, /etc/calibd/calibd.yaml, /usr/lib/systemd/system/calibd.service.
 PREFIX ?= /usr
 
-.PHONY: all deps configure build test check demo docs-picture format clean install
+.PHONY: all deps configure build test check demo docs-picture format clean install cross-test
 
 all: build
 
@@ -40,6 +40,12 @@ install:
 
 demo: build
 	@bash tools/demo.sh $(BUILD)
+
+# The aarch64 cross build (preset aarch64): core, its tests and calibd-agent, then the core suites
+# under qemu user emulation. Installs the cross compiler, qemu-user-static and an arm64 sysroot
+# (build/aarch64-sysroot) when missing; see toolchains/cross-test.sh.
+cross-test:
+	@JOBS=$(JOBS) bash toolchains/cross-test.sh
 
 # Regenerates the README picture: the default workshop seen from 8 m, LiDAR points projected.
 docs-picture: build

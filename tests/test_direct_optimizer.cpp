@@ -29,6 +29,15 @@ struct Synthetic {
   Pose T_camera_lidar;
 };
 
+// Three draws in the order x86-64's GCC evaluated Vector3d(d(rng), d(rng), d(rng)), the last
+// component first: the order of function arguments is unspecified, and aarch64's GCC draws the
+// first first, so draws as arguments gave each target other data.
+template <typename Distribution>
+Eigen::Vector3d Draw3(Distribution& dist, std::mt19937_64& rng) {
+  const double z = dist(rng), y = dist(rng), x = dist(rng);
+  return {x, y, z};
+}
+
 // Boards seen by a forward camera at 6-30 m with varied yaw and tilt; LiDAR points on a grid of
 // the LiDAR's angular spacing (0.2 deg), with Gaussian noise along the board normal, and a random
 // part of each board missing (partial observations, as close up or at the FOV edge).
@@ -43,10 +52,13 @@ Synthetic MakeSynthetic(uint64_t seed, int frames, double noise_m) {
   Eigen::Matrix3d R_cl;
   R_cl << 0, -1, 0, 0, 0, -1, 1, 0, 0;
   s.T_camera_lidar = Pose::Identity();
+  // Draws out of function arguments (Draw3): the same data on every target.
+  const Eigen::Vector3d r = Draw3(u, rng);
   s.T_camera_lidar.linear() =
-      R_cl * RotationFromRpy(3 * kDeg * u(rng), 3 * kDeg * u(rng), 3 * kDeg * u(rng));
+      R_cl * RotationFromRpy(3 * kDeg * r.x(), 3 * kDeg * r.y(), 3 * kDeg * r.z());
+  const Eigen::Vector3d t = Draw3(u, rng);
   s.T_camera_lidar.translation() =
-      Eigen::Vector3d(0.05 * u(rng), 0.5 + 0.1 * u(rng), -0.4 + 0.1 * u(rng));
+      Eigen::Vector3d(0.05 * t.x(), 0.5 + 0.1 * t.y(), -0.4 + 0.1 * t.z());
   const Pose T_lidar_camera = s.T_camera_lidar.inverse();
 
   s.set.Reserve(frames * 3, frames * 3 * 4000);
@@ -58,9 +70,12 @@ Synthetic MakeSynthetic(uint64_t seed, int frames, double noise_m) {
       Pose T_camera_board = Pose::Identity();
       Eigen::Matrix3d R_facing;  // board z towards the camera (-z_C), x right, y up (-y_C)
       R_facing << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+      const Eigen::Vector3d tilt = Draw3(u, rng);
       T_camera_board.linear() =
-          R_facing * RotationFromRpy(15 * kDeg * u(rng), 35 * kDeg * u(rng), 5 * kDeg * u(rng));
-      T_camera_board.translation() = Eigen::Vector3d((b - 1) * 2.2 + 0.3 * u(rng), 0.2 * u(rng), d);
+          R_facing *
+          RotationFromRpy(15 * kDeg * tilt.x(), 35 * kDeg * tilt.y(), 5 * kDeg * tilt.z());
+      const double dy = u(rng), dx = u(rng);
+      T_camera_board.translation() = Eigen::Vector3d((b - 1) * 2.2 + 0.3 * dx, 0.2 * dy, d);
       const double spacing = d * 0.2 * kDeg;
       const double keep_x = 0.3 * (0.5 + 0.5 * u(rng)), keep_y = 0.3 * (0.5 + 0.5 * u(rng));
       pts.clear();
@@ -87,9 +102,8 @@ Pose Perturb(const Pose& T, double rot_deg, double trans_m, uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   Pose dT = Pose::Identity();
-  dT.linear() =
-      RotationFromAxisAngle(Eigen::Vector3d(n01(rng), n01(rng), n01(rng)), rot_deg * kDeg);
-  dT.translation() = Eigen::Vector3d(n01(rng), n01(rng), n01(rng)).normalized() * trans_m;
+  dT.linear() = RotationFromAxisAngle(Draw3(n01, rng), rot_deg * kDeg);
+  dT.translation() = Draw3(n01, rng).normalized() * trans_m;
   return dT * T;
 }
 
@@ -258,7 +272,10 @@ TEST(DirectOptimizerTest, BoardPoseRefinementRemovesCameraPoseNoise) {
     std::normal_distribution<double> n01(0.0, 0.15);
     double tilt_error = 0.0;
     for (auto& o : s.set.observations) {
-      for (auto& c : o.corners_px) c += Eigen::Vector2d(n01(rng), n01(rng));
+      for (auto& c : o.corners_px) {
+        const double dv = n01(rng), du = n01(rng);  // as Draw3
+        c += Eigen::Vector2d(du, dv);
+      }
       Pose pnp;
       ASSERT_TRUE(EstimateTagPose(camera, s.boards[o.board_index], o.corners_px, &pnp, nullptr));
       tilt_error += RotationAngle(pnp.linear(), o.T_camera_board.linear()) / kDeg;
