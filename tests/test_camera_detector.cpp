@@ -266,6 +266,60 @@ TEST_F(CameraDetectorSimTest, TrackingAgreesWithFullFrameSearchWhileDriving) {
   EXPECT_LT(Median(e.corner_px), 0.3);
 }
 
+// The search policy (CameraDetectorConfig::track_rois): with every configured board tracked, no
+// full-frame search after the first unless full_frame_every asks for them.
+TEST_F(CameraDetectorSimTest, SearchesTheFullFrameOnlyWhenABoardIsMissing) {
+  sim::SessionSimulator s;
+  std::string error;
+  ASSERT_TRUE(s.Init(SimOptions("static", 10.0, "spread"), &error)) << error;
+  cv::Mat image;
+  sim::LidarScan scan;
+  sim::FrameTruth truth;
+  s.SimulateFrame(0, &image, &scan, &truth);
+  for (int every : {0, 5}) {
+    CameraDetectorConfig config;
+    config.full_frame_every = every;
+    CameraDetector detector(config, s.options().camera, s.workshop().geometries);
+    ASSERT_TRUE(detector.ok()) << detector.error();
+    CameraDetections out;
+    std::vector<int> full_frames;
+    for (int k = 0; k < 12; ++k) {
+      detector.Detect(View(image), &out);
+      EXPECT_EQ(out.boards.size(), 3u) << "frame " << k;
+      if (out.full_frame_search) full_frames.push_back(k);
+    }
+    EXPECT_EQ(full_frames, every == 0 ? std::vector<int>{0} : std::vector<int>({0, 5, 10}))
+        << "full_frame_every " << every;
+  }
+  // A board out of view (its tag blanked): the others are tracked, and the full frame is searched
+  // again every missing_search_every frames to find it.
+  const BoardDetection2D first = [&] {
+    CameraDetector d(CameraDetectorConfig{}, s.options().camera, s.workshop().geometries);
+    CameraDetections out;
+    d.Detect(View(image), &out);
+    return out.boards.front();
+  }();
+  cv::Mat hidden = image.clone();
+  std::vector<cv::Point> quad;
+  for (const auto& c : first.corners_px)
+    quad.emplace_back(static_cast<int>(c.x()), static_cast<int>(c.y()));
+  cv::Rect box = cv::boundingRect(quad);
+  box.x -= box.width / 2;
+  box.y -= box.height / 2;
+  box.width *= 2;
+  box.height *= 2;
+  hidden(box & cv::Rect(0, 0, hidden.cols, hidden.rows)).setTo(128);
+  CameraDetector detector(CameraDetectorConfig{}, s.options().camera, s.workshop().geometries);
+  CameraDetections out;
+  std::vector<int> full_frames;
+  for (int k = 0; k < 10; ++k) {
+    detector.Detect(View(hidden), &out);
+    EXPECT_EQ(out.boards.size(), 2u) << "frame " << k;
+    if (out.full_frame_search) full_frames.push_back(k);
+  }
+  EXPECT_EQ(full_frames, std::vector<int>({0, 3, 6, 9}));
+}
+
 // ---- Inputs without boards, bad configs ----
 
 TEST(CameraDetector, EmptyImagesAndFramesWithoutBoardsGiveEmptyResults) {
@@ -338,7 +392,7 @@ TEST(CameraDetector, BadConfigNamesTheField) {
   }
   {
     CameraDetectorConfig c;
-    c.full_frame_every = 0;
+    c.full_frame_every = -1;
     CameraDetector d(c, CameraIntrinsics{}, boards);
     EXPECT_FALSE(d.ok());
     EXPECT_NE(d.error().find("full_frame_every"), std::string::npos) << d.error();

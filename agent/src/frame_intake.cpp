@@ -12,7 +12,6 @@ struct FrameIntake::Slot {
   uint64_t sequence = 0;
   camera_frame_t camera;  ///< copy of the message; buffers reserved once
   lidar_frame_t lidar;
-  cv::Mat decoded;  ///< JPEG / bgr8 frames decoded here (allocated once at the largest size)
   CameraDetections camera_detections;
   LidarDetections lidar_detections;
   bool camera_done = false, lidar_done = false;
@@ -104,14 +103,14 @@ bool FrameIntake::Init(const IntakeConfig& config, const CalibConfig& calib, std
       prefault(v, points);
     prefault(&slot->lidar.ring, points);
     prefault(&slot->lidar.time_offset_us, points);
-    slot->decoded.create(config.limits.max_height, config.limits.max_width, CV_8UC1);
-    slot->decoded.setTo(0);
     // The detections at their largest too: a slot first used late in a session (when the
     // detectors fall behind for once) must not allocate then.
     camera_detector_->ReserveOutput(&slot->camera_detections);
     lidar_detector_->ReserveOutput(&slot->lidar_detections);
     slots_.push_back(std::move(slot));
   }
+  camera_decoded_.create(config.limits.max_height, config.limits.max_width, CV_8UC1);
+  camera_decoded_.setTo(0);
   camera_thread_ = std::thread(&FrameIntake::Worker, this, true);
   lidar_thread_ = std::thread(&FrameIntake::Worker, this, false);
   return true;
@@ -248,7 +247,7 @@ void FrameIntake::Worker(bool camera) {
     const auto t0 = std::chrono::steady_clock::now();
     if (camera) {
       ImageView view;
-      slot->camera_ok = CameraFrameToView(slot->camera, config_.limits, &slot->decoded, &view,
+      slot->camera_ok = CameraFrameToView(slot->camera, config_.limits, &camera_decoded_, &view,
                                           &slot->camera_error);
       if (slot->camera_ok) camera_detector_->Detect(view, &slot->camera_detections);
       slot->camera_ms = MsSince(t0);

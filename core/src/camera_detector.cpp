@@ -37,8 +37,10 @@ bool CameraDetectorConfig::IsValid(std::string* error) const {
     why << "roi_min_tag_px must be >= 10";
   else if (roi_max_decimate < 1 || roi_max_decimate > 8)
     why << "roi_max_decimate must be in [1, 8]";
-  else if (full_frame_every < 1)
-    why << "full_frame_every must be >= 1";
+  else if (max_bits_corrected < 0 || max_bits_corrected > 3)
+    why << "max_bits_corrected must be in [0, 3]";
+  else if (full_frame_every < 0)
+    why << "full_frame_every must be >= 0 (0: never while every board is tracked)";
   else if (missing_search_every < 1)
     why << "missing_search_every must be >= 1";
   else if (!(max_reprojection_rms_px > 0.0))
@@ -165,9 +167,7 @@ struct CameraDetector::Impl {
         }
       }
       td.reset(apriltag_detector_create());
-      // bits_corrected 2: AprilTag's recommended maximum for large families; fewer false decodes
-      // than 3 at little cost in recall for tags this size.
-      apriltag_detector_add_family_bits(td.get(), family, 2);
+      apriltag_detector_add_family_bits(td.get(), family, config.max_bits_corrected);
       td->nthreads = config.threads;
       td->quad_decimate = config.quad_decimate;
       td->quad_sigma = static_cast<float>(config.quad_sigma);
@@ -409,10 +409,11 @@ struct CameraDetector::Impl {
       for (const auto& t : tracks) tracked += t.active ? 1 : 0;
       const int configured = static_cast<int>(tag_boards.size());
       // The search policy of CameraDetectorConfig::track_rois.
+      const int since = frames_since_full + 1;
       bool full = !config.track_rois || tracked == 0 ||
-                  frames_since_full + 1 >= config.full_frame_every ||
-                  (tracked < configured && frames_since_full + 1 >= config.missing_search_every);
-      if (tracked == 0 && frames_since_full + 1 < config.missing_search_every) {
+                  (tracked < configured && since >= config.missing_search_every) ||
+                  (config.full_frame_every > 0 && since >= config.full_frame_every);
+      if (tracked == 0 && since < config.missing_search_every) {
         // Nothing tracked and searched recently: skip this frame rather than pay a full search.
         ++frames_since_full;
         for (auto& t : tracks) t.active = false;

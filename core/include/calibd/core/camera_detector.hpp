@@ -27,16 +27,23 @@ struct CameraDetectorConfig {
   double quad_sigma = 0.0;   ///< Gaussian blur before the quad search (noisy images: 0.8)
   /// AprilTag decode_sharpening: sharpens the sampled bits; helps small (far) tags decode.
   double decode_sharpening = 0.25;
+  /// Bit errors AprilTag corrects when decoding (its quick-decode table holds every code within
+  /// this Hamming distance). tag36h11: 1 bit takes a 1 MB table, 2 bits 36 MB (libapriltag 3.3
+  /// sizes it 3 x codes x (1 + n + n(n-1)) entries of 16 bytes for n = 36 bits); the family's
+  /// minimum distance of 11 keeps false decodes rare either way. In [0, 3].
+  int max_bits_corrected = 1;
 
   /// Track boards: after a frame with detections, search only crops around them (the tag's bounding
   /// box grown by roi_margin x the tag's size in pixels plus roi_min_margin_px on each side). The
   /// full frame is searched (policy):
   ///  - on the first frame and after ResetTracking();
-  ///  - at least every full_frame_every frames (boards entering the view are found then);
   ///  - in the same frame, when a tracked board is not found in its crop (lost);
-  ///  - when fewer boards than configured are tracked, at most every missing_search_every frames,
-  ///  so
-  ///    that a board that stays out of view does not make every frame a full-frame search.
+  ///  - when fewer boards than configured are tracked, at most every missing_search_every frames
+  ///    (boards entering the view are found then; a board that stays out of view does not make
+  ///    every frame a full-frame search);
+  ///  - with every configured board tracked, only every full_frame_every frames (0: never: each
+  ///    board has its own tag, so no other configured board can be in view). A full-frame search
+  ///    at 3840x1920 costs about 10 crop searches.
   bool track_rois = true;
   double roi_margin = 0.6;
   double roi_min_margin_px = 40.0;
@@ -45,7 +52,7 @@ struct CameraDetectorConfig {
   /// resolution, a 53 px tag at 30 m at full resolution.
   double roi_min_tag_px = 50.0;
   int roi_max_decimate = 6;
-  int full_frame_every = 10;
+  int full_frame_every = 0;
   int missing_search_every = 3;
 
   /// Reject detections whose PnP reprojection RMS exceeds this (pixels).
