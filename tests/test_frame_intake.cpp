@@ -1,6 +1,7 @@
 // The agent's streaming intake on real simulated messages: pairs detected on the worker threads
 // match a direct detection of the same frames, a full queue drops the newest pair and keeps the
-// queued ones, and bad, foreign, out-of-order and inactive-time messages are counted and skipped.
+// queued ones, the LiDAR detector's capacities are counted, and bad, foreign, out-of-order and
+// inactive-time messages are counted and skipped.
 
 #include "calibd/agent/frame_intake.hpp"
 
@@ -111,6 +112,31 @@ TEST(FrameIntakeTest, DetectsPairsLikeTheDetectorsDirectly) {
   }
   EXPECT_EQ(session.points, direct.points);
   EXPECT_EQ(session.frame_times[3].camera_utime, m.camera[3].utime);
+}
+
+// The LiDAR detector's fixed capacities: what does not fit is counted per pair drained.
+TEST(FrameIntakeTest, LidarDetectorCapacitiesAreCounted) {
+  const Messages& m = SimulatedMessages();
+  IntakeConfig config = SmallIntake(8);
+  config.lidar.max_boards = 1;
+  config.lidar.max_board_points = 8;
+  FrameIntake intake;
+  std::string error;
+  ASSERT_TRUE(intake.Init(config, m.config, &error)) << error;
+  intake.SetActive(true);
+  for (size_t k = 0; k < m.camera.size(); ++k) {
+    intake.OnCamera(m.camera[k]);
+    intake.OnLidar(m.lidar[k]);
+  }
+  SessionObservations session;
+  session.Reserve(20, 8, 4096);
+  ASSERT_EQ(DrainAll(&intake, &session, 6), 6);
+  const IntakeCounters& c = intake.counters();
+  EXPECT_GT(c.lidar_boards_dropped, 0);     // 3 boards in view, 1 kept per pair
+  EXPECT_EQ(c.lidar_boards_subsampled, 6);  // each kept board has more than 8 points
+  EXPECT_EQ(session.lidar.size(), 6u);
+  for (const auto& cluster : session.lidar) EXPECT_EQ(cluster.num_points, 8);
+  EXPECT_EQ(c.lidar_candidates_dropped + c.lidar_points_overflow, 0);
 }
 
 TEST(FrameIntakeTest, FullQueueDropsTheNewestPairAndKeepsTheQueuedOnes) {

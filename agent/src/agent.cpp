@@ -30,6 +30,9 @@ namespace {
 constexpr double kRad2Deg = 180.0 / M_PI;
 constexpr int kTickMs = 50;     ///< poll loop timer: status, health and time limits are checked
 constexpr int kFrameQueue = 2;  ///< LCM messages waiting per sensor channel (udpm drops beyond)
+/// LCM messages waiting on CALIBD_SENSOR_INFO and CALIBD_REQUEST (1 Hz and events, each read at
+/// the next poll): room for bursts of several senders; beyond it udpm drops the newest.
+constexpr int kEventQueue = 16;
 
 // RAII for the poll loop's own descriptors.
 struct Fd {
@@ -142,10 +145,10 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
                       channels::kLidar.name, kFrameQueue,
                       [this](const lidar_frame_t& m, int64_t) { OnLidar(m); }, error) &&
                   bus_.Subscribe<sensor_info_t>(
-                      channels::kSensorInfo.name, 16,
+                      channels::kSensorInfo.name, kEventQueue,
                       [this](const sensor_info_t& m, int64_t) { OnSensorInfo(m); }, error) &&
                   bus_.Subscribe<calibration_request_t>(
-                      channels::kRequest.name, 16,
+                      channels::kRequest.name, kEventQueue,
                       [this](const calibration_request_t& m, int64_t) { OnRequest(m); }, error);
   if (!ok) return false;
   const bool replay = bus_.url().rfind("file://", 0) == 0;
@@ -381,7 +384,12 @@ void Agent::Step(int64_t now_us) {
         " camera/LiDAR missing from the streams, " + std::to_string(c.unpaired_camera) + "/" +
         std::to_string(c.unpaired_lidar) + " unpaired camera/LiDAR, " +
         std::to_string(c.out_of_order) + " out of order, " + std::to_string(c.bad_messages) +
-        " bad" + (c.last_error.empty() ? "" : " (last: " + c.last_error + ")"));
+        " bad" + (c.last_error.empty() ? "" : " (last: " + c.last_error + ")") + ", " +
+        std::to_string(c.over_capacity) + " over the session store's capacity; LiDAR detector: " +
+        std::to_string(c.lidar_boards_dropped) + " boards and " +
+        std::to_string(c.lidar_candidates_dropped) + " clusters beyond its capacity, " +
+        std::to_string(c.lidar_points_overflow) + " points beyond max_points, " +
+        std::to_string(c.lidar_boards_subsampled) + " boards subsampled to max_points_per_board");
   }
   if (machine_.NeedsSolve()) StartSolve();
   if (solver_.joinable() && solve_done_) FinishSolve();

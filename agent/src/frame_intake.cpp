@@ -285,6 +285,12 @@ int FrameIntake::Drain(SessionObservations* session) {
       }
       last_camera_ms_ = s->camera_ms;
       last_lidar_ms_ = s->lidar_ms;
+      const LidarDetections& lidar = s->lidar_detections;
+      counters_.lidar_boards_dropped += lidar.dropped_boards;
+      counters_.lidar_candidates_dropped += lidar.dropped_candidates;
+      counters_.lidar_points_overflow += lidar.overflow_points;
+      for (const BoardCluster& b : lidar.boards)
+        if (b.cluster_points > b.num_points) ++counters_.lidar_boards_subsampled;
       if (!session->AddFrame(s->camera_detections, s->lidar_detections, calib_.boards,
                              FrameTimes{s->camera.utime, s->lidar.utime}))
         ++counters_.over_capacity;

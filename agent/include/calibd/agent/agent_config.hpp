@@ -54,7 +54,8 @@ struct AgentConfig {
   /// (room for LiDAR clusters that pass the board gates without being boards). Use
   /// BoardsPerFrame() for the effective value.
   int max_boards_per_frame = 0;
-  /// LiDAR points kept per board cluster (a larger cluster is refused). The simulated ot128 puts
+  /// LiDAR points kept per board cluster (a larger cluster is kept as an even subsample of this
+  /// many points, counted in IntakeCounters::lidar_boards_subsampled). The simulated ot128 puts
   /// about 50 points on a 0.6 m board at 6 m: the default leaves room for close boards and
   /// denser sensors.
   int max_points_per_board = 4096;

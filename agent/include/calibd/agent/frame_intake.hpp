@@ -63,9 +63,15 @@ struct IntakeCounters {
   /// their capture times (stream_gaps.hpp); counted whether collecting or not.
   int64_t camera_missed = 0, lidar_missed = 0;
   int64_t unpaired_camera = 0, unpaired_lidar = 0;
-  int64_t out_of_order = 0;      ///< timestamps that went backwards or repeated, skipped
-  int64_t bad_messages = 0;      ///< malformed or beyond the limits, skipped
-  int64_t over_capacity = 0;     ///< pairs whose observations did not fit the session store
+  int64_t out_of_order = 0;   ///< timestamps that went backwards or repeated, skipped
+  int64_t bad_messages = 0;   ///< malformed or beyond the limits, skipped
+  int64_t over_capacity = 0;  ///< pairs whose observations did not fit the session store
+  /// The LiDAR detector's fixed capacities (LidarDetectorConfig), summed over the pairs drained:
+  /// boards beyond max_boards and gated clusters beyond max_clusters (dropped), points beyond
+  /// max_points (not looked at), and boards whose cluster had more than max_board_points
+  /// (agent.max_points_per_board: kept as an even subsample).
+  int64_t lidar_boards_dropped = 0, lidar_candidates_dropped = 0;
+  int64_t lidar_points_overflow = 0, lidar_boards_subsampled = 0;
   int64_t ignored_inactive = 0;  ///< frames received while not collecting
   std::string last_error;        ///< what was wrong with the latest bad message
 };
