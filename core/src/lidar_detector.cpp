@@ -1,8 +1,10 @@
 #include "calibd/core/lidar_detector.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <thread>
 
 #include "calibd/core/board_references.hpp"
 #include "calibd/core/cluster_pca.hpp"
@@ -86,6 +88,32 @@ bool LidarDetectorConfig::IsValid(std::string* error) const {
   return true;
 }
 
+// The standardized M2DP descriptor of a cluster, with its scratch sized once: one per thread.
+struct Describer {
+  M2dp m2dp;
+  std::vector<Eigen::Vector3f> aligned;
+  std::vector<float> aligned_weights;
+  Eigen::VectorXf descriptor;
+
+  Describer(const M2dpConfig& config, int max_points)
+      : m2dp(config), aligned(max_points), aligned_weights(max_points), descriptor(m2dp.size()) {}
+
+  // Standardized descriptor of `n` LiDAR-frame points into `descriptor`; false if degenerate.
+  // `weights` (nullptr: all 1) as in ComputeClusterPca. Large clusters are evenly subsampled to
+  // the scratch size (the bin counts need the shape, not every point).
+  bool Describe(const Eigen::Vector3f* points, int n, const ClusterPca& pca,
+                const float* weights = nullptr) {
+    const int m = std::min(n, static_cast<int>(aligned.size()));
+    for (int k = 0; k < m; ++k) {
+      const int i = static_cast<int>((static_cast<long long>(k) * n) / m);
+      aligned[k] = pca.axes.transpose().cast<float>() * (points[i] - pca.centroid.cast<float>());
+      aligned_weights[k] = weights ? weights[i] : 1.0f;
+    }
+    if (!m2dp.Compute(aligned.data(), m, descriptor.data(), aligned_weights.data())) return false;
+    return Standardize(descriptor.data(), m2dp.size());
+  }
+};
+
 struct LidarDetector::Impl {
   LidarDetectorConfig config;
   LidarModel model;
@@ -95,7 +123,7 @@ struct LidarDetector::Impl {
 
   RangeImage image;
   RangeSegmenter segmenter;
-  M2dp m2dp;
+  Describer describer;
   Eigen::MatrixXf references;  // one standardized descriptor per column
   int num_references = 0;
   double min_side_m = 0.0;
@@ -108,14 +136,14 @@ struct LidarDetector::Impl {
   // points) and the input indices of all its points.
   std::vector<Eigen::Vector3f> cluster_points;
   std::vector<int32_t> cluster_cells, cluster_indices;
-  std::vector<Eigen::Vector3f> aligned;
-  std::vector<float> aligned_weights, cluster_weights;
+  std::vector<float> cluster_weights;
   std::vector<double> row_gap_sum;  // per range-image row, for RowWeights()
   std::vector<int> row_cells;
-  Eigen::VectorXf descriptor;
   Eigen::VectorXf scores;
 
-  Impl(const LidarDetectorConfig& c, const LidarModel& m) : config(c), model(m), m2dp(M2dpOf(c)) {}
+  // The describer's scratch is sized once the config is checked (Describer::Resize).
+  Impl(const LidarDetectorConfig& c, const LidarModel& m)
+      : config(c), model(m), describer(M2dpOf(c), 1) {}
 
   static M2dpConfig M2dpOf(const LidarDetectorConfig& c) {
     M2dpConfig m;
@@ -124,21 +152,6 @@ struct LidarDetector::Impl {
     m.rings = c.m2dp_rings;
     m.sectors = c.m2dp_sectors;
     return m;
-  }
-
-  // Standardized descriptor of `n` LiDAR-frame points into `descriptor`; false if degenerate.
-  // `weights` (nullptr: all 1) as in ComputeClusterPca.
-  bool Describe(const Eigen::Vector3f* points, int n, const ClusterPca& pca,
-                const float* weights = nullptr) {
-    // Even subsample of large clusters (the bin counts need the shape, not every point).
-    const int m = std::min(n, config.max_descriptor_points);
-    for (int k = 0; k < m; ++k) {
-      const int i = static_cast<int>((static_cast<long long>(k) * n) / m);
-      aligned[k] = pca.axes.transpose().cast<float>() * (points[i] - pca.centroid.cast<float>());
-      aligned_weights[k] = weights ? weights[i] : 1.0f;
-    }
-    if (!m2dp.Compute(aligned.data(), m, descriptor.data(), aligned_weights.data())) return false;
-    return Standardize(descriptor.data(), m2dp.size());
   }
 
   // True when at least half of the cluster's lower-edge cells have ground right below them in
@@ -219,7 +232,7 @@ struct LidarDetector::Impl {
 
   double BestScore() {
     if (num_references == 0) return 0.0;
-    scores.noalias() = references.transpose() * descriptor;
+    scores.noalias() = references.transpose() * describer.descriptor;
     // Negative correlations are neglected (paper §III-C-2).
     return std::max(0.0, static_cast<double>(scores.maxCoeff()));
   }
@@ -251,46 +264,70 @@ struct LidarDetector::Impl {
     return false;
   }
 
-  void BuildReferences() {
+  // One reference: the standardized mean of the descriptors of `view` of a width x height board
+  // at config.reference_samples phases of the beam grid; empty when no sample is usable.
+  void DescribeView(double width_m, double height_m, const BoardView& view, uint64_t view_index,
+                    Describer* scratch, std::vector<float>* reference) const {
     std::vector<Eigen::Vector3f> pts;
     std::vector<float> weights;
-    std::vector<std::vector<float>> descs;
+    Eigen::VectorXf sum = Eigen::VectorXf::Zero(scratch->m2dp.size());
+    int used = 0;
+    for (int k = 0; k < config.reference_samples; ++k) {
+      // Grid phases from the R2 low-discrepancy sequence (Roberts 2018): k = 0 is phase 0, the
+      // next ones spread evenly over the unit square.
+      BoardView v = view;
+      v.azimuth_phase = Fraction(0.5 + k * 0.7548776662466927) - 0.5;
+      v.elevation_phase = Fraction(0.5 + k * 0.5698402909980532) - 0.5;
+      SimulateBoardCluster(model, width_m, height_m, v, &pts, &weights);
+      AddRangeNoise(config.reference_range_noise_m, view_index * 1000003ULL + k, &pts);
+      const int n = static_cast<int>(pts.size());
+      if (n < config.min_cluster_points) continue;
+      const float* w = config.weight_by_sample_area ? weights.data() : nullptr;
+      ClusterPca pca;
+      ComputeClusterPca(pts.data(), n, &pca, w);
+      if (!scratch->Describe(pts.data(), n, pca, w)) continue;
+      sum += scratch->descriptor;
+      ++used;
+    }
+    reference->clear();
+    if (used > 0 && Standardize(sum.data(), static_cast<int>(sum.size())))
+      reference->assign(sum.data(), sum.data() + sum.size());
+  }
+
+  // The reference descriptors of every distinct board size (paper §III-C-2), built on two
+  // threads at start-up (about 1200 descriptors: half the agent's time to ready). Each view has
+  // its own noise seed, so the result does not depend on the thread count.
+  void BuildReferences() {
+    struct Task {
+      double width_m, height_m;
+      BoardView view;
+    };
+    std::vector<Task> tasks;
     std::vector<std::pair<double, double>> sizes;
-    Eigen::VectorXf sum(m2dp.size());
-    uint64_t view_index = 0;
     for (const BoardGeometry& g : boards) {
       const std::pair<double, double> s(g.width_m, g.height_m);
       if (std::find(sizes.begin(), sizes.end(), s) != sizes.end()) continue;
       sizes.push_back(s);
-      for (const BoardView& view : DefaultReferenceViews()) {
-        ++view_index;
-        sum.setZero();
-        int used = 0;
-        for (int k = 0; k < config.reference_samples; ++k) {
-          // Grid phases from the R2 low-discrepancy sequence (Roberts 2018): k = 0 is phase 0,
-          // the next ones spread evenly over the unit square.
-          BoardView v = view;
-          v.azimuth_phase = Fraction(0.5 + k * 0.7548776662466927) - 0.5;
-          v.elevation_phase = Fraction(0.5 + k * 0.5698402909980532) - 0.5;
-          SimulateBoardCluster(model, g.width_m, g.height_m, v, &pts, &weights);
-          AddRangeNoise(config.reference_range_noise_m, view_index * 1000003ULL + k, &pts);
-          const int n = static_cast<int>(pts.size());
-          if (n < config.min_cluster_points) continue;
-          const float* w = config.weight_by_sample_area ? weights.data() : nullptr;
-          ClusterPca pca;
-          ComputeClusterPca(pts.data(), n, &pca, w);
-          if (!Describe(pts.data(), n, pca, w)) continue;
-          sum += descriptor;
-          ++used;
-        }
-        if (used == 0 || !Standardize(sum.data(), m2dp.size())) continue;
-        descs.emplace_back(sum.data(), sum.data() + sum.size());
-      }
+      for (const BoardView& view : DefaultReferenceViews())
+        tasks.push_back({s.first, s.second, view});
     }
-    num_references = static_cast<int>(descs.size());
-    references.resize(m2dp.size(), num_references);
-    for (int r = 0; r < num_references; ++r)
-      references.col(r) = Eigen::Map<const Eigen::VectorXf>(descs[r].data(), m2dp.size());
+    std::vector<std::vector<float>> descs(tasks.size());
+    std::atomic<size_t> next{0};
+    auto work = [&](Describer* scratch) {
+      for (size_t t = next++; t < tasks.size(); t = next++)
+        DescribeView(tasks[t].width_m, tasks[t].height_m, tasks[t].view, t + 1, scratch, &descs[t]);
+    };
+    Describer second(M2dpOf(config), static_cast<int>(describer.aligned.size()));
+    std::thread helper(work, &second);
+    work(&describer);
+    helper.join();
+    num_references = 0;
+    for (const auto& d : descs) num_references += d.empty() ? 0 : 1;
+    references.resize(describer.m2dp.size(), num_references);
+    int r = 0;
+    for (const auto& d : descs)
+      if (!d.empty())
+        references.col(r++) = Eigen::Map<const Eigen::VectorXf>(d.data(), describer.m2dp.size());
     scores.resize(num_references);
   }
 };
@@ -352,10 +389,8 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   d.row_cells.resize(d.image.rows());
   // Every input point is a cell's nearest or in one chain: a cluster has at most max_points.
   d.cluster_indices.resize(max_points);
-  d.aligned.resize(config.max_descriptor_points);
-  d.aligned_weights.resize(config.max_descriptor_points);
   d.cluster_weights.resize(d.cluster_points.size());
-  d.descriptor.resize(d.m2dp.size());
+  d.describer = Describer(Impl::M2dpOf(config), config.max_descriptor_points);
   d.BuildReferences();
   if (d.num_references == 0) {
     d.error = "boards: no reference cluster has min_cluster_points points for this LiDAR model";
@@ -375,7 +410,7 @@ double LidarDetector::ScoreCluster(const std::vector<Eigen::Vector3f>& points) {
   if (!d.ok || points.size() < 3) return 0.0;
   ClusterPca pca;
   ComputeClusterPca(points.data(), static_cast<int>(points.size()), &pca);
-  if (!d.Describe(points.data(), static_cast<int>(points.size()), pca)) return 0.0;
+  if (!d.describer.Describe(points.data(), static_cast<int>(points.size()), pca)) return 0.0;
   return d.BestScore();
 }
 
@@ -464,7 +499,8 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
       ++out->dropped_candidates;
       continue;
     }
-    const double score = d.Describe(d.cluster_points.data(), n, pca, weights) ? d.BestScore() : 0.0;
+    const double score =
+        d.describer.Describe(d.cluster_points.data(), n, pca, weights) ? d.BestScore() : 0.0;
     LidarCandidate cand;
     cand.centroid = pca.centroid;
     cand.score = score;
