@@ -103,6 +103,14 @@ void Diagnostics::WatchLinks() {
          (isotp == CanLinkState::kUp ? "" : ": " + isotp_.status().last_error));
     isotp_state_ = isotp;
   }
+  // Requests lost in reception (longer than the kIsoTpMaxMessage-byte buffer, ISO-TP timeouts or
+  // sequence errors): the tester sees no answer, the log says why.
+  const int64_t rx_errors = isotp_.status().counters.rx_errors;
+  if (rx_errors != logged_rx_errors_) {
+    log_("CAN " + isotp_.config().interface + " (UDS): " + std::to_string(rx_errors) +
+         " requests lost in reception so far (last error: " + isotp_.status().last_error + ")");
+    logged_rx_errors_ = rx_errors;
+  }
   if (raw != raw_state_) {
     if (raw == CanLinkState::kBusOff) {
       log_("CAN " + isotp_.config().interface + ": bus-off");

@@ -95,6 +95,7 @@ class Diagnostics {
   bool bus_off_ = false;
   bool start_press_ = false;
   CanLinkState isotp_state_ = CanLinkState::kClosed, raw_state_ = CanLinkState::kClosed;
+  int64_t logged_rx_errors_ = 0;  ///< UDS requests lost (over-long, ISO-TP errors): last logged
   /// A response the kernel could not take yet (the previous one still sending): sent on the
   /// next OnReadable or Tick.
   std::array<uint8_t, uds::kMaxMessageSize> pending_{};
