@@ -43,9 +43,9 @@ demo: build
 
 # The aarch64 cross build (preset aarch64): core, its tests and calibd-agent, then the core suites
 # under qemu user emulation. Installs the cross compiler, qemu-user-static and an arm64 sysroot
-# (build/aarch64-sysroot) when missing; see toolchains/cross-test.sh.
+# (build/aarch64-sysroot) when missing; see toolchains/cross-test.sh. CTEST_ARGS go to its ctest.
 cross-test:
-	@JOBS=$(JOBS) bash toolchains/cross-test.sh
+	@JOBS=$(JOBS) bash toolchains/cross-test.sh $(CTEST_ARGS)
 
 # Regenerates the README picture: the default workshop seen from 8 m, LiDAR points projected.
 docs-picture: build

@@ -5,7 +5,7 @@
 # and mmdebstrap on the host (no amd64 package is changed), and an arm64 sysroot of bookworm's -dev
 # packages in build/aarch64-sysroot (about 1.2 GB, several minutes the first time; kept while the
 # package list below is unchanged). Installing needs root (or sudo). JOBS sets the build's
-# parallelism (default 2).
+# parallelism (default 2); arguments go to ctest (e.g. -R Geometry).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -46,12 +46,15 @@ fi
 # running maintainer scripts (which would need arm64 binaries to run; binfmt_misc is not mounted
 # here), so what those scripts would have done is done below.
 stamp_text="$SUITE ${SYSROOT_PACKAGES[*]} ${MIRRORS[*]}"
+# One maker at a time: a second run waits, then finds the sysroot made.
+mkdir -p "$(dirname "$SYSROOT")"
+exec 9>"$SYSROOT.lock"
+flock 9
 if [ "$(cat "$SYSROOT/.calibd-sysroot" 2>/dev/null)" != "$stamp_text" ]; then
   echo "cross-test: making the arm64 sysroot in $SYSROOT (downloads about 400 MB)"
   mode=root
   if [ "$(id -u)" -ne 0 ]; then mode=unshare; fi
   rm -rf "$SYSROOT.tmp"
-  mkdir -p "$(dirname "$SYSROOT")"
   old_ifs="$IFS"
   IFS=,
   packages="${SYSROOT_PACKAGES[*]}"
@@ -81,6 +84,7 @@ if [ "$(cat "$SYSROOT/.calibd-sysroot" 2>/dev/null)" != "$stamp_text" ]; then
   rm -rf "$SYSROOT"
   mv "$SYSROOT.tmp" "$SYSROOT"
 fi
+exec 9>&-
 
 cmake --preset aarch64 >/dev/null
 cmake --build --preset aarch64 -j "$JOBS"
@@ -94,4 +98,4 @@ esac
 # The agent starts on the emulated CPU: its usage text.
 qemu-aarch64-static -L "$SYSROOT" "$agent" --help | head -n 3
 
-ctest --preset aarch64 -j "$JOBS"
+ctest --preset aarch64 -j "$JOBS" "$@"
