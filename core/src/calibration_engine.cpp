@@ -122,9 +122,14 @@ bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeomet
                         const Pose* T_camera_board_start) {
   const BoardGeometry& g = boards[o.board_index];
   const Pose& start = T_camera_board_start ? *T_camera_board_start : o.T_camera_board;
-  const BoardFitResult fit =
-      FitBoardPose(set.points.data() + o.first_point, o.num_points, g.width_m / 2.0,
-                   g.height_m / 2.0, direct.alpha_m, direct.huber_m, T_cl.inverse() * start);
+  // Started from the refined (or PnP) pose, the fit converges in 4-8 iterations; the few boards
+  // whose hinge keeps it stepping along an edge stop at 15 instead of 50 (simulated ot128 drive:
+  // 15 of 600 reached 50). Every point is used: strided to 256 like the solve, the fitted corners
+  // moved the drive's mean reprojection error from 3.10 to 3.62 px.
+  constexpr int kMaxIterations = 15;
+  const BoardFitResult fit = FitBoardPose(set.points.data() + o.first_point, o.num_points,
+                                          g.width_m / 2.0, g.height_m / 2.0, direct.alpha_m,
+                                          direct.huber_m, T_cl.inverse() * start, kMaxIterations);
   if (!fit.usable) return false;
   const auto corners = g.TagCornersInBoard();
   for (int c = 0; c < 4; ++c) {

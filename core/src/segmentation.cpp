@@ -100,11 +100,16 @@ bool RangeSegmenter::SameObject(const RangeImageCell& a, const RangeImageCell& b
   // (d1 |p1 - p2|) at the farther point p1 (Bogoslavskyi Eq. 1 without trigonometry).
   const RangeImageCell& p1 = a.range >= b.range ? a : b;
   const RangeImageCell& p2 = a.range >= b.range ? b : a;
+  // Squared, without the square root (both sides are >= 0 once the left one is; the threshold
+  // angle is below 90 deg, so its cosine is positive).
   const float dx = p1.x - p2.x, dy = p1.y - p2.y, dz = p1.z - p2.z;
-  const float dist = std::sqrt(dx * dx + dy * dy + dz * dz);
-  if (dist <= 0.0f) return true;
+  const float dist2 = dx * dx + dy * dy + dz * dz;
+  if (dist2 <= 0.0f) return true;
   const float dot = p1.x * p2.x + p1.y * p2.y + p1.z * p2.z;
-  return p1.range * p1.range - dot < cos_segmentation_ * p1.range * dist;
+  const float lhs = p1.range * p1.range - dot;
+  if (lhs < 0.0f) return true;
+  const float rhs = cos_segmentation_ * p1.range;
+  return lhs * lhs < rhs * rhs * dist2;
 }
 
 int RangeSegmenter::Grow(const RangeImage& image, int seed, int32_t from, int32_t to, int tail) {
