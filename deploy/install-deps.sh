@@ -13,6 +13,8 @@ PACKAGES=(
   libyaml-cpp-dev nlohmann-json3-dev zlib1g-dev libsystemd-dev libssl-dev
   # LZF for PCD files' binary_compressed data (drivers/src/pcd_reader.cpp)
   liblzf-dev
+  # libjpeg-turbo: the agent decodes JPEG camera frames with it (drivers/src/jpeg_decoder.cpp)
+  libjpeg62-turbo-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # the status frame's DBC decoded by a decoder we did not write (tests/dbc_decode.py)

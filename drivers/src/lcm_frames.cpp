@@ -1,7 +1,8 @@
 #include "calibd/drivers/lcm_frames.hpp"
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "jpeg_decoder.hpp"
 
 namespace calibd {
 
@@ -9,6 +10,26 @@ namespace {
 bool Fail(std::string* error, const std::string& m) {
   if (error) *error = m;
   return false;
+}
+
+std::string Size(int width, int height) {
+  return std::to_string(width) + "x" + std::to_string(height);
+}
+
+/// Where a width x height grey image is written: the top-left corner of the caller's image when
+/// that is large enough (the agent's intake sizes it once at the limits), else the caller's
+/// image (re)allocated at this size. A view of it, not a copy: no allocation.
+cv::Mat GreyTarget(cv::Mat* decoded, int width, int height) {
+  if (decoded->type() != CV_8UC1 || decoded->cols < width || decoded->rows < height)
+    decoded->create(height, width, CV_8UC1);
+  return (*decoded)(cv::Rect(0, 0, width, height));
+}
+
+/// One decompressor per thread that decodes JPEG frames (the agent's camera thread), created by
+/// its first JPEG frame and reused for every later one.
+JpegDecoder& ThreadJpegDecoder() {
+  thread_local JpegDecoder decoder;
+  return decoder;
 }
 }  // namespace
 
@@ -36,25 +57,39 @@ bool CameraFrameToView(const camera_frame_t& m, const FrameLimits& limits, cv::M
                                " and height do not fit in " + std::to_string(m.size) + " bytes");
       const cv::Mat bgr(m.height, m.width, CV_8UC3, const_cast<uint8_t*>(m.data.data()),
                         static_cast<size_t>(m.stride));
-      cv::cvtColor(bgr, *decoded, cv::COLOR_BGR2GRAY);
-      break;
+      cv::Mat grey = GreyTarget(decoded, m.width, m.height);
+      cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+      *view = ImageView{grey.data, m.width, m.height, static_cast<int>(grey.step[0])};
+      return true;
     }
     case camera_frame_t::ENCODING_JPEG: {
       if (m.data.empty()) return Fail(error, "camera_frame_t: empty JPEG data");
-      cv::imdecode(m.data, cv::IMREAD_GRAYSCALE, decoded);
-      if (decoded->empty()) return Fail(error, "camera_frame_t: JPEG data does not decode");
-      if (decoded->cols != m.width || decoded->rows != m.height)
-        return Fail(error, "camera_frame_t: JPEG is " + std::to_string(decoded->cols) + "x" +
-                               std::to_string(decoded->rows) + ", header says " +
-                               std::to_string(m.width) + "x" + std::to_string(m.height));
-      break;
+      JpegDecoder& jpeg = ThreadJpegDecoder();
+      int width = 0, height = 0;
+      if (!jpeg.ReadHeader(m.data.data(), m.data.size(), &width, &height))
+        return Fail(error,
+                    std::string("camera_frame_t: JPEG header does not decode: ") + jpeg.message());
+      // The size is checked before a pixel is decoded (or a byte of libjpeg's buffers for them
+      // allocated): the JPEG's own header can lie as well as the message's.
+      if (width > limits.max_width || height > limits.max_height) {
+        jpeg.Abort();
+        return Fail(error, "camera_frame_t: JPEG is " + Size(width, height) +
+                               ", beyond the limits " + Size(limits.max_width, limits.max_height));
+      }
+      if (width != m.width || height != m.height) {
+        jpeg.Abort();
+        return Fail(error, "camera_frame_t: JPEG is " + Size(width, height) + ", header says " +
+                               Size(m.width, m.height));
+      }
+      cv::Mat grey = GreyTarget(decoded, width, height);
+      if (!jpeg.Decode(grey.data, grey.step[0]))
+        return Fail(error, std::string("camera_frame_t: JPEG data is damaged: ") + jpeg.message());
+      *view = ImageView{grey.data, width, height, static_cast<int>(grey.step[0])};
+      return true;
     }
     default:
       return Fail(error, "camera_frame_t: unknown encoding " + std::to_string(m.encoding));
   }
-  *view =
-      ImageView{decoded->data, decoded->cols, decoded->rows, static_cast<int>(decoded->step[0])};
-  return true;
 }
 
 bool LidarFrameToView(const lidar_frame_t& m, const FrameLimits& limits, PointCloudView* view,

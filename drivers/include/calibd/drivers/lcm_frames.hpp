@@ -22,9 +22,15 @@ struct FrameLimits {
   int32_t max_time_offset_us = 1000000;
 };
 
-/// mono8 data is viewed in place (the message must outlive the view); JPEG is decoded into
-/// `decoded` (reused between calls); bgr8 is converted to grey into `decoded`. False with `error`
-/// naming the field when the message is malformed.
+/// mono8 data is viewed in place (the message must outlive the view). JPEG is decoded to grey
+/// (colour JPEGs too) and bgr8 converted to grey into `decoded`: into its top-left corner when it
+/// is an 8-bit grey image at least as large as the frame (the view then has its row stride), else
+/// into `decoded` (re)allocated at the frame's size; reused between calls, nothing is allocated
+/// once it is large enough. JPEG is decoded with libjpeg-turbo by one decompressor per calling
+/// thread, made by its first JPEG frame (libjpeg mallocs its working buffers for each image).
+/// False with `error` naming the field when the message is malformed: sizes out of range or not
+/// matching the data, a JPEG whose own header gives another size, damaged or truncated JPEG data
+/// (libjpeg's warnings are errors here; the view is then unusable).
 bool CameraFrameToView(const camera_frame_t& msg, const FrameLimits& limits, cv::Mat* decoded,
                        ImageView* view, std::string* error);
 
