@@ -11,7 +11,8 @@ namespace calibd {
 
 BoardFitResult FitBoardPose(const Eigen::Vector3f* points, int num_points, double half_width,
                             double half_height, double alpha, double huber_m,
-                            const Pose& T_lidar_board_init, int max_iterations) {
+                            const Pose& T_lidar_board_init, int max_iterations,
+                            double function_tolerance, double parameter_tolerance) {
   BoardFitResult result;
   result.T_lidar_board = T_lidar_board_init;
   if (num_points < 3) {
@@ -34,6 +35,8 @@ BoardFitResult FitBoardPose(const Eigen::Vector3f* points, int num_points, doubl
   // a QR of the tall Jacobian.
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   options.max_num_iterations = max_iterations;
+  options.function_tolerance = function_tolerance;
+  options.parameter_tolerance = parameter_tolerance;
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);

@@ -1,5 +1,6 @@
 #include "agent_session.hpp"
 
+#include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/resource.h>
@@ -140,10 +141,14 @@ bool RunAgentSession(const AgentSessionSpec& spec, AgentSessionRun* run, std::st
   }
   if (pid == 0) {
     ::setenv("NOTIFY_SOCKET", notify_path.c_str(), 1);
+    // The agent's log (its solve timings, drops) goes next to its outputs: agent.log.
+    const std::string log =
+        (std::filesystem::path(spec.out_log).parent_path() / "agent.log").string();
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd >= 0) ::dup2(fd, STDERR_FILENO);
     const std::string publish = "file://" + spec.out_log + "?mode=w";
-    execl(spec.agent_path.c_str(), spec.agent_path.c_str(), "--quiet", "--once", "--calibrate-now",
-          "--config", spec.config_path.c_str(), "--publish-url", publish.c_str(),
-          static_cast<char*>(nullptr));
+    execl(spec.agent_path.c_str(), spec.agent_path.c_str(), "--once", "--calibrate-now", "--config",
+          spec.config_path.c_str(), "--publish-url", publish.c_str(), static_cast<char*>(nullptr));
     _exit(127);
   }
   if (!notify.WaitReady(static_cast<int>(spec.ready_timeout_s * 1000.0))) {

@@ -15,7 +15,8 @@ namespace calibd::bench {
 struct AgentSessionSpec {
   std::string agent_path;   ///< calibd-agent to run
   std::string config_path;  ///< its config (agent: section with lcm_url, store, target_frames...)
-  std::string out_log;      ///< where the agent publishes its status/result/health (LCM log)
+  std::string out_log;      ///< where the agent publishes its status/result/health (LCM log);
+                            ///< its log lines go to agent.log in the same directory
   std::string drive_log;    ///< the drive to publish (calibd-sim --out)
   std::string lcm_url;      ///< where to publish it (the agent's lcm_url)
   int loops = 1;            ///< times the drive is published (capture times shifted)

@@ -20,9 +20,12 @@ struct BoardFitResult {
 };
 
 /// Fits the board of half sizes (half_width, half_height), box half-thickness `alpha`, to `points`
-/// (LiDAR frame). `huber_m` as in DirectOptimizerConfig.
+/// (LiDAR frame). `huber_m` as in DirectOptimizerConfig. The solve stops after `max_iterations`
+/// or when an iteration changes the cost by less than `function_tolerance` (relative) or the pose
+/// by less than `parameter_tolerance` (relative); the defaults are Ceres'.
 BoardFitResult FitBoardPose(const Eigen::Vector3f* points, int num_points, double half_width,
                             double half_height, double alpha, double huber_m,
-                            const Pose& T_lidar_board_init, int max_iterations = 50);
+                            const Pose& T_lidar_board_init, int max_iterations = 50,
+                            double function_tolerance = 1e-6, double parameter_tolerance = 1e-8);
 
 }  // namespace calibd
