@@ -5,9 +5,6 @@
 
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -15,24 +12,7 @@
 #include <vector>
 
 #include "calibd/drivers/lcm_frames.hpp"
-
-// operator new counted on the thread that sets t_count (the allocation-free decode below).
-namespace {
-std::atomic<long> g_news{0};
-thread_local bool t_count = false;
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (t_count) g_news.fetch_add(1);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-// GCC sees operator new's malloc and this free, not that they are the replacements of each other.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-#pragma GCC diagnostic pop
+#include "counting_new.hpp"
 
 namespace calibd {
 namespace {
@@ -191,16 +171,15 @@ TEST(LcmFramesJpeg, NoOperatorNewPerFrame) {
   std::string error;
   error.reserve(256);
   ASSERT_TRUE(CameraFrameToView(m, FrameLimits{}, &decoded, &view, &error)) << error;  // warm-up
-  g_news = 0;
-  t_count = true;
+  const long before = calibd::testing::Allocations();  // this test starts no thread
   bool ok = true;
   for (int i = 0; i < 20; ++i) {
     ok = CameraFrameToView(m, FrameLimits{}, &decoded, &view, &error) && ok;
     ok = CameraFrameToView(colour, FrameLimits{}, &decoded, &view, &error) && ok;
   }
-  t_count = false;
+  const long news = calibd::testing::Allocations() - before;
   EXPECT_TRUE(ok) << error;
-  EXPECT_EQ(g_news.load(), 0) << "operator new calls in 40 JPEG decodes";
+  EXPECT_EQ(news, 0) << "operator new calls in 40 JPEG decodes";
 }
 
 TEST(LcmFramesJpeg, TruncatedIsRefused) {
