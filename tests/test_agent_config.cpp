@@ -38,6 +38,7 @@ void ExpectAgentAndEngineDefaults(const AgentConfig& c) {
   EXPECT_EQ(c.max_boards_per_frame, 0);
   EXPECT_EQ(c.BoardsPerFrame(), static_cast<int>(c.calib.boards.size()) + 4);
   EXPECT_EQ(c.max_points_per_board, 4096);
+  EXPECT_EQ(c.max_points_per_sweep, 400000);
   EXPECT_EQ(c.intake_queue_capacity, 4);
   EXPECT_EQ(c.solve_heap_mb, 32);
   EXPECT_EQ(c.max_duration_s, 120.0);
@@ -424,6 +425,8 @@ INSTANTIATE_TEST_SUITE_P(
                 "agent.max_boards_per_frame"},
         BadCase{"max_points_per_board: 4096\n", "max_points_per_board: lots\n",
                 "agent.max_points_per_board"},
+        BadCase{"max_points_per_sweep: 400000\n", "max_points_per_sweep: 500\n",
+                "agent.max_points_per_sweep"},
         BadCase{"intake_queue_capacity: 4\n", "intake_queue_capacity: 0\n",
                 "agent.intake_queue_capacity"},
         BadCase{"solve_heap_mb: 32\n", "solve_heap_mb: 4096\n", "agent.solve_heap_mb"},

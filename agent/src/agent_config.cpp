@@ -127,6 +127,8 @@ bool AgentKeysValid(const AgentConfig& c, std::string* error) {
                     std::to_string(c.BoardsPerFrame()) + " boards x " +
                     std::to_string(c.max_points_per_board) +
                     " points x 16 B), more than 2 GiB: lower one of them");
+  if (!IntIn("agent.max_points_per_sweep", c.max_points_per_sweep, 1000, 4000000, error))
+    return false;
   if (!IntIn("agent.intake_queue_capacity", c.intake_queue_capacity, 1, 64, error)) return false;
   if (!IntIn("agent.solve_heap_mb", c.solve_heap_mb, 0, 1024, error)) return false;
   // Room for the pairs one drain can bring, twice over (session_thinning.hpp).
@@ -398,6 +400,7 @@ void ParseAgentSection(const YAML::Node& node, AgentConfig* c) {
   s.Read("max_frames", &c->max_frames);
   s.Read("max_boards_per_frame", &c->max_boards_per_frame);
   s.Read("max_points_per_board", &c->max_points_per_board);
+  s.Read("max_points_per_sweep", &c->max_points_per_sweep);
   s.Read("intake_queue_capacity", &c->intake_queue_capacity);
   s.Read("solve_heap_mb", &c->solve_heap_mb);
   s.Read("max_duration_s", &c->max_duration_s);

@@ -190,8 +190,8 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
     }
     if (msg.num_points < 0 || msg.num_points > config_.limits.max_points ||
         msg.x.size() > static_cast<size_t>(config_.limits.max_points)) {
-      Bad("lidar_frame_t: " + std::to_string(msg.num_points) +
-          " points exceed the configured max_points " + std::to_string(config_.limits.max_points));
+      Bad("lidar_frame_t: " + std::to_string(msg.num_points) + " points exceed the sweep limit " +
+          std::to_string(config_.limits.max_points) + " (agent.max_points_per_sweep)");
       return;
     }
     const FramePairer::LidarResult r = pairer_.OnLidar(msg.utime);

@@ -13,7 +13,10 @@ IntakeConfig IntakeConfigFrom(const AgentConfig& config) {
   intake.limits.max_height = config.calib.camera.height;
   intake.max_image_bytes = config.calib.camera.width * config.calib.camera.height;
   intake.pair_tolerance_us = static_cast<int64_t>(config.pair_tolerance_ms * 1000.0);
+  intake.limits.max_points = config.max_points_per_sweep;
   intake.lidar.max_board_points = config.max_points_per_board;
+  // The LiDAR detector keeps as many boards per sweep as the session store takes per pair.
+  intake.lidar.max_boards = config.BoardsPerFrame();
   return intake;
 }
 

@@ -59,6 +59,10 @@ struct AgentConfig {
   /// about 50 points on a 0.6 m board at 6 m: the default leaves room for close boards and
   /// denser sensors.
   int max_points_per_board = 4096;
+  /// LiDAR points per sweep an intake slot holds (22 bytes each); a larger sweep is refused and
+  /// counted as bad. A 128-ring spinning LiDAR at 0.2 deg gives about 230k points, twice that
+  /// with dual returns.
+  int max_points_per_sweep = 400000;
   /// Frame pairs waiting for or in detection (one camera and one LiDAR detection thread); when
   /// all are taken, the newest pair is dropped and counted (agent/frame_intake.hpp).
   int intake_queue_capacity = 4;
