@@ -13,6 +13,7 @@
 #include "calibd/core/board_box_joint_cost.hpp"
 #include "calibd/core/box_cost.hpp"
 #include "calibd/core/camera_pnp.hpp"
+#include "calibd/core/compressed_box_cost.hpp"
 #include "calibd/core/corner_reprojection_cost.hpp"
 #include "calibd/core/direct_optimizer.hpp"
 #include "calibd/core/indirect_optimizer.hpp"
@@ -239,6 +240,89 @@ TEST(BoxCostTest, JointCostJacobiansMatchFiniteDifferencesForBothPoses) {
   ASSERT_TRUE(cost.Evaluate(pj, r_joint.data(), nullptr));
   ASSERT_TRUE(fixed.Evaluate(pf, r_fixed.data(), nullptr));
   for (size_t i = 0; i < r_joint.size(); ++i) EXPECT_NEAR(r_joint[i], r_fixed[i], 1e-12);
+}
+
+// The compressed cost hands Ceres the normal equations of BoardBoxCost's rows: its 7 rows must
+// have the same J^T J, J^T r and r^T r, and a solve must take the same steps to the same pose.
+TEST(CompressedBoxCostTest, SameNormalEquationsAndSameSolveAsThePerPointRows) {
+  const Synthetic s = MakeSynthetic(41, 6, 0.02);
+  const double huber = 0.02;
+  const Pose start = Perturb(s.T_camera_lidar, 1.5, 0.08, 11);
+  std::vector<BoxTerm> terms;
+  ceres::Problem::Options options;
+  options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  PoseManifold manifold;
+  double full[7], compressed[7];
+  PoseToParameters(start, full);
+  PoseToParameters(start, compressed);
+  ceres::Problem full_problem(options), compressed_problem(options);
+  full_problem.AddParameterBlock(full, 7, &manifold);
+  compressed_problem.AddParameterBlock(compressed, 7, &manifold);
+  for (const BoardObservation& o : s.set.observations) {
+    const BoardGeometry& g = s.boards[o.board_index];
+    BoxTerm term;
+    term.points = s.set.points.data() + o.first_point;
+    term.num_points = o.num_points;
+    term.stride = 3;
+    term.T_board_camera = o.T_camera_board.inverse();
+    term.half_extent = Eigen::Vector3d(g.width_m / 2.0, g.height_m / 2.0, 0.0);
+    terms.push_back(term);
+    full_problem.AddResidualBlock(
+        new BoardBoxCost(term.points, term.num_points, term.stride, term.T_board_camera,
+                         g.width_m / 2.0, g.height_m / 2.0, 0.0, huber),
+        nullptr, full);
+  }
+  auto* cost = new CompressedBoxCost(terms, huber);
+  compressed_problem.AddResidualBlock(cost, nullptr, compressed);
+
+  // Normal equations at the start, against the assembled per-point Jacobian (tangent space).
+  double cost_full = 0.0;
+  std::vector<double> r_full;
+  ceres::CRSMatrix J_full;
+  full_problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost_full, &r_full, nullptr, &J_full);
+  Eigen::Matrix<double, 6, 6> H_full = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> g_full = Eigen::Matrix<double, 6, 1>::Zero();
+  for (int row = 0; row < J_full.num_rows; ++row) {
+    Eigen::Matrix<double, 1, 6> j = Eigen::Matrix<double, 1, 6>::Zero();
+    for (int k = J_full.rows[row]; k < J_full.rows[row + 1]; ++k)
+      j[J_full.cols[k]] = J_full.values[k];
+    H_full += j.transpose() * j;
+    g_full += j.transpose() * r_full[row];
+  }
+  ASSERT_GT(H_full.norm(), 0.0);
+  double e[CompressedBoxCost::kResiduals], J[CompressedBoxCost::kResiduals * 7];
+  double* jacobians[] = {J};
+  const double* parameters[] = {compressed};
+  ASSERT_TRUE(cost->Evaluate(parameters, e, jacobians));
+  const Eigen::Map<const Eigen::Matrix<double, 7, 7, Eigen::RowMajor>> Je(J);
+  const Eigen::Map<const Eigen::Matrix<double, 7, 1>> ev(e);
+  EXPECT_LT((Je.leftCols<6>().transpose() * Je.leftCols<6>() - H_full).norm(),
+            1e-9 * H_full.norm());
+  EXPECT_LT((Je.leftCols<6>().transpose() * ev - g_full).norm(), 1e-9 * g_full.norm());
+  EXPECT_NEAR(0.5 * ev.squaredNorm(), cost_full, 1e-9 * cost_full);
+  EXPECT_EQ(Je.col(6).norm(), 0.0);
+  // The cost alone (no Jacobian requested): the same cost.
+  ASSERT_TRUE(cost->Evaluate(parameters, e, nullptr));
+  EXPECT_NEAR(0.5 * ev.squaredNorm(), cost_full, 1e-9 * cost_full);
+
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  solver.function_tolerance = 1e-10;
+  solver.gradient_tolerance = solver.parameter_tolerance = 1e-12;
+  solver.max_num_iterations = 50;
+  ceres::Solver::Summary full_summary, compressed_summary;
+  ceres::Solve(solver, &full_problem, &full_summary);
+  ceres::Solve(solver, &compressed_problem, &compressed_summary);
+  ASSERT_EQ(full_summary.termination_type, ceres::CONVERGENCE);
+  ASSERT_EQ(compressed_summary.termination_type, ceres::CONVERGENCE);
+  EXPECT_EQ(compressed_summary.iterations.size(), full_summary.iterations.size());
+  EXPECT_NEAR(compressed_summary.final_cost, full_summary.final_cost,
+              1e-9 * full_summary.final_cost);
+  const Pose a = PoseFromParameters(full), b = PoseFromParameters(compressed);
+  EXPECT_LT(RotationAngle(a.linear(), b.linear()), 1e-8);
+  EXPECT_LT((a.translation() - b.translation()).norm(), 1e-8);
+  // And the start was far enough for the solve to matter.
+  EXPECT_GT(RotationAngle(start.linear(), b.linear()), 1.0 * kDeg);
 }
 
 TEST(CornerCostTest, ResidualIsTheScaledNormalisedErrorAndJacobianMatches) {

@@ -36,19 +36,15 @@ bool BoardBoxCost::Evaluate(double const* const* parameters, double* residuals,
   double* J = jacobians != nullptr ? jacobians[0] : nullptr;
 
   for (int i = 0; i < num_used_; ++i) {
-    const Eigen::Vector3d p_rotated = R * points_[i * stride_].cast<double>();
-    const Eigen::Vector3d p_board = R_board_camera_ * (p_rotated + t) + t_board_camera_;
     Eigen::Vector3d r;
-    Eigen::Matrix3d dr_dp;
-    detail::RobustHinge(p_board, half_extent_, huber_, &r, J != nullptr ? &dr_dp : nullptr);
+    Eigen::Matrix<double, 3, 6> dr;
+    detail::FixedBoardPointResidual(R, t, R_board_camera_, t_board_camera_,
+                                    points_[i * stride_].cast<double>(), half_extent_, huber_, &r,
+                                    J != nullptr ? &dr : nullptr);
     Eigen::Map<Eigen::Vector3d>(residuals + 3 * i) = r;
     if (J == nullptr) continue;
-    // dp_board/d[dt, dtheta] with the left perturbation R' = Exp(dtheta) R (PoseManifold).
-    Eigen::Matrix<double, 3, 6> dp;
-    dp.leftCols<3>() = R_board_camera_;
-    dp.rightCols<3>() = -R_board_camera_ * detail::Skew(p_rotated);
     Eigen::Map<Eigen::Matrix<double, 3, 7, Eigen::RowMajor>> Ji(J + 21 * i);
-    Ji.leftCols<6>() = dr_dp * dp;
+    Ji.leftCols<6>() = dr;
     Ji.col(6).setZero();
   }
   return true;

@@ -49,4 +49,23 @@ inline void RobustHinge(const Eigen::Vector3d& p_board, const Eigen::Vector3d& h
                 active.asDiagonal();
 }
 
+/// A LiDAR point's robust residual (RobustHinge) for the extrinsic T = (R, t) with the board pose
+/// held (p_B = R_bc (R p + t) + t_bc) and, when `d_pose` is set, its derivative in the tangent
+/// space [dt, dtheta] of the left perturbation R' = Exp(dtheta) R (PoseManifold):
+/// dp_B = R_bc dt - R_bc [R p]x dtheta.
+inline void FixedBoardPointResidual(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                                    const Eigen::Matrix3d& R_bc, const Eigen::Vector3d& t_bc,
+                                    const Eigen::Vector3d& p, const Eigen::Vector3d& half_extent,
+                                    double huber, Eigen::Vector3d* residual,
+                                    Eigen::Matrix<double, 3, 6>* d_pose) {
+  const Eigen::Vector3d p_rotated = R * p;
+  const Eigen::Vector3d p_board = R_bc * (p_rotated + t) + t_bc;
+  Eigen::Matrix3d dr_dp;
+  RobustHinge(p_board, half_extent, huber, residual, d_pose != nullptr ? &dr_dp : nullptr);
+  if (d_pose == nullptr) return;
+  const Eigen::Matrix3d dr_dt = dr_dp * R_bc;
+  d_pose->leftCols<3>() = dr_dt;
+  d_pose->rightCols<3>() = -dr_dt * Skew(p_rotated);
+}
+
 }  // namespace calibd::detail

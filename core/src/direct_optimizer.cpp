@@ -10,7 +10,7 @@
 #include <utility>
 
 #include "calibd/core/board_box_joint_cost.hpp"
-#include "calibd/core/box_cost.hpp"
+#include "calibd/core/compressed_box_cost.hpp"
 #include "calibd/core/corner_reprojection_cost.hpp"
 #include "calibd/core/pose_manifold.hpp"
 
@@ -143,23 +143,36 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
   const int points_per_observation = mode != HeldSolve::kRound
                                          ? config.max_points_per_observation
                                          : std::max(3, config.max_points_per_observation / 2);
-  std::vector<const BoardBoxCost*> costs;
+  // The observations' box costs in compressed form (compressed_box_cost.hpp), a few chunks so
+  // that Ceres evaluates them on its threads.
+  std::vector<BoxTerm> terms;
   for (size_t k = 0; k < set.observations.size(); ++k) {
     if (!Used(boards, set, use, k)) continue;
     const BoardObservation& o = set.observations[k];
     const BoardGeometry& g = boards[o.board_index];
-    auto* cost =
-        new BoardBoxCost(set.points.data() + o.first_point, o.num_points,
-                         StrideOf(o, points_per_observation), T_camera_board[k].inverse(),
-                         g.width_m / 2.0, g.height_m / 2.0, config.alpha_m, config.huber_m);
+    BoxTerm term;
+    term.points = set.points.data() + o.first_point;
+    term.num_points = o.num_points;
+    term.stride = StrideOf(o, points_per_observation);
+    term.T_board_camera = T_camera_board[k].inverse();
+    term.half_extent = Eigen::Vector3d(g.width_m / 2.0, g.height_m / 2.0, config.alpha_m);
+    terms.push_back(term);
+    ++result.observations;
+    result.points += term.num_used();
+  }
+  const size_t chunks = std::min(terms.size(), static_cast<size_t>(4 * config.threads));
+  std::vector<const CompressedBoxCost*> costs;
+  for (size_t c = 0; c < chunks; ++c) {
+    auto* cost = new CompressedBoxCost(
+        std::vector<BoxTerm>(terms.begin() + static_cast<long>(terms.size() * c / chunks),
+                             terms.begin() + static_cast<long>(terms.size() * (c + 1) / chunks)),
+        config.huber_m);
     problem.AddResidualBlock(cost, nullptr, params);
     costs.push_back(cost);
-    ++result.observations;
-    result.points += cost->num_used_points();
   }
 
   ceres::Solver::Options options = SolverOptions(config);
-  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // 6 unknowns, many residuals
+  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // 6 unknowns, 7 rows per chunk
   // and a few steps towards the joint optimum; the final solve converges fully.
   if (mode == HeldSolve::kRound) options.max_num_iterations = config.round_iterations;
   if (solve) {
@@ -178,31 +191,11 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
 
   if (!statistics) return;
   // Residual statistics without the robust loss, and J^T J in the tangent space.
-  double sum_sq = 0.0;
-  for (const BoardBoxCost* c : costs)
-    for (int i = 0; i < c->num_used_points(); ++i)
-      sum_sq += c->PointResidual(result.T_camera_lidar, i).squaredNorm();
-  result.residual_rms_m = std::sqrt(sum_sq / std::max(1, result.points));
-  // Each cost's Jacobian in the tangent space is its ambient Jacobian's first 6 columns
-  // (pose_manifold.hpp), so the costs are evaluated directly, without assembling the problem's
-  // sparse Jacobian.
-  std::vector<double> residuals, jacobian;
-  double at[7];
-  PoseToParameters(result.T_camera_lidar, at);
-  const double* parameter_blocks[1] = {at};
-  for (const BoardBoxCost* c : costs) {
-    const size_t rows = static_cast<size_t>(c->num_residuals());
-    residuals.resize(rows);
-    jacobian.resize(rows * 7);
-    double* jacobians[1] = {jacobian.data()};
-    if (!c->Evaluate(parameter_blocks, residuals.data(), jacobians)) continue;
-    for (size_t row = 0; row < rows; ++row) {
-      const Eigen::Map<const Eigen::Matrix<double, 1, 6>> j(jacobian.data() + 7 * row);
-      result.information.noalias() += j.transpose() * j;
-      // Every residual block holds (x, y, z) triples, so row % 3 == 2 is a board-plane row.
-      if (row % 3 == 2) result.plane_information.noalias() += j.transpose() * j;
-    }
-  }
+  BoxStatistics stats;
+  for (const CompressedBoxCost* c : costs) c->Statistics(result.T_camera_lidar, &stats);
+  result.residual_rms_m = std::sqrt(stats.sum_squared_residuals / std::max(1, stats.points));
+  result.information = stats.information;
+  result.plane_information = stats.plane_information;
   result.min_information_eigenvalue =
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(result.information)
           .eigenvalues()(0);

@@ -79,6 +79,8 @@ pipeline the time and CPU of every stage against the paper's (§IV-E: 18.7 s LiD
   --lidar LIST        comma-separated models (default ot128,m1,falcon)
   --frames N          frame pairs per drive (default 200)
   --seed N            simulation seed (default 1)
+  --engine-runs N     runs of each in-process engine configuration; the median run's figures
+                      (default 5)
   --agent PATH|none   calibd-agent to run (default: this build's; none skips the live part)
   --work-dir DIR      keep the agent runs' configs, stores and outputs there
   --json FILE         also write the figures as JSON
@@ -169,6 +171,10 @@ int main(int argc, char** argv) {
     }
     if (pipeline && arg == "--agent") {
       p.agent_path = value == "none" ? "" : value;
+      continue;
+    }
+    if (pipeline && arg == "--engine-runs" && ParseInt(value, 1, 1000, &n)) {
+      p.engine_runs = static_cast<int>(n);
       continue;
     }
     if (pipeline && arg == "--work-dir") {

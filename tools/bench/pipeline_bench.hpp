@@ -24,6 +24,9 @@ struct PipelineBenchOptions {
   std::string agent_path;  ///< calibd-agent for the live part ("" = skip it)
   std::string work_dir;    ///< keep the agent runs' logs and stores there ("" = temporary)
   std::string json_path;   ///< also write the figures as JSON
+  /// Runs of each in-process engine configuration; the figures are those of the run with the
+  /// median wall time (one run on a loaded machine is noise).
+  int engine_runs = 5;
 };
 
 bool RunPipelineBench(const PipelineBenchOptions& options, std::ostream& out,
