@@ -18,7 +18,7 @@ command -v valgrind >/dev/null || { echo "instruction_counts: valgrind not insta
 out=$(mktemp -d)
 [ -n "${KEEP:-}" ] || trap 'rm -rf "$out"' EXIT
 valgrind --tool=callgrind --compress-strings=no --compress-pos=no --callgrind-out-file="$out/cg" \
-  "$bench" pipeline --lidar "$lidar" --frames "$frames" --agent none >"$out/bench.txt" 2>"$out/vg.txt" || {
+  "$bench" pipeline --lidar "$lidar" --frames "$frames" --agent none --engine-runs 1 >"$out/bench.txt" 2>"$out/vg.txt" || {
   echo "instruction_counts: the bench failed under callgrind:" >&2
   tail -20 "$out/vg.txt" >&2
   exit 1
