@@ -44,6 +44,29 @@ TEST(StreamGapsTest, ARestartOrABackwardsTimeIsNotCountedAsLoss) {
   EXPECT_EQ(g.missed(), 0);
 }
 
+// Issue 9: repeated and reordered times are counted apart from gaps; a clock stepped back by more
+// than kRestartUs is a restart, after which gaps count again (before, every frame until the old
+// time was passed again was ignored, hiding its gaps).
+TEST(StreamGapsTest, DuplicatesLateFramesAndAClockStepBackAreCounted) {
+  StreamGaps g;
+  int64_t t = 100000000;
+  for (int i = 0; i < 10; ++i) g.Observe(t += kPeriod);
+  EXPECT_EQ(g.Observe(t), 0);                // duplicate
+  EXPECT_EQ(g.Observe(t - 2 * kPeriod), 0);  // late
+  EXPECT_EQ(g.duplicates(), 1);
+  EXPECT_EQ(g.late(), 1);
+  EXPECT_EQ(g.restarts(), 0);
+  t -= 60 * 1000000;  // the clock steps back a minute
+  EXPECT_EQ(g.Observe(t), 0);
+  EXPECT_EQ(g.restarts(), 1);
+  EXPECT_EQ(g.late(), 1);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(g.Observe(t += kPeriod), 0);
+  EXPECT_EQ(g.Observe(t += 3 * kPeriod), 2);   // gaps count on the new timeline
+  EXPECT_EQ(g.Observe(t += 30 * 1000000), 0);  // a long pause: a restart too
+  EXPECT_EQ(g.restarts(), 2);
+  EXPECT_EQ(g.missed(), 2);
+}
+
 TEST(StreamGapsTest, TheFirstIntervalsOnlyTeachThePeriod) {
   StreamGaps g;
   int64_t t = 1000000;
