@@ -314,6 +314,7 @@ TEST(SessionMachineTest, CommitOnlyAnUpdatedResultOnce) {
   EXPECT_EQ(m.reason(), "commit_failed");
   EXPECT_EQ(m.guidance(), "new calibration ready: send COMMIT to store it");
   EXPECT_TRUE(m.CommitRequested().accepted);
+  EXPECT_EQ(m.reason(), "") << "a retried commit no longer reports the failed one";
 }
 
 TEST(SessionMachineTest, CommitRefusedForOtherVerdictsAndVerifyOnlySessions) {

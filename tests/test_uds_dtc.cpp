@@ -134,5 +134,21 @@ TEST_F(UdsDtcTest, CorruptFileIsReportedAndStartsCleared) {
   EXPECT_EQ(Tx({0x19, 0x0A}), AllSupported(0x50));
 }
 
+// A file written before 5A0044 (store write failed) existed: its DTCs keep their status, the new
+// one starts cleared, and it is not taken for a corrupt file.
+TEST_F(UdsDtcTest, FileWithoutALaterDtcKeepsTheOthers) {
+  std::ofstream(config_.state_dir + "/dtc_status")
+      << "calibd-dtc 1\n5A0054 2F\n5A0064 50\n5A0056 50\n5A0187 50\n5A0287 50\n5A0046 50\n"
+         "C00188 50\nend\n";
+  Restart();
+  EXPECT_TRUE(server_->warnings().empty()) << server_->warnings();
+  EXPECT_EQ(server_->dtcs().status(Dtc::kCalibrationNotPerformed), 0x6D);
+  EXPECT_EQ(server_->dtcs().status(Dtc::kStoreWriteFailed), 0x50);
+  // The same DTC twice is not what the agent writes.
+  std::ofstream(config_.state_dir + "/dtc_status") << "calibd-dtc 1\n5A0054 2F\n5A0054 2F\nend\n";
+  Restart();
+  EXPECT_NE(server_->warnings().find("dtc_status: corrupt"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace calibd::uds

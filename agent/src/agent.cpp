@@ -287,10 +287,12 @@ void Agent::FinishSolve() {
       std::to_string(static_cast<int>(o.quality_ms)) + ")");
   if (o.verdict == CalibrationOutcome::Verdict::kVerified && store_.current() != nullptr) {
     std::string error;
-    if (!store_.MarkVerified(WallUs() / 1000000, &error)) {
+    const bool written = store_.MarkVerified(WallUs() / 1000000, &error);
+    if (!written) {
       last_error_ = "store: " + error;
       Log(last_error_);
     }
+    diag_.Report(uds::Dtc::kStoreWriteFailed, !written);
   }
   diag_.Report(uds::Dtc::kResultRejected, o.verdict == CalibrationOutcome::Verdict::kRejected);
   PublishResult();
@@ -325,8 +327,10 @@ uds::BackendReply Agent::Commit() {
     machine_.CommitFailed(error);
     last_error_ = "store: " + error;
     Log(last_error_ + " (the previous calibration stays in use)");
+    diag_.Report(uds::Dtc::kStoreWriteFailed, true);
     return uds::BackendReply::kFailure;
   }
+  diag_.Report(uds::Dtc::kStoreWriteFailed, false);
   sensor_mismatch_ = false;
   diag_.Report(uds::Dtc::kCalibrationNotPerformed, false);
   diag_.Report(uds::Dtc::kRecalibrationRequired, false);

@@ -145,7 +145,9 @@ uds::RoutineSnapshot Agent::CalibrationStatus() const {
   }
   if (s == SessionState::kDone && has_outcome_) {
     r.verdict = VerdictCode<uds::RoutineVerdict>(outcome_.verdict);
-    r.reason = ReasonCode(outcome_.reason);
+    // A failed commit is the news (store write failed) until a commit goes through.
+    r.reason =
+        ReasonCode(machine_.reason() == "commit_failed" ? machine_.reason() : outcome_.reason);
     if (outcome_.solved) {
       r.delta_rotation_deg = outcome_.delta_rotation_deg;
       r.delta_translation_m = outcome_.delta_translation_m;
@@ -164,8 +166,16 @@ uds::BackendReply Agent::RestoreReference() {
   if (!store_.RestoreReference(WallUs() / 1000000, &error)) {
     last_error_ = "restore failed: " + error;
     Log(last_error_ + " (the previous calibration stays in use)");
+    // A reference for other sensors is refused before anything is written: not a storage fault.
+    const StoredCalibration* current = store_.current();
+    const StoredCalibration* reference = store_.reference();
+    const bool other_sensors =
+        current != nullptr && (reference->lidar_serial != current->lidar_serial ||
+                               reference->camera_serial != current->camera_serial);
+    if (!other_sensors) diag_.Report(uds::Dtc::kStoreWriteFailed, true);
     return uds::BackendReply::kFailure;
   }
+  diag_.Report(uds::Dtc::kStoreWriteFailed, false);
   sensor_mismatch_ = false;
   diag_.Report(uds::Dtc::kCalibrationNotPerformed, false);
   Log("restored the reference calibration as version " + std::to_string(store_.current()->version));

@@ -258,6 +258,10 @@ RequestReply SessionMachine::CommitRequested() {
   } else {
     committed_ = true;
     reply.accepted = true;
+    if (reason_ == "commit_failed") {  // retried: the failure is no longer the news
+      reason_.clear();
+      detail_.clear();
+    }
     UpdateGuidance();
   }
   return reply;

@@ -211,7 +211,8 @@ const char* DtcName(uint32_t number) {
                                                          "LiDAR data timeout",
                                                          "camera data timeout",
                                                          "calibration store corrupt",
-                                                         "CAN bus-off"};
+                                                         "CAN bus-off",
+                                                         "calibration store write failed"};
   const int index = uds::DtcStore::IndexOf(number);
   return index < 0 ? "not a calibd DTC" : kNames[index];
 }

@@ -10,24 +10,22 @@ namespace {
 
 constexpr char kHeader[] = "calibd-dtc 1";
 
-/// Parses the file's contents into `status`; false when it is not exactly what Save writes.
+/// Parses the file's contents into `status`; false when it is not what Save writes (or wrote
+/// before a DTC was added: that DTC has no line).
 bool Parse(const std::string& contents, std::array<uint8_t, kDtcCount>* status) {
   std::istringstream in(contents);
   std::string line;
   if (!std::getline(in, line) || line != kHeader) return false;
   std::array<bool, kDtcCount> seen{};
+  status->fill(kDtcStatusAfterClear);  // DTCs added after the file was written start cleared
   while (std::getline(in, line)) {
-    if (line == "end") {
-      for (bool s : seen) {
-        if (!s) return false;
-      }
-      return true;
-    }
+    if (line == "end") return true;
     unsigned number = 0, value = 0;
     char extra = 0;
     if (std::sscanf(line.c_str(), "%6x %2x%c", &number, &value, &extra) != 2) return false;
     const int index = DtcStore::IndexOf(number);
     if (index < 0 || (value & ~kDtcStatusAvailabilityMask) != 0) return false;
+    if (seen[static_cast<size_t>(index)]) return false;  // twice: not what Save writes
     (*status)[static_cast<size_t>(index)] = static_cast<uint8_t>(value);
     seen[static_cast<size_t>(index)] = true;
   }

@@ -15,6 +15,9 @@
 /// - C1A02-87 = 0x5A0287: camera data timeout (FTB 87 missing message)
 /// - C1A00-46 = 0x5A0046: calibration store corrupt (FTB 46 calibration/parameter memory failure)
 /// - U0001-88 = 0xC00188: CAN bus-off (FTB 88 bus off)
+/// - C1A00-44 = 0x5A0044: calibration store write failed (FTB 44 data memory failure): the last
+///   commit, restore or verification could not be written (full or read-only filesystem, I/O
+///   error); the previous calibration stays in use. Passes at the next successful store write.
 ///
 /// Status bits (Annex D.2): bit 0 testFailed, 1 testFailedThisOperationCycle, 2 pendingDTC,
 /// 3 confirmedDTC, 4 testNotCompletedSinceLastClear, 5 testFailedSinceLastClear,
@@ -26,7 +29,8 @@
 /// (0x85 02) test results change nothing.
 ///
 /// File `<state_dir>/dtc_status`: "calibd-dtc 1" then one line "<dtc hex6> <status hex2>" per
-/// DTC, then "end". A missing file is a fresh store; a corrupt one too, reported in warning().
+/// DTC, then "end". A missing file is a fresh store; a corrupt one too, reported in warning(). A
+/// DTC without a line (a file written before that DTC existed) starts cleared.
 
 #include <array>
 #include <cstddef>
@@ -43,11 +47,12 @@ enum class Dtc : uint8_t {
   kCameraTimeout,
   kStoreCorrupt,
   kCanBusOff,
+  kStoreWriteFailed,
 };
-inline constexpr size_t kDtcCount = 7;
+inline constexpr size_t kDtcCount = 8;
 /// The three-byte DTC number of each Dtc, in enum order.
 inline constexpr std::array<uint32_t, kDtcCount> kDtcNumbers = {
-    0x5A0054, 0x5A0064, 0x5A0056, 0x5A0187, 0x5A0287, 0x5A0046, 0xC00188};
+    0x5A0054, 0x5A0064, 0x5A0056, 0x5A0187, 0x5A0287, 0x5A0046, 0xC00188, 0x5A0044};
 
 enum DtcStatusBit : uint8_t {
   kTestFailed = 0x01,
