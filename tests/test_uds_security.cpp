@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <fstream>
 #include <memory>
+#include <set>
 #include <vector>
 
 #include "calibd/agent/uds/security_access.hpp"
@@ -88,6 +89,41 @@ TEST_F(UdsSecurityTest, SeedThenRightKeyUnlocks) {
   zero[1] = 0x01;
   EXPECT_EQ(Tx({0x27, 0x01}, kT0), zero);
   EXPECT_EQ(Tx({0x27, 0x02, 0x00}, kT0), (Bytes{0x7F, 0x27, 0x24})) << "no seed outstanding";
+}
+
+// Seeds come from the kernel's CSPRNG (getrandom): 20,000 requests over 10 agent restarts give no
+// repeated seed, the bits are balanced, and a key for an earlier seed is refused (only the last
+// seed is good, for one key).
+TEST_F(UdsSecurityTest, SeedsNeverRepeatAcrossRestartsAndOldSeedsAreDead) {
+  std::set<Bytes> seen;
+  uint64_t ones = 0, bits = 0;
+  for (int restart = 0; restart < 10; ++restart) {
+    Restart(kT0, kUnix0);
+    ASSERT_EQ(Tx({0x10, 0x03}, kT0)[0], 0x50);
+    for (int i = 0; i < 2000; ++i) {
+      const Bytes r = Tx({0x27, 0x01}, kT0);
+      ASSERT_EQ(r.size(), 2 + kSeedSize);
+      const Bytes seed(r.begin() + 2, r.end());
+      EXPECT_TRUE(seen.insert(seed).second) << "seed repeated after " << seen.size();
+      for (uint8_t b : seed) ones += static_cast<uint64_t>(__builtin_popcount(b));
+      bits += 8 * kSeedSize;
+    }
+  }
+  EXPECT_EQ(seen.size(), 20000u);
+  // 2.56 M fair bits: the fraction of ones is within 0.5 +- 0.003 (about 10 sigma).
+  EXPECT_NEAR(static_cast<double>(ones) / static_cast<double>(bits), 0.5, 0.003);
+
+  const Bytes first = Tx({0x27, 0x01}, kT0);
+  const Bytes second = Tx({0x27, 0x01}, kT0);
+  EXPECT_EQ(Tx(SendKeyRequest(ExpectedKey(&first[2])), kT0), (Bytes{0x7F, 0x27, 0x35}))
+      << "the key of a superseded seed";
+  EXPECT_FALSE(server_->security_unlocked());
+  EXPECT_EQ(Tx(SendKeyRequest(ExpectedKey(&second[2])), kT0), (Bytes{0x7F, 0x27, 0x24}))
+      << "a wrong key consumed the seed";
+  const Bytes third = Tx({0x27, 0x01}, kT0);
+  EXPECT_EQ(Tx(SendKeyRequest(ExpectedKey(&third[2])), kT0), (Bytes{0x67, 0x02}));
+  EXPECT_EQ(Tx(SendKeyRequest(ExpectedKey(&third[2])), kT0), (Bytes{0x7F, 0x27, 0x24}))
+      << "a seed is good for one key";
 }
 
 TEST_F(UdsSecurityTest, Nrcs) {
