@@ -152,6 +152,13 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
                       [this](const calibration_request_t& m, int64_t) { OnRequest(m); }, error);
   if (!ok) return false;
   const bool replay = bus_.url().rfind("file://", 0) == 0;
+  if (replay) {
+    // A log is read at its own pace (and held back while the detectors catch up): the time
+    // between its frames is not the sensors', so no sensor timeout (session_machine.hpp).
+    SessionConfig session = SessionConfigFrom(config_);
+    session.sensor_timeout_us = 0;
+    machine_ = SessionMachine(session);
+  }
   if (!options.publish_url.empty()) {
     if (!out_bus_.Open(options.publish_url, error)) return false;
     publisher_ = &out_bus_;
@@ -178,10 +185,14 @@ void Agent::Publish(std::string_view channel, const Msg& msg) {
 
 void Agent::OnCamera(const camera_frame_t& msg) {
   last_camera_us_ = MonotonicUs();
+  if (msg.camera_id == config_.calib.camera_id)
+    machine_.FrameArrived(SensorStream::kCamera, last_camera_us_);
   intake_.OnCamera(msg);
 }
 void Agent::OnLidar(const lidar_frame_t& msg) {
   last_lidar_us_ = MonotonicUs();
+  if (msg.lidar_id == config_.calib.lidar_id)
+    machine_.FrameArrived(SensorStream::kLidar, last_lidar_us_);
   intake_.OnLidar(msg);
 }
 
@@ -377,6 +388,12 @@ void Agent::Step(int64_t now_us) {
   } else {
     intake_.Drain(nullptr);  // pairs still in flight when the collection ended
   }
+  {
+    const IntakeCounters& c = intake_.counters();
+    int64_t since_last = 0;
+    if (malformed_log_.Due(c.bad_messages, now_us, &since_last))
+      Log(MalformedMessagesLine(since_last, c.bad_messages, c.last_error));
+  }
   if (machine_.state() != SessionState::kCollecting && intake_.active()) {
     intake_.SetActive(false);
     const IntakeCounters& c = intake_.counters();
@@ -387,8 +404,12 @@ void Agent::Step(int64_t now_us) {
         std::to_string(c.camera_missed) + "/" + std::to_string(c.lidar_missed) +
         " camera/LiDAR missing from the streams, " + std::to_string(c.unpaired_camera) + "/" +
         std::to_string(c.unpaired_lidar) + " unpaired camera/LiDAR, " +
-        std::to_string(c.out_of_order) + " out of order, " + std::to_string(c.bad_messages) +
-        " bad" + (c.last_error.empty() ? "" : " (last: " + c.last_error + ")") + ", " +
+        std::to_string(c.out_of_order) + " out of order (camera/LiDAR duplicates " +
+        std::to_string(c.camera_duplicates) + "/" + std::to_string(c.lidar_duplicates) + ", late " +
+        std::to_string(c.camera_late) + "/" + std::to_string(c.lidar_late) + ", restarts " +
+        std::to_string(c.camera_restarts) + "/" + std::to_string(c.lidar_restarts) + "), " +
+        std::to_string(c.bad_messages) + " bad" +
+        (c.last_error.empty() ? "" : " (last: " + c.last_error + ")") + ", " +
         std::to_string(c.over_capacity) + " over the session store's capacity; LiDAR detector: " +
         std::to_string(c.lidar_boards_dropped) + " boards and " +
         std::to_string(c.lidar_candidates_dropped) + " clusters beyond its capacity, " +

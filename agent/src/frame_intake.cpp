@@ -131,6 +131,25 @@ void FrameIntake::Bad(const std::string& what) {
   counters_.last_error = what;
 }
 
+void FrameIntake::AfterObserve(const StreamGaps& gaps, int64_t restarts_before, bool camera) {
+  (camera ? counters_.camera_duplicates : counters_.lidar_duplicates) = gaps.duplicates();
+  (camera ? counters_.camera_late : counters_.lidar_late) = gaps.late();
+  (camera ? counters_.camera_restarts : counters_.lidar_restarts) = gaps.restarts();
+  if (!active_ || gaps.restarts() == restarts_before) return;
+  // A sensor's clock stepped back (reset, PTP step) would have every later frame of it refused
+  // as out of order until the old time came round again: the pairing forgets the previous times
+  // (for a pause it makes no difference). A camera restart displaces the camera frame waiting for
+  // its sweep (unpaired; the new frame takes its slot). On a LiDAR restart it keeps waiting: when
+  // both clocks stepped, it is on the new timeline already.
+  const bool pending = pairer_.has_pending();
+  const int64_t pending_utime = pairer_.pending_utime();
+  pairer_.Reset();
+  if (pending && camera)
+    ++counters_.unpaired_camera;
+  else if (pending)
+    pairer_.OnCamera(pending_utime);
+}
+
 int FrameIntake::FreeSlot() const {
   for (size_t i = 0; i < slots_.size(); ++i)
     if (slots_[i]->state == SlotState::kFree) return static_cast<int>(i);
@@ -141,7 +160,9 @@ void FrameIntake::OnCamera(const camera_frame_t& msg) {
   if (msg.camera_id != calib_.camera_id) return;
   std::lock_guard<std::mutex> lock(mutex_);
   ++counters_.camera_frames;
+  const int64_t restarts = camera_gaps_.restarts();
   counters_.camera_missed += camera_gaps_.Observe(msg.utime);
+  AfterObserve(camera_gaps_, restarts, true);
   if (!active_) {
     ++counters_.ignored_inactive;
     return;
@@ -183,7 +204,9 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.lidar_frames;
+    const int64_t restarts = lidar_gaps_.restarts();
     counters_.lidar_missed += lidar_gaps_.Observe(msg.utime);
+    AfterObserve(lidar_gaps_, restarts, false);
     if (!active_) {
       ++counters_.ignored_inactive;
       return;
@@ -192,6 +215,14 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
         msg.x.size() > static_cast<size_t>(config_.limits.max_points)) {
       Bad("lidar_frame_t: " + std::to_string(msg.num_points) + " points exceed the sweep limit " +
           std::to_string(config_.limits.max_points) + " (agent.max_points_per_sweep)");
+      return;
+    }
+    // Every array is copied into a slot reserved for max_points: one longer than num_points
+    // (only a message built in-process can be; LCM decodes num_points of each) would grow it.
+    const auto n = static_cast<size_t>(msg.num_points);
+    if (msg.x.size() != n || msg.y.size() != n || msg.z.size() != n || msg.intensity.size() != n ||
+        msg.ring.size() != n || msg.time_offset_us.size() != n) {
+      Bad("lidar_frame_t: array lengths differ from num_points " + std::to_string(n));
       return;
     }
     const FramePairer::LidarResult r = pairer_.OnLidar(msg.utime);

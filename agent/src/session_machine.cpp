@@ -46,6 +46,8 @@ const char* CollectionEndName(CollectionEnd end) {
       return "end_of_data";
     case CollectionEnd::kStopped:
       return "stopped";
+    case CollectionEnd::kSensorTimeout:
+      return "sensor_timeout";
   }
   return "unknown";
 }
@@ -95,6 +97,7 @@ RequestReply SessionMachine::Start(const StartRequest& request, int64_t now_us) 
   limit_us_ = request.max_duration_us > 0 ? request.max_duration_us : config_.max_duration_us;
   figures_ = CollectionFigures{};
   collection_end_ = CollectionEnd::kNone;
+  last_camera_us_ = last_lidar_us_ = last_pair_us_ = 0;
   solve_pending_ = false;
   verdict_ = CalibrationOutcome::Verdict::kRejected;
   committed_ = false;
@@ -133,13 +136,52 @@ RequestReply SessionMachine::Stop(int64_t now_us, const char* reason) {
 bool SessionMachine::FrameRecorded(const CollectionFigures& figures, int64_t now_us) {
   if (state_ != SessionState::kCollecting) return false;
   figures_ = figures;
+  last_pair_us_ = now_us;
   CheckCollectionEnd(now_us);
   if (state_ == SessionState::kCollecting) UpdateGuidance();
   return true;
 }
 
+void SessionMachine::FrameArrived(SensorStream sensor, int64_t now_us) {
+  if (state_ != SessionState::kCollecting) return;
+  (sensor == SensorStream::kCamera ? last_camera_us_ : last_lidar_us_) = now_us;
+}
+
 void SessionMachine::Tick(int64_t now_us) {
   if (state_ == SessionState::kCollecting) CheckCollectionEnd(now_us);
+}
+
+bool SessionMachine::CheckSensorTimeout(int64_t now_us) {
+  const int64_t timeout = config_.sensor_timeout_us;
+  if (timeout <= 0) return false;
+  // Only a sensor that sent in this session can stop: one that never did is named when the
+  // collection ends short (FinishCollection), since the agent may start before the sensors.
+  const bool camera_silent = last_camera_us_ > 0 && now_us - last_camera_us_ > timeout;
+  const bool lidar_silent = last_lidar_us_ > 0 && now_us - last_lidar_us_ > timeout;
+  const bool unpaired = last_camera_us_ > 0 && last_lidar_us_ > 0 && !camera_silent &&
+                        !lidar_silent && now_us - std::max(last_pair_us_, started_us_) > timeout;
+  if (!camera_silent && !lidar_silent && !unpaired) return false;
+  if (figures_.frames_with_boards >= config_.min_frames && figures_.boards >= config_.min_boards) {
+    EnterSolving(CollectionEnd::kSensorTimeout);  // enough already: solve what was collected
+    return true;
+  }
+  collection_end_ = CollectionEnd::kSensorTimeout;
+  if (unpaired) {
+    EnterFailed("no_pairs");
+    detail_ = "camera and LiDAR: both sending, but no frame pair for more than ";
+  } else {
+    // Both silent: the one silent longer is named.
+    const bool lidar = lidar_silent && (!camera_silent || last_lidar_us_ <= last_camera_us_);
+    EnterFailed(lidar ? "lidar_timeout" : "camera_timeout");
+    detail_ = lidar ? "LiDAR: no frame for more than " : "camera: no frame for more than ";
+  }
+  AppendInt(&detail_, timeout / 1000);
+  detail_ += unpaired ? " ms while collecting (their capture times do not pair, or every pair "
+                        "was malformed), "
+                      : " ms while collecting, ";
+  AppendInt(&detail_, figures_.frames_with_boards);
+  detail_ += " frame pairs with boards";
+  return true;
 }
 
 bool SessionMachine::CoverageMet() const {
@@ -158,6 +200,7 @@ void SessionMachine::CheckCollectionEnd(int64_t now_us) {
     EnterSolving(CollectionEnd::kCoverage);
     return;
   }
+  if (CheckSensorTimeout(now_us)) return;
   if (now_us - started_us_ < limit_us_) return;
   FinishCollection(CollectionEnd::kTimeLimit);
 }
@@ -173,6 +216,16 @@ void SessionMachine::FinishCollection(CollectionEnd end) {
   const bool frames_short = figures_.frames_with_boards < config_.min_frames;
   if (!frames_short && figures_.boards >= config_.min_boards) {
     EnterSolving(end);
+    return;
+  }
+  const bool no_camera = last_camera_us_ == 0, no_lidar = last_lidar_us_ == 0;
+  if (frames_short && no_camera != no_lidar) {
+    // Nothing could pair: name the sensor that sent nothing rather than the frames it cost.
+    EnterFailed(no_lidar ? "lidar_timeout" : "camera_timeout");
+    detail_ = no_lidar ? "LiDAR: no frame in this session, the camera sent ("
+                       : "camera: no frame in this session, the LiDAR sent (";
+    detail_ += CollectionEndName(end);
+    detail_ += ")";
     return;
   }
   EnterFailed(frames_short ? "too_few_frames" : "too_few_boards");

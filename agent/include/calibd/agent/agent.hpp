@@ -20,6 +20,7 @@
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/diagnostics.hpp"
 #include "calibd/agent/frame_intake.hpp"
+#include "calibd/agent/rate_limited_log.hpp"
 #include "calibd/agent/session_machine.hpp"
 #include "calibd/agent/session_recorder.hpp"
 #include "calibd/calibration_request_t.hpp"
@@ -76,7 +77,7 @@ class Agent : private uds::UdsBackend {
   RequestReply Start(const StartRequest& request);
   /// Commits the last `updated` result. kAccepted, kSequenceError (nothing to commit) or
   /// kFailure (the store write failed: the previous calibration stays in use).
-  uds::BackendReply Commit();
+  uds::BackendReply Commit() override;
   /// DTC test results from the agent's state (agent_uds.cpp): calibration performed, sensor
   /// replaced, sensor data timeouts (while collecting), store problems. `now_us` monotonic.
   void ReportDtcs(int64_t now_us);
@@ -153,6 +154,9 @@ class Agent : private uds::UdsBackend {
   int64_t last_status_us_ = 0, last_health_us_ = 0;
   int64_t rate_camera_frames_ = 0, rate_lidar_frames_ = 0, rate_since_us_ = 0;  ///< health rates
   bool end_of_log_ = false;
+  /// Malformed messages (intake bad_messages): the first logged at once, then one line per 10 s
+  /// with their count at most.
+  RateLimitedLog malformed_log_;
 
   /// CAN (UDS, status frame) and GPIO; each part optional (agent.can, agent.gpio).
   Diagnostics diag_;

@@ -62,8 +62,18 @@ struct IntakeCounters {
   /// Frames missing from each stream before the agent (network, LCM queue), from the gaps in
   /// their capture times (stream_gaps.hpp); counted whether collecting or not.
   int64_t camera_missed = 0, lidar_missed = 0;
+  /// Per sensor, from the capture times too (stream_gaps.hpp), whether collecting or not: a time
+  /// equal to the latest (duplicates), up to 2 s before it (late: reordered), and restarts (a
+  /// pause of more than 2 s, or the sensor's clock stepping back by more than 2 s). A received
+  /// frame that is a duplicate or late is one the stream had already sent or was counted missing
+  /// for, so frames sent = received + missed - duplicates - late (within one stream timeline).
+  int64_t camera_duplicates = 0, lidar_duplicates = 0;
+  int64_t camera_late = 0, lidar_late = 0;
+  int64_t camera_restarts = 0, lidar_restarts = 0;
   int64_t unpaired_camera = 0, unpaired_lidar = 0;
-  int64_t out_of_order = 0;   ///< timestamps that went backwards or repeated, skipped
+  /// Timestamps that went backwards or repeated while collecting, skipped by the pairing (a
+  /// sensor's clock stepping back by more than 2 s instead restarts the pairing: see above).
+  int64_t out_of_order = 0;
   int64_t bad_messages = 0;   ///< malformed or beyond the limits, skipped
   int64_t over_capacity = 0;  ///< pairs whose observations did not fit the session store
   /// The LiDAR detector's fixed capacities (LidarDetectorConfig), summed over the pairs drained:
@@ -121,6 +131,9 @@ class FrameIntake {
   enum class SlotState { kFree, kFilling, kQueued, kDone };
   void Worker(bool camera);
   void Bad(const std::string& what);
+  /// After `gaps` observed a frame: copies its counts into the counters and, when the frame was
+  /// a clock step back while collecting, restarts the pairing on the new timeline.
+  void AfterObserve(const StreamGaps& gaps, int64_t restarts_before, bool camera);
   int FreeSlot() const;
 
   IntakeConfig config_;

@@ -6,6 +6,8 @@
 ///
 ///   kIdle --Start--> kCollecting --target frames | coverage gates | time limit--> kSolving
 ///   kCollecting --time limit with too few frames or boards--> kFailed
+///   kCollecting --a sensor silent, or no pair, for sensor_timeout_us--> kSolving with enough
+///                 frames and boards, else kFailed (camera_timeout, lidar_timeout, no_pairs)
 ///   kSolving --SolveFinished--> kDone (verdict verified / updated / rejected)
 ///   kSolving --SolveFailed--> kFailed
 ///   kCollecting, kSolving --Stop--> kAborted
@@ -31,9 +33,20 @@ const char* SessionStateName(SessionState state);
 /// or it is parked and the boards are moved. Changes only the operator guidance.
 enum class SessionMode { kMoving, kStatic };
 
+/// The two streams a session needs (FrameArrived).
+enum class SensorStream { kCamera, kLidar };
+
 /// What ended the collection of the current session.
-enum class CollectionEnd { kNone, kTargetFrames, kCoverage, kTimeLimit, kEndOfData, kStopped };
-/// "none", "target_frames", "coverage", "time_limit", "end_of_data", "stopped".
+enum class CollectionEnd {
+  kNone,
+  kTargetFrames,
+  kCoverage,
+  kTimeLimit,
+  kEndOfData,
+  kStopped,
+  kSensorTimeout,  ///< a sensor fell silent or no pair came (SessionConfig::sensor_timeout_us)
+};
+/// "none", "target_frames", "coverage", "time_limit", "end_of_data", "stopped", "sensor_timeout".
 const char* CollectionEndName(CollectionEnd end);
 
 /// Upper bound of a request's collection time limit, us (the config's own limit is validated to
@@ -76,6 +89,14 @@ struct SessionConfig {
   int min_distance_bins = 3;                      ///< coverage gates (AgentConfig)
   int min_image_cells = 4;
   bool stop_on_coverage = true;  ///< end collection once the gates and min_frames are met
+  /// A sensor that sent a frame in this session and then none for longer than this (arrival
+  /// time, us) ends the collection (CollectionEnd::kSensorTimeout): solving with min_frames and
+  /// min_boards, else failing with "camera_timeout" / "lidar_timeout"; so does no frame pair
+  /// recorded for this long while both send ("no_pairs": their capture times do not pair, e.g.
+  /// one clock jumped). 2 s, as core/stream_gaps.hpp's restart: a shorter pause is lost frames
+  /// (counted), a longer one a stopped sensor. 0: off (the agent replaying a log, whose reading
+  /// pace is not the sensors').
+  int64_t sensor_timeout_us = 2000000;
 };
 
 /// From a validated AgentConfig (min_boards is the engine's verdict.min_boards).
@@ -101,7 +122,10 @@ class SessionMachine {
   /// the collection (target frames, coverage gates, time limit). False (ignored) when not
   /// collecting: frames keep arriving after collection ends.
   bool FrameRecorded(const CollectionFigures& figures, int64_t now_us);
-  /// Advances the time: may end the collection at its time limit.
+  /// A message of the configured sensor arrived (well-formed or not: this watches for silence).
+  /// Ignored unless collecting.
+  void FrameArrived(SensorStream sensor, int64_t now_us);
+  /// Advances the time: may end the collection at its time limit or on a sensor timeout.
   void Tick(int64_t now_us);
   /// The input ended (a replayed log was read to its end): the collection ends as at its time
   /// limit, solving when there are enough frames and boards, else failing. Ignored unless
@@ -156,8 +180,10 @@ class SessionMachine {
   /// Ends the collection when one of its conditions holds (target, coverage, time).
   void CheckCollectionEnd(int64_t now_us);
   /// Ends the collection before its target (time limit or end of data): solving with enough
-  /// frames and boards, else kFailed naming what was short.
+  /// frames and boards, else kFailed naming what was short (or the sensor that sent nothing).
   void FinishCollection(CollectionEnd end);
+  /// kFailed when a sensor fell silent or no pair came for sensor_timeout_us; true if so.
+  bool CheckSensorTimeout(int64_t now_us);
   void EnterSolving(CollectionEnd end);
   void EnterFailed(const char* reason);
   void UpdateProgress(int64_t now_us);
@@ -171,6 +197,8 @@ class SessionMachine {
   int64_t started_us_ = 0, limit_us_ = 0;
   CollectionFigures figures_;
   CollectionEnd collection_end_ = CollectionEnd::kNone;
+  /// Arrival of the latest camera frame, LiDAR frame and recorded pair in this session (0: none).
+  int64_t last_camera_us_ = 0, last_lidar_us_ = 0, last_pair_us_ = 0;
   bool solve_pending_ = false;
   CalibrationOutcome::Verdict verdict_ = CalibrationOutcome::Verdict::kRejected;
   bool committed_ = false;
