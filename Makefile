@@ -14,7 +14,8 @@ JOBS   ?= $(shell nproc)
 # /usr/bin/calibd-agent, /etc/calibd/calibd.yaml, /usr/lib/systemd/system/calibd.service.
 PREFIX ?= /usr
 
-.PHONY: all deps configure build test check demo docs-picture format clean install cross-test
+.PHONY: all deps configure build test check demo docs-picture format clean install cross-test \
+  fuzz-build fuzz-smoke fuzz
 
 all: build
 
@@ -46,6 +47,26 @@ demo: build
 # (build/aarch64-sysroot) when missing; see toolchains/cross-test.sh. CTEST_ARGS go to its ctest.
 cross-test:
 	@JOBS=$(JOBS) bash toolchains/cross-test.sh $(CTEST_ARGS)
+
+# libFuzzer targets (tests/fuzz/, preset fuzz: clang, ASan+UBSan): `make fuzz-smoke` builds only
+# them and runs each for 15 s from its seed corpus (ctest -L fuzz); `make fuzz FUZZ_SECONDS=600`
+# runs each for FUZZ_SECONDS, FUZZ_JOBS at a time, and prints executions and coverage per target.
+# Both fuzz copies of the corpora in build/fuzz/tests/fuzz/; crash inputs land in their artifacts/.
+FUZZ_SECONDS ?= 600
+FUZZ_JOBS    ?= 2
+FUZZ_DIR     := build/fuzz/tests/fuzz
+fuzz-build: deps
+	@cmake --preset fuzz >/dev/null
+	@cmake --build --preset fuzz -j $(JOBS) --target calibd_fuzz_targets
+
+fuzz-smoke: fuzz-build
+	@ctest --preset fuzz -j $(FUZZ_JOBS) $(CTEST_ARGS)
+
+fuzz: fuzz-build
+	@printf '%-26s %12s %8s %7s %7s %6s  %s\n' target executions exec/s cov ft corpus result
+	@ls $(FUZZ_DIR)/fuzz_* | grep -v '\.' | xargs -P $(FUZZ_JOBS) -I{} sh -c \
+	  'bash tests/fuzz/run_fuzz.sh {} tests/fuzz/corpus/$$(basename {} | sed s/^fuzz_//) \
+	   $(FUZZ_DIR)/long/$$(basename {}) $(FUZZ_SECONDS) || true'
 
 # Regenerates the README picture: the default workshop seen from 8 m, LiDAR points projected.
 docs-picture: build

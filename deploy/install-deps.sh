@@ -15,6 +15,9 @@ PACKAGES=(
   liblzf-dev
   # libjpeg-turbo: the agent decodes JPEG camera frames with it (drivers/src/jpeg_decoder.cpp)
   libjpeg62-turbo-dev
+  # libFuzzer targets (make fuzz-smoke, tests/fuzz/): clang, whose runtime libraries
+  # (libclang_rt.fuzzer, asan, ubsan) come with libclang-rt-14-dev
+  clang libclang-rt-14-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # the status frame's DBC decoded by a decoder we did not write (tests/dbc_decode.py)

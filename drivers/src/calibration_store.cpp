@@ -272,6 +272,20 @@ void ParseOrThrow(const std::string& text, StoredCalibration* out) {
   *out = c;
 }
 
+}  // namespace
+
+bool ParseCalibrationFile(const std::string& text, StoredCalibration* c, std::string* error) {
+  try {
+    ParseOrThrow(text, c);
+  } catch (const FileError& e) {
+    if (error) *error = e.what;
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
 enum class LoadStatus { kOk, kMissing, kBad };
 
 // Reads one stored calibration; `why` says what is wrong when it is not kOk.
@@ -295,13 +309,7 @@ LoadStatus LoadFile(const std::string& path, StoredCalibration* c, std::string* 
   }
   std::string text;
   if (!ReadWholeFile(path, &text, why)) return LoadStatus::kBad;
-  try {
-    ParseOrThrow(text, c);
-  } catch (const FileError& e) {
-    *why = e.what;
-    return LoadStatus::kBad;
-  }
-  return LoadStatus::kOk;
+  return ParseCalibrationFile(text, c, why) ? LoadStatus::kOk : LoadStatus::kBad;
 }
 
 bool WriteCalibrationFile(const std::string& path, const StoredCalibration& c, std::string* error) {

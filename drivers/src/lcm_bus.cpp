@@ -13,6 +13,80 @@
 
 namespace calibd {
 
+namespace lcm_bus_detail {
+
+namespace {
+
+// Reads the encoded message's head up to its count field, as lcm-gen lays it out: 8-byte type
+// fingerprint, then the fields in order, integers big-endian, strings as int32 length (with the
+// NUL) and bytes. `pos` advances; false when the bytes end first.
+class HeadReader {
+ public:
+  HeadReader(const void* data, int size)
+      : d_(static_cast<const uint8_t*>(data)), n_(size < 0 ? 0 : static_cast<size_t>(size)) {}
+  bool Skip(size_t bytes) {
+    if (n_ - pos_ < bytes) return false;
+    pos_ += bytes;
+    return true;
+  }
+  bool Int32(int32_t* v) {
+    if (n_ - pos_ < 4) return false;
+    const uint32_t u = uint32_t{d_[pos_]} << 24 | uint32_t{d_[pos_ + 1]} << 16 |
+                       uint32_t{d_[pos_ + 2]} << 8 | uint32_t{d_[pos_ + 3]};
+    pos_ += 4;
+    *v = static_cast<int32_t>(u);
+    return true;
+  }
+  // lcm-gen's decode computes `length - 1` in int (overflow for INT32_MIN) and assigns that many
+  // chars: a length below 1 is malformed, not just short.
+  bool String() {
+    int32_t length = 0;
+    if (!Int32(&length)) return false;
+    if (length < 1) bad_ = true;
+    return !bad_ && Skip(static_cast<size_t>(length));
+  }
+  bool bad() const { return bad_; }
+  size_t left() const { return n_ - pos_; }
+
+ private:
+  const uint8_t* d_;
+  size_t n_, pos_ = 0;
+  bool bad_ = false;
+};
+
+// `count` elements of `bytes_each` bytes fit in what is left.
+bool CountFits(int32_t count, size_t bytes_each, size_t left) {
+  return count >= 0 && static_cast<size_t>(count) <= left / bytes_each;
+}
+
+}  // namespace
+
+}  // namespace lcm_bus_detail
+
+bool lcm_bus_detail::EncodedCountsFit(const camera_frame_t*, const void* data, int size) {
+  HeadReader r(data, size);
+  int32_t count = 0;
+  // fingerprint, utime, camera_id, width, height, stride (int32), encoding (int8), size
+  if (!r.Skip(16) || !r.String() || !r.Skip(4 + 4 + 4 + 1) || !r.Int32(&count)) return !r.bad();
+  return CountFits(count, 1, r.left());
+}
+
+bool lcm_bus_detail::EncodedCountsFit(const calibration_request_t*, const void* data, int size) {
+  HeadReader r(data, size);
+  // fingerprint, utime, action, mode (int8), max_duration_ms, requester
+  if (r.Skip(16 + 1 + 1 + 4)) r.String();
+  return !r.bad();
+}
+
+bool lcm_bus_detail::EncodedCountsFit(const lidar_frame_t*, const void* data, int size) {
+  HeadReader r(data, size);
+  int32_t count = 0;
+  // fingerprint, utime, lidar_id, num_points; then per point x y z intensity (float), ring
+  // (int16), time_offset_us (int32).
+  if (!r.Skip(16) || !r.String() || !r.Int32(&count)) return !r.bad();
+  return CountFits(count, 4 * 4 + 2 + 4, r.left());
+}
+
 struct LcmBus::Channel {
   std::string name;
   std::unique_ptr<lcm_bus_detail::Decoder> decoder;

@@ -64,6 +64,12 @@ struct StoredCalibration {
   bool IsValid(std::string* error) const;
 };
 
+/// Parses the text of one stored calibration file (what CalibrationStore::Open reads for each
+/// file): format, format version, known fields only, CRC-32 and content checks. False with `error`
+/// saying what is wrong (e.g. "checksum mismatch (file corrupt or truncated)"); `c` is then
+/// untouched.
+bool ParseCalibrationFile(const std::string& text, StoredCalibration* c, std::string* error);
+
 struct CalibrationStoreConfig {
   std::string directory;  ///< created (mode 0700) if missing; its parent must exist
   /// Previous versions kept besides the current one. More keep older calibrations to go back to;

@@ -37,6 +37,10 @@
 #include <string_view>
 #include <utility>
 
+#include "calibd/calibration_request_t.hpp"
+#include "calibd/camera_frame_t.hpp"
+#include "calibd/lidar_frame_t.hpp"
+
 namespace calibd {
 
 /// What one channel's subscription received.
@@ -59,12 +63,26 @@ class Decoder {
   virtual void Deliver(int64_t recv_utime) = 0;
 };
 
+/// Whether the array counts in the `size` encoded bytes at `data` could be met by those bytes:
+/// lcm-gen's decode resizes each array to the count it read (zero-filling it) before checking
+/// that the bytes are there, so a 78-byte lidar_frame_t claiming 2^28 points made the agent fill
+/// and keep ~1 GB (found by tests/fuzz/fuzz_lcm_lidar). False for a negative count or more
+/// elements than bytes left, or a string length below 1 (decode computed `length - 1` in int:
+/// undefined for INT32_MIN); true when the header is too short to tell (decode refuses it).
+bool EncodedCountsFit(const calibration_request_t* type, const void* data, int size);
+bool EncodedCountsFit(const camera_frame_t* type, const void* data, int size);
+bool EncodedCountsFit(const lidar_frame_t* type, const void* data, int size);
+/// Other types: no array sized by a count in calibd's messages, nothing to check.
+inline bool EncodedCountsFit(const void*, const void*, int) { return true; }
+
 template <typename Msg>
 class TypedDecoder final : public Decoder {
  public:
   explicit TypedDecoder(std::function<void(const Msg&, int64_t)> handler)
       : handler_(std::move(handler)) {}
-  bool Decode(const void* data, int size) override { return msg_.decode(data, 0, size) == size; }
+  bool Decode(const void* data, int size) override {
+    return EncodedCountsFit(&msg_, data, size) && msg_.decode(data, 0, size) == size;
+  }
   void Deliver(int64_t recv_utime) override { handler_(msg_, recv_utime); }
 
  private:
