@@ -11,6 +11,8 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -209,6 +211,57 @@ TEST(LcmBusTest, MessageThatDoesNotDecodeIsCountedAndSkipped) {
   EXPECT_EQ(bus.counters(kLidarChannel).decode_errors, 1);
   EXPECT_EQ(bus.decode_errors(), 3);
   EXPECT_EQ(bus.counters("NOT_SUBSCRIBED").received, 0);
+}
+
+// Inputs found by the fuzz targets (tests/fuzz/corpus/lcm_*/crash-*): an array count far beyond
+// the message's bytes (a 78-byte lidar_frame_t claiming 0x0d0d0d0d points, a camera_frame_t's
+// `size` likewise). lcm-gen's decode zero-filled the array to that count before finding the bytes
+// missing: seconds and ~1 GB per message, kept as the reused message's capacity. Refused now
+// before decode runs.
+TEST(LcmBusTest, ArrayCountsBeyondTheMessageAreRefusedBeforeDecoding) {
+  const auto read = [](const std::string& name) {
+    std::ifstream in(std::string(CALIBD_SOURCE_DIR) + "/tests/fuzz/corpus/" + name,
+                     std::ios::binary);
+    return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::vector<uint8_t> lidar_bytes = read("lcm_lidar/crash-huge-num-points");
+  const std::vector<uint8_t> camera_bytes = read("lcm_camera/crash-huge-size");
+  ASSERT_EQ(lidar_bytes.size(), 78u);
+  ASSERT_EQ(camera_bytes.size(), 157u);
+  const int lidar_size = static_cast<int>(lidar_bytes.size());
+  const int camera_size = static_cast<int>(camera_bytes.size());
+  const lidar_frame_t* lidar_type = nullptr;
+  const camera_frame_t* camera_type = nullptr;
+  EXPECT_FALSE(lcm_bus_detail::EncodedCountsFit(lidar_type, lidar_bytes.data(), lidar_size));
+  EXPECT_FALSE(lcm_bus_detail::EncodedCountsFit(camera_type, camera_bytes.data(), camera_size));
+  lcm_bus_detail::TypedDecoder<lidar_frame_t> lidar([](const lidar_frame_t&, int64_t) {});
+  lcm_bus_detail::TypedDecoder<camera_frame_t> camera([](const camera_frame_t&, int64_t) {});
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_FALSE(lidar.Decode(lidar_bytes.data(), lidar_size));
+  EXPECT_FALSE(camera.Decode(camera_bytes.data(), camera_size));
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(100));
+
+  // Real frames still fit exactly, and one point more than the bytes hold does not.
+  const lidar_frame_t good = MakeLidar(1000);
+  std::vector<uint8_t> bytes(static_cast<size_t>(good.getEncodedSize()));
+  good.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  const int size = static_cast<int>(bytes.size());
+  EXPECT_TRUE(lcm_bus_detail::EncodedCountsFit(lidar_type, bytes.data(), size));
+  EXPECT_TRUE(lidar.Decode(bytes.data(), size));
+  const size_t count_at = 8 + 8 + 4 + good.lidar_id.size() + 1;
+  bytes[count_at + 3] = static_cast<uint8_t>(bytes[count_at + 3] + 1);
+  EXPECT_FALSE(lcm_bus_detail::EncodedCountsFit(lidar_type, bytes.data(), size));
+  // A string length of INT32_MIN (lcm-gen's decode computed length - 1 with signed overflow).
+  good.encode(bytes.data(), 0, size);
+  const size_t string_at = 8 + 8;  // fingerprint, utime, then lidar_id's int32 length
+  bytes[string_at] = 0x80;
+  bytes[string_at + 1] = bytes[string_at + 2] = bytes[string_at + 3] = 0x00;
+  EXPECT_FALSE(lcm_bus_detail::EncodedCountsFit(lidar_type, bytes.data(), size));
+  EXPECT_FALSE(lidar.Decode(bytes.data(), size));
+  const camera_frame_t cam = MakeCamera(1000);
+  bytes.resize(static_cast<size_t>(cam.getEncodedSize()));
+  cam.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  EXPECT_TRUE(camera.Decode(bytes.data(), static_cast<int>(bytes.size())));
 }
 
 TEST(LcmBusTest, RegistryChannelsOnlyCarryTheirType) {
