@@ -46,6 +46,7 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -1170,6 +1171,115 @@ TEST_F(AgentDiagVm, WorkshopFlowCalibratesCommitsAndStores) {
       [](const StatusFrame& s) { return s.calibration == StatusFrame::Calibration::kValid; }, 3,
       after_commit, &valid));
   EXPECT_NEAR(valid.check.status.calibration_age_h, 0.0, 1.0);
+}
+
+// d. A noisy bus: during a whole calibration, random frames (random 11-bit ids other than the
+// diagnostic and status ids, random length and bytes) while the tester polls the routine's
+// results, the current extrinsic and TesterPresent every 100 ms. ISO 14229-2 §7.2: a request is
+// answered within P2 (50 ms, as the agent announces) or gets a 0x78 in that time; the
+// calibration still reaches its verdict. (Frames on the agent's own request ids would be
+// requests, not noise: the transport cases above send those.)
+// The rate: 1000 frames/s, a quarter of a 500 kbit/s bus. The generator runs inside the emulated
+// (TCG) guest, on the same two emulated cores as the agent: at a full bus's ~4000 frames/s it
+// took so much of them that 42% of the requests were answered after 50 ms (up to ~110 ms), while
+// at 1000 frames/s none were, and without any flood 2% were (50-60 ms: the emulation's own
+// jitter). So P2 is asserted on 95% of the requests, every request must be answered, and
+// CALIBD_FLOOD_FPS sets another rate by hand.
+TEST_F(AgentDiagVm, CanFloodDuringACalibrationLeavesEveryResponseWithinP2) {
+  StartAgent();
+  const double kFloodFps =
+      Env("CALIBD_FLOOD_FPS").empty() ? 1000.0 : std::atof(Env("CALIBD_FLOOD_FPS").c_str());
+  std::atomic<bool> flooding{true};
+  std::atomic<int64_t> sent{0}, refused{0};
+  int64_t flood_start_us = NowUs(), flood_end_us = 0;
+  std::thread flood([&] {
+    RawCan bus;
+    if (!bus.ok()) return;
+    std::mt19937 rng(99);
+    const double kFramesPerUs = kFloodFps * 1e-6;
+    while (flooding) {
+      const auto due =
+          static_cast<int64_t>(static_cast<double>(NowUs() - flood_start_us) * kFramesPerUs);
+      while (sent + refused < due) {
+        canid_t id = rng() & CAN_SFF_MASK;
+        if (id == 0x7E0 || id == 0x7E8 || id == 0x7DF || id == kStatusFrameId) id = 0x100;
+        std::vector<uint8_t> data(rng() % 9);
+        for (auto& b : data) b = static_cast<uint8_t>(rng());
+        (bus.Send(id, data) ? sent : refused)++;
+      }
+      SleepMs(1);
+    }
+  });
+  struct Poll {
+    const char* request;
+    int answered = 0, pending = 0, late = 0, lost = 0, max_waited_ms = 0;
+  };
+  Poll polls[] = {{"31 03 F0 A0"}, {"22 FD 00"}, {"3E 00"}};
+  // One request; late: its final answer came after P2 without a 0x78 before it.
+  auto timed = [&](Poll* p) {
+    IsoTpConfig config;
+    config.interface = kInterface;
+    tester::ClientTiming timing;
+    timing.p2_ms = 2000;
+    tester::UdsClient client;
+    std::string error;
+    tester::UdsReply r;
+    if (client.Open(config, timing, &error)) r = client.Request(Bytes(p->request));
+    p->pending += r.pending_count;
+    if (r.outcome == tester::UdsReply::Outcome::kPositive ||
+        r.outcome == tester::UdsReply::Outcome::kNegative) {
+      ++p->answered;
+      if (r.pending_count == 0) {
+        p->max_waited_ms = std::max(p->max_waited_ms, r.waited_ms);
+        if (r.waited_ms > 50) ++p->late;
+      }
+    } else {
+      ++p->lost;
+      std::printf("%s: no answer (%d ms waited, %d pending) %s\n", p->request, r.waited_ms,
+                  r.pending_count, r.error.c_str());
+    }
+    return r;
+  };
+
+  ToolRun r = Tester("session extended");
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = Tester("--secret " + secret() + " unlock");
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(Uds("31 01 F0 A0 00 00 00").text.substr(0, 11), "71 01 F0 A0") << "agent log:\n"
+                                                                           << ReadFile(agent_log_);
+  const int64_t t0 = NowUs();
+  uint8_t status = 0x01;
+  while (status == 0x01 && NowUs() - t0 < int64_t{150} * 1000000) {
+    for (Poll& p : polls) {
+      const tester::UdsReply reply = timed(&p);
+      if (&p == &polls[0] && reply.outcome == tester::UdsReply::Outcome::kPositive &&
+          reply.bytes.size() > 4)
+        status = reply.bytes[4];
+      SleepMs(100 / 3);
+    }
+  }
+  flooding = false;
+  flood_end_us = NowUs();
+  flood.join();
+  const double flood_s = static_cast<double>(flood_end_us - flood_start_us) * 1e-6;
+  std::printf("flood: %lld frames in %.1f s (%.0f frames/s), %lld refused by the socket\n",
+              static_cast<long long>(sent.load()), flood_s,
+              static_cast<double>(sent.load()) / flood_s, static_cast<long long>(refused.load()));
+  for (const Poll& p : polls)
+    std::printf("%-12s answered %d (after P2: %d), lost %d, 0x78 %d, slowest %d ms\n", p.request,
+                p.answered, p.late, p.lost, p.pending, p.max_waited_ms);
+  EXPECT_GT(static_cast<double>(sent.load()) / flood_s, 0.9 * kFloodFps) << "no flood";
+  EXPECT_EQ(status, 0x02) << "the calibration did not succeed (status " << static_cast<int>(status)
+                          << "); agent log:\n"
+                          << ReadFile(agent_log_);
+  for (const Poll& p : polls) {
+    EXPECT_GT(p.answered, 10) << p.request;
+    EXPECT_EQ(p.lost, 0) << p.request << ": requests without an answer";
+    EXPECT_LE(p.late, p.answered / 20) << p.request << ": more than 5% answered after P2";
+  }
+  r = Tester("results");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_HAS(r.out, "verdict: updated\n");
 }
 
 // c. The factory line: with the interlock asserted, a start-button press (with contact bounce)
