@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -163,6 +164,23 @@ void CommitExamples(const CalibrationStoreConfig& config, int n) {
   std::string error;
   ASSERT_TRUE(store.Open(config, &error)) << error;
   for (int i = 1; i <= n; ++i) ASSERT_TRUE(store.Commit(Example(i), &error)) << error;
+}
+
+// fuzz_calibration_store found a number beyond double's range ("666666666E6666666666666") making
+// nlohmann::json throw out_of_range, which escaped the parser: the agent would have died at start
+// on such a file. Now it is a corrupt file like any other.
+TEST(CalibrationStoreTest, NumberOverflowIsACorruptFileNotACrash) {
+  std::ifstream in(
+      std::string(CALIBD_SOURCE_DIR) + "/tests/fuzz/corpus/calibration_store/crash-number-overflow",
+      std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(text.size(), 95u);
+  StoredCalibration c;
+  std::string error;
+  EXPECT_FALSE(ParseCalibrationFile(text, &c, &error));
+  EXPECT_NE(error.find("not valid JSON"), std::string::npos) << error;
+  EXPECT_FALSE(ParseCalibrationFile("{\"format\": 1e999}", &c, &error));
+  EXPECT_NE(error.find("not valid JSON"), std::string::npos) << error;
 }
 
 TEST(CalibrationStoreTest, NewStoreIsEmptyAndCreatesItsDirectory) {

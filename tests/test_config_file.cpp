@@ -102,7 +102,11 @@ INSTANTIATE_TEST_SUITE_P(
                       BadCase{"frame_id: camera", "frame_id: \"cam era\"", "camera.frame_id"},
                       BadCase{"frame_id: camera", "frame_id: \"\"", "camera.frame_id"},
                       BadCase{"frame_id: lidar", "frame_id: [lidar]", "lidar.frame_id"},
-                      BadCase{"frame_id: lidar", "frame_id: camera", "lidar.frame_id"}));
+                      BadCase{"frame_id: lidar", "frame_id: camera", "lidar.frame_id"},
+                      // fuzz_calib_config: an id that ConfigToYaml could not write back.
+                      BadCase{"id: front", "id: \"front \\x01\"", "camera.id"},
+                      BadCase{"id: roof", "id: \"roof \"", "lidar.id"},
+                      BadCase{"id: roof", "id: \"\"", "lidar.id"}));
 
 TEST(ConfigFileTest, FrameIdsRoundTripAndDefault) {
   CalibConfig c = Example();

@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <iomanip>
+#include <iterator>
 #include <opencv2/core.hpp>
 #include <sstream>
 
@@ -195,6 +197,21 @@ TEST(IntrinsicsFileTest, BadFilesNameTheKey) {
   std::string error;
   EXPECT_FALSE(LoadIntrinsicsFile("/nonexistent/cam.yaml", &read, &error));
   EXPECT_NE(error.find("/nonexistent/cam.yaml"), std::string::npos);
+}
+
+// fuzz_intrinsics found OpenCV's YAML reader throwing std::length_error (not a cv::Exception) on
+// this malformed %YAML file (tests/fuzz/corpus/intrinsics/crash-opencv-length-error): refused
+// with a message naming the file, not a crash.
+TEST(IntrinsicsFileTest, WhateverTheParserThrowsTheFileIsRefused) {
+  std::ifstream in(
+      std::string(CALIBD_SOURCE_DIR) + "/tests/fuzz/corpus/intrinsics/crash-opencv-length-error",
+      std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(text.size(), 284u);
+  CameraIntrinsics intrinsics;
+  std::string error;
+  EXPECT_FALSE(ParseIntrinsics(text, "bad.yaml", &intrinsics, &error));
+  EXPECT_EQ(error.rfind("bad.yaml: ", 0), 0u) << error;
 }
 
 }  // namespace

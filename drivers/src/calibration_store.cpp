@@ -211,6 +211,9 @@ void ParseOrThrow(const std::string& text, StoredCalibration* out) {
   } catch (const Json::parse_error& e) {
     throw FileError{"not valid JSON at byte " + std::to_string(e.byte) +
                     " (file corrupt or truncated)"};
+  } catch (const Json::exception& e) {
+    // E.g. out_of_range 406: a number beyond double's range (found by fuzz_calibration_store).
+    throw FileError{std::string("not valid JSON (file corrupt): ") + e.what()};
   }
   if (!file.is_object()) throw FileError{"not a JSON object (file corrupt)"};
   if (GetString(file, "format") != kFormatName)

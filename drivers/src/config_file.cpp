@@ -49,14 +49,25 @@ void CheckKnown(const YAML::Node& map, std::initializer_list<const char*> known,
   }
 }
 
+// Sensor ids match the LCM messages' camera_id/lidar_id, and frame ids go into the exported
+// files (ROS, URDF, JSON): 1-64 printable characters without spaces. (fuzz_calib_config found
+// an id ending in a control character that ConfigToYaml could not write back as it was read.)
+std::string Name(const std::string& value, const std::string& key) {
+  bool ok = !value.empty() && value.size() <= 64;
+  for (const char ch : value) ok = ok && ch > ' ' && ch < 0x7F;
+  if (!ok) throw KeyError{key, "must be 1-64 printable characters without spaces"};
+  return value;
+}
+
 void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
   CheckKnown(root, {"camera", "lidar", "boards", "prior"}, "");
   const YAML::Node cam = Child(root, "camera", "camera");
   CheckKnown(cam,
              {"id", "frame_id", "width", "height", "fx", "fy", "cx", "cy", "model", "distortion"},
              "camera");
-  c->camera_id = Get<std::string>(cam, "id", "camera.id");
-  c->camera_frame = GetOr<std::string>(cam, "frame_id", "camera.frame_id", c->camera_frame);
+  c->camera_id = Name(Get<std::string>(cam, "id", "camera.id"), "camera.id");
+  c->camera_frame = Name(GetOr<std::string>(cam, "frame_id", "camera.frame_id", c->camera_frame),
+                         "camera.frame_id");
   c->camera.width = Get<int>(cam, "width", "camera.width");
   c->camera.height = Get<int>(cam, "height", "camera.height");
   c->camera.fx = Get<double>(cam, "fx", "camera.fx");
@@ -88,8 +99,9 @@ void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
 
   const YAML::Node lidar = Child(root, "lidar", "lidar");
   CheckKnown(lidar, {"id", "frame_id", "model", "generic"}, "lidar");
-  c->lidar_id = Get<std::string>(lidar, "id", "lidar.id");
-  c->lidar_frame = GetOr<std::string>(lidar, "frame_id", "lidar.frame_id", c->lidar_frame);
+  c->lidar_id = Name(Get<std::string>(lidar, "id", "lidar.id"), "lidar.id");
+  c->lidar_frame = Name(GetOr<std::string>(lidar, "frame_id", "lidar.frame_id", c->lidar_frame),
+                        "lidar.frame_id");
   c->lidar_model = Get<std::string>(lidar, "model", "lidar.model");
   if (const YAML::Node g = lidar["generic"]) {
     // lidar.model generic: every value optional, 0 (or absent) = estimated from the data.

@@ -299,6 +299,11 @@ bool ParseIntrinsics(const std::string& text, const std::string& name, CameraInt
   } catch (const cv::Exception& e) {
     if (error) *error = name + ": OpenCV FileStorage: " + e.what();
     return false;
+  } catch (const std::exception& e) {
+    // OpenCV's YAML reader lets a std::length_error out of some malformed text (found by
+    // fuzz_intrinsics); whatever a parser throws, the file is refused, never fatal.
+    if (error) *error = name + ": cannot parse (" + e.what() + ")";
+    return false;
   }
   return true;
 }
