@@ -150,5 +150,25 @@ TEST_F(UdsDtcTest, FileWithoutALaterDtcKeepsTheOthers) {
   EXPECT_NE(server_->warnings().find("dtc_status: corrupt"), std::string::npos);
 }
 
+// 5A0300 (C1A03-00, calibration session interrupted): its number, its name in the tester, and its
+// status across a restart like any other; a file written before it existed loads without it.
+TEST_F(UdsDtcTest, SessionInterruptedPersistsAndPasses) {
+  EXPECT_EQ(kDtcNumbers[static_cast<size_t>(Dtc::kSessionInterrupted)], 0x5A0300u);
+  EXPECT_EQ(DtcStore::IndexOf(0x5A0300), static_cast<int>(Dtc::kSessionInterrupted));
+  Report(Dtc::kSessionInterrupted, true);
+  EXPECT_EQ(server_->dtcs().status(Dtc::kSessionInterrupted), 0x2F);
+  Restart();  // the agent restarted: a new operation cycle
+  EXPECT_EQ(server_->dtcs().status(Dtc::kSessionInterrupted), 0x6D);
+  EXPECT_EQ(Tx({0x19, 0x02, 0x01}), (Bytes{0x59, 0x02, 0x7F, 0x5A, 0x03, 0x00, 0x6D}));
+  Report(Dtc::kSessionInterrupted, false);  // the next session ended with a result
+  EXPECT_EQ(server_->dtcs().status(Dtc::kSessionInterrupted), 0x2C);
+  std::ofstream(config_.state_dir + "/dtc_status")
+      << "calibd-dtc 1\n5A0054 2F\n5A0064 50\n5A0056 50\n5A0187 50\n5A0287 50\n5A0046 50\n"
+         "C00188 50\n5A0044 50\nend\n";
+  Restart();
+  EXPECT_TRUE(server_->warnings().empty()) << server_->warnings();
+  EXPECT_EQ(server_->dtcs().status(Dtc::kSessionInterrupted), 0x50);
+}
+
 }  // namespace
 }  // namespace calibd::uds

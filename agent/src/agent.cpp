@@ -14,6 +14,7 @@
 #include <ctime>
 #include <iostream>
 
+#include "calibd/agent/session_marker.hpp"
 #include "calibd/calibration_status_t.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/core/lidar_model.hpp"
@@ -97,6 +98,41 @@ void Agent::Log(const std::string& line) const {
   if (!options_.quiet) std::cerr << "calibd-agent: " << line << std::endl;
 }
 
+void Agent::CheckInterruptedSession() {
+  marker_path_ = SessionMarkerPath(config_.store.directory);
+  SessionMarker marker;
+  std::string error;
+  const MarkerRead read = ReadSessionMarker(marker_path_, &marker, &error);
+  if (read == MarkerRead::kNone) {
+    RemoveSessionMarker(marker_path_, &error);  // a temp file of a write cut short, if any
+    return;
+  }
+  std::string line;
+  if (read == MarkerRead::kFound) {
+    char started[32] = "an unknown time";
+    const time_t t = static_cast<time_t>(marker.started_unix_s);
+    tm utc{};
+    if (gmtime_r(&t, &utc) != nullptr) std::strftime(started, sizeof(started), "%FT%TZ", &utc);
+    line = "the previous run stopped during session " + std::to_string(marker.session) +
+           " (started by '" + marker.trigger + "' at " + started + ")";
+  } else {
+    line = "the previous run stopped during a session (" + error + ")";
+  }
+  line += " without a result: aborted; the stored calibration is unchanged";
+  Log(line);
+  // In CALIBD_STATUS until a session starts (Start clears it).
+  last_error_ = "session_interrupted: " + line;
+  diag_.Report(uds::Dtc::kSessionInterrupted, true);
+  if (!RemoveSessionMarker(marker_path_, &error)) Log("session marker: " + error);
+}
+
+void Agent::EndSessionMarker() {
+  if (marker_session_ == 0) return;
+  std::string error;
+  if (!RemoveSessionMarker(marker_path_, &error)) Log("session marker: " + error);
+  marker_session_ = 0;
+}
+
 bool Agent::Init(const AgentOptions& options, std::string* error) {
   options_ = options;
   // Blocked before the detector and LCM threads start, so that they inherit the mask: a stop
@@ -125,6 +161,7 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
     Log("diagnostics: UDS on " + config_.isotp.interface + ", status frame " +
         CanIdText(config_.status_frame_id));
   }
+  CheckInterruptedSession();
   if (!wake_.Open(error)) return false;
   intake_.SetReadyEvent(&wake_);
   if (!intake_.Init(IntakeConfigFrom(config_), config_.calib, error)) return false;
@@ -260,6 +297,17 @@ RequestReply Agent::Start(const StartRequest& request) {
   last_error_.clear();
   intake_.SetActive(true);
   Log("session " + std::to_string(machine_.session()) + " started by '" + request.requester + "'");
+  // Kept until the session ends: found at the next start-up, it tells of a run that died
+  // mid-session. Not written (read-only store): the session runs, only that report is lost.
+  SessionMarker marker;
+  marker.session = machine_.session();
+  marker.trigger = request.requester;
+  marker.started_unix_s = WallUs() / 1000000;
+  std::string error;
+  if (WriteSessionMarker(marker_path_, marker, &error))
+    marker_session_ = marker.session;
+  else
+    Log("session marker not written: " + error);
   return reply;
 }
 
@@ -306,6 +354,7 @@ void Agent::FinishSolve() {
     diag_.Report(uds::Dtc::kStoreWriteFailed, !written);
   }
   diag_.Report(uds::Dtc::kResultRejected, o.verdict == CalibrationOutcome::Verdict::kRejected);
+  diag_.Report(uds::Dtc::kSessionInterrupted, false);  // a session ended with a result
   PublishResult();
   if (o.verdict == CalibrationOutcome::Verdict::kUpdated && config_.auto_commit &&
       !machine_.request().verify_only)
@@ -418,6 +467,8 @@ void Agent::Step(int64_t now_us) {
   }
   if (machine_.NeedsSolve()) StartSolve();
   if (solver_.joinable() && solve_done_) FinishSolve();
+  if (machine_.state() != SessionState::kCollecting && machine_.state() != SessionState::kSolving)
+    EndSessionMarker();
   ReportDtcs(now_us);
   if (now_us - last_status_us_ >= static_cast<int64_t>(1e6 / config_.status_rate_hz)) {
     PublishStatus();
@@ -609,6 +660,7 @@ int Agent::Run() {
         Log(std::string("signal ") + strsignal(static_cast<int>(info.ssi_signo)) + ": stopping");
       notifier_.Stopping();
       machine_.Stop(MonotonicUs());
+      EndSessionMarker();  // a clean stop: nothing to report at the next start
       return 0;
     }
     if (fds[1].revents & POLLIN) {
@@ -643,6 +695,7 @@ int Agent::Run() {
       Log("ECU reset requested over UDS: restarting");
       notifier_.Stopping();
       machine_.Stop(step_us, "ecu_reset");
+      EndSessionMarker();
       return kAgentExitRestart;
     }
     if (options_.once) {

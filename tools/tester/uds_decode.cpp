@@ -212,7 +212,8 @@ const char* DtcName(uint32_t number) {
                                                          "camera data timeout",
                                                          "calibration store corrupt",
                                                          "CAN bus-off",
-                                                         "calibration store write failed"};
+                                                         "calibration store write failed",
+                                                         "calibration session interrupted"};
   const int index = uds::DtcStore::IndexOf(number);
   return index < 0 ? "not a calibd DTC" : kNames[index];
 }

@@ -120,6 +120,11 @@ class Agent : private uds::UdsBackend {
   /// holds the calibration, the exports are copies.
   void WriteExports();
   void Log(const std::string& line) const;
+  /// At start-up: a session marker left by the previous run (session_marker.hpp) means it
+  /// stopped during a session; logs it, reports DTC 5A0300 and removes the marker.
+  void CheckInterruptedSession();
+  /// Removes the session marker once the session has ended (any outcome) or on a clean stop.
+  void EndSessionMarker();
 
   AgentConfig config_;
   AgentOptions options_;
@@ -165,6 +170,10 @@ class Agent : private uds::UdsBackend {
   bool reset_requested_ = false;  ///< UDS 0x11: Run returns kAgentExitRestart
   int64_t last_camera_us_ = 0, last_lidar_us_ = 0;       ///< monotonic arrival of the last frames
   bool camera_timeout_ = false, lidar_timeout_ = false;  ///< DTC states last reported
+  /// `<agent.store.directory>/session_in_progress`; marker_session_ is the session it names
+  /// (0: none written).
+  std::string marker_path_;
+  int marker_session_ = 0;
 
   /// Type=notify unit: READY=1, STATUS=, WATCHDOG=1 from the loop's timer, STOPPING=1.
   SystemdNotifier notifier_;

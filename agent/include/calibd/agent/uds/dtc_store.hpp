@@ -18,6 +18,11 @@
 /// - C1A00-44 = 0x5A0044: calibration store write failed (FTB 44 data memory failure): the last
 ///   commit, restore or verification could not be written (full or read-only filesystem, I/O
 ///   error); the previous calibration stays in use. Passes at the next successful store write.
+/// - C1A03-00 = 0x5A0300: calibration session interrupted (C1A03 the calibration routine, FTB 00
+///   no sub-type information): the previous run of the agent stopped during a session without a
+///   result (killed, crashed, power lost), found at start-up from the session marker the run
+///   left in the store directory; the stored calibration is unchanged. Passes when a session
+///   next ends with a result.
 ///
 /// Status bits (Annex D.2): bit 0 testFailed, 1 testFailedThisOperationCycle, 2 pendingDTC,
 /// 3 confirmedDTC, 4 testNotCompletedSinceLastClear, 5 testFailedSinceLastClear,
@@ -48,11 +53,12 @@ enum class Dtc : uint8_t {
   kStoreCorrupt,
   kCanBusOff,
   kStoreWriteFailed,
+  kSessionInterrupted,
 };
-inline constexpr size_t kDtcCount = 8;
+inline constexpr size_t kDtcCount = 9;
 /// The three-byte DTC number of each Dtc, in enum order.
 inline constexpr std::array<uint32_t, kDtcCount> kDtcNumbers = {
-    0x5A0054, 0x5A0064, 0x5A0056, 0x5A0187, 0x5A0287, 0x5A0046, 0xC00188, 0x5A0044};
+    0x5A0054, 0x5A0064, 0x5A0056, 0x5A0187, 0x5A0287, 0x5A0046, 0xC00188, 0x5A0044, 0x5A0300};
 
 enum DtcStatusBit : uint8_t {
   kTestFailed = 0x01,
