@@ -141,6 +141,26 @@ TEST(PcdReaderTest, OnlyXyzAndVersion06) {
   }
 }
 
+// fuzz_pcd: float64 coordinates beyond float's range became inf points. They are dropped like
+// NaN ones, and an out-of-range intensity (carried, never used) becomes 0.
+TEST(PcdReaderTest, Float64BeyondFloatRangeIsDroppedNotInf) {
+  PcdSpec s;
+  s.fields = {{"x", 'F', 8, 1}, {"y", 'F', 8, 1}, {"z", 'F', 8, 1}, {"intensity", 'F', 8, 1}};
+  s.rows = {{1, 2, 3, 1e300}, {1e300, 2, 3, 4}, {4, -1e39, 6, 7}, {7, 8, 9, 10}};
+  for (const char* data : {"ascii", "binary", "binary_compressed"}) {
+    lidar_frame_t cloud;
+    PcdInfo info;
+    std::string error;
+    ASSERT_TRUE(ParsePcd(WritePcd(s, data), "t.pcd", PcdReadOptions{}, &cloud, &info, &error))
+        << error;
+    ASSERT_EQ(cloud.num_points, 2) << data;
+    EXPECT_EQ(info.nan_dropped, 2) << data;
+    EXPECT_EQ(cloud.x[1], 7.0f);
+    EXPECT_EQ(cloud.intensity[0], 0.0f);
+    EXPECT_EQ(cloud.intensity[1], 10.0f);
+  }
+}
+
 // A valid file of 3 points (x y z intensity, float32) in `data`.
 std::string Valid(const std::string& data) {
   PcdSpec s;

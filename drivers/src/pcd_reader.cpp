@@ -428,15 +428,21 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
   std::vector<double> times;
   if (time) times.reserve(n);
   for (size_t i = 0; i < n; ++i) {
-    const double x = value(*xyz[0], i), y = value(*xyz[1], i), z = value(*xyz[2], i);
+    // Checked after the conversion to float: a float64 field beyond float's range becomes inf
+    // (found by fuzz_pcd).
+    const float x = static_cast<float>(value(*xyz[0], i));
+    const float y = static_cast<float>(value(*xyz[1], i));
+    const float z = static_cast<float>(value(*xyz[2], i));
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
       ++info->nan_dropped;
       continue;
     }
-    cloud->x.push_back(static_cast<float>(x));
-    cloud->y.push_back(static_cast<float>(y));
-    cloud->z.push_back(static_cast<float>(z));
-    cloud->intensity.push_back(intensity ? static_cast<float>(value(*intensity, i)) : 0.0f);
+    cloud->x.push_back(x);
+    cloud->y.push_back(y);
+    cloud->z.push_back(z);
+    // Intensity is carried, not used (geometry only): a non-finite one becomes 0.
+    const float power = intensity ? static_cast<float>(value(*intensity, i)) : 0.0f;
+    cloud->intensity.push_back(std::isfinite(power) ? power : 0.0f);
     int16_t r = -1;
     if (ring) {
       const double v = value(*ring, i);
