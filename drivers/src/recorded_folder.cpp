@@ -159,10 +159,67 @@ bool ScanRecordedFolder(const std::string& dir, const RecordedFolderOptions& opt
   return true;
 }
 
+namespace {
+
+// No camera frame is near this (3840x1920 is 7.4 MP); a few hundred bytes of JPEG or PNG can
+// declare 500 MP, which OpenCV (its limit is 2^30 pixels) would decode into half a gigabyte:
+// found by fuzz_recorded_image, the header is read first.
+constexpr int64_t kMaxImagePixels = 100'000'000;
+
+// The size a PNG (IHDR, ISO/IEC 15948 §11.2.2) or JPEG (its SOF marker) header declares; false
+// when the bytes are neither or no size is found (imdecode then decides).
+bool DeclaredSize(const std::string& bytes, int64_t* width, int64_t* height) {
+  const auto* b = reinterpret_cast<const uint8_t*>(bytes.data());
+  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (bytes.size() >= 24 && std::equal(kPng, kPng + 8, b)) {
+    auto be32 = [&](size_t at) {
+      return (int64_t{b[at]} << 24) | (int64_t{b[at + 1]} << 16) | (int64_t{b[at + 2]} << 8) |
+             int64_t{b[at + 3]};
+    };
+    *width = be32(16);
+    *height = be32(20);
+    return true;
+  }
+  if (bytes.size() >= 2 && b[0] == 0xFF && b[1] == 0xD8) {
+    // The markers up to the first SOFn (ITU T.81 §B.2.2: length, precision, Y, X), resyncing
+    // on stray bytes as libjpeg does (it warns and goes on to the next 0xFF). Walked by hand:
+    // this only bounds the size, OpenCV decodes.
+    size_t at = 2;
+    while (at + 1 < bytes.size()) {
+      if (b[at] != 0xFF || b[at + 1] == 0x00 || b[at + 1] == 0xFF) {
+        ++at;
+        continue;
+      }
+      const uint8_t marker = b[at + 1];
+      if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD9)) {  // no length
+        at += 2;
+        continue;
+      }
+      if (marker == 0xDA || at + 4 > bytes.size()) break;  // scan data: no SOF before it
+      const bool sof =
+          marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+      if (sof && at + 9 <= bytes.size()) {
+        *height = (int64_t{b[at + 5]} << 8) | b[at + 6];
+        *width = (int64_t{b[at + 7]} << 8) | b[at + 8];
+        return true;
+      }
+      at += 2 + ((size_t{b[at + 2]} << 8) | b[at + 3]);
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 bool LoadRecordedImage(const RecordedEntry& entry, const std::string& camera_id, bool keep_jpeg,
                        camera_frame_t* msg, std::string* error) {
   std::string bytes;
   if (!ReadWholeFile(entry.path, &bytes, error)) return false;
+  int64_t width = 0, height = 0;
+  if (DeclaredSize(bytes, &width, &height) && width * height > kMaxImagePixels)
+    return Fail(error, entry.path + ": the image declares " + std::to_string(width) + "x" +
+                           std::to_string(height) + " px, more than a camera frame's " +
+                           std::to_string(kMaxImagePixels / 1'000'000) + " MP");
   const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data());
   cv::Mat image;
   try {

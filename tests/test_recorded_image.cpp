@@ -1,0 +1,62 @@
+// LoadRecordedImage (calibd-calibrate --folder, calibd-import): images are read from their bytes,
+// and one that declares more pixels than a camera frame has is refused from its header, before
+// decoding (fuzz_recorded_image found a 156-byte JPEG declaring 60928x8208 px, which OpenCV
+// decoded into half a gigabyte).
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "calibd/drivers/recorded_folder.hpp"
+#include "temp_dir.hpp"
+
+namespace calibd {
+namespace {
+
+std::string Corpus(const std::string& name) {
+  return std::string(CALIBD_SOURCE_DIR) + "/tests/fuzz/corpus/" + name;
+}
+
+TEST(RecordedImageTest, HugeDeclaredImagesAreRefusedBeforeDecoding) {
+  testing::TempDir dir;
+  RecordedEntry entry;
+  camera_frame_t msg;
+  std::string error;
+
+  // A small real JPEG loads, as mono8 or kept as JPEG bytes.
+  entry.path = dir.file("small.jpg");
+  std::filesystem::copy_file(Corpus("jpeg/grey_16x12.jpg"), entry.path);
+  ASSERT_TRUE(LoadRecordedImage(entry, "cam0", false, &msg, &error)) << error;
+  EXPECT_EQ(msg.width, 16);
+  EXPECT_EQ(msg.height, 12);
+  EXPECT_EQ(msg.size, 16 * 12);
+
+  // The fuzzer's JPEG: refused from its header, at once.
+  entry.path = dir.file("huge.jpg");
+  std::filesystem::copy_file(Corpus("recorded_image/timeout-500-megapixel-jpeg"), entry.path);
+  const auto t0 = std::chrono::steady_clock::now();
+  for (const bool keep_jpeg : {false, true}) {
+    EXPECT_FALSE(LoadRecordedImage(entry, "cam0", keep_jpeg, &msg, &error));
+    EXPECT_NE(error.find("declares 60928x8208 px, more than a camera frame's 100 MP"),
+              std::string::npos)
+        << error;
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(500));
+
+  // A PNG header declaring 20000 x 20000 (the rest of the file missing).
+  entry.path = dir.file("huge.png");
+  {
+    std::ofstream out(entry.path, std::ios::binary);
+    const unsigned char png[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n', 0, 0, 0,    13,
+                                 'I',  'H', 'D', 'R', 0,    0,    0x4E, 0x20, 0, 0, 0x4E, 0x20};
+    out.write(reinterpret_cast<const char*>(png), sizeof(png));
+  }
+  EXPECT_FALSE(LoadRecordedImage(entry, "cam0", false, &msg, &error));
+  EXPECT_NE(error.find("declares 20000x20000 px"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace calibd
