@@ -20,6 +20,26 @@ void RotationAndTranslation(const double* x, Eigen::Matrix3d* R, Eigen::Vector3d
   *t = Eigen::Vector3d(x[0], x[1], x[2]);
 }
 
+// Calls f(p, r, J) for every used point of `terms` at (R, t): p the point (LiDAR frame), r its
+// robust residual, J its derivative (left untouched unless `jacobian`).
+template <typename F>
+void ForEachPoint(const std::vector<BoxTerm>& terms, const Eigen::Matrix3d& R,
+                  const Eigen::Vector3d& t, double huber, bool jacobian, F&& f) {
+  Eigen::Matrix<double, 3, 6> J = Eigen::Matrix<double, 3, 6>::Zero();
+  for (const BoxTerm& term : terms) {
+    const Eigen::Matrix3d R_bc = term.T_board_camera.linear();
+    const Eigen::Vector3d t_bc = term.T_board_camera.translation();
+    const int n = term.num_used();
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3d p = term.points[i * term.stride].cast<double>();
+      Eigen::Vector3d r;
+      detail::FixedBoardPointResidual(R, t, R_bc, t_bc, p, term.half_extent, huber, &r,
+                                      jacobian ? &J : nullptr);
+      f(term, p, r, J);
+    }
+  }
+}
+
 }  // namespace
 
 CompressedBoxCost::CompressedBoxCost(std::vector<BoxTerm> terms, double huber_m)
@@ -37,24 +57,17 @@ void CompressedBoxCost::NormalEquations(const double* x, Eigen::Matrix<double, 6
   H->setZero();
   g->setZero();
   *rtr = 0.0;
-  for (const BoxTerm& term : terms_) {
-    const Eigen::Matrix3d R_bc = term.T_board_camera.linear();
-    const Eigen::Vector3d t_bc = term.T_board_camera.translation();
-    const int n = term.num_used();
-    for (int i = 0; i < n; ++i) {
-      Eigen::Vector3d r;
-      Eigen::Matrix<double, 3, 6> J;
-      detail::FixedBoardPointResidual(R, t, R_bc, t_bc, term.points[i * term.stride].cast<double>(),
-                                      term.half_extent, huber_, &r, &J);
-      *rtr += r.squaredNorm();
-      // Rows of axes inside the box are zero (box_hinge.hpp): skip them.
-      for (int k = 0; k < 3; ++k) {
-        if (r[k] == 0.0) continue;
-        H->noalias() += J.row(k).transpose() * J.row(k);
-        g->noalias() += J.row(k).transpose() * r[k];
-      }
-    }
-  }
+  ForEachPoint(terms_, R, t, huber_, true,
+               [&](const BoxTerm&, const Eigen::Vector3d&, const Eigen::Vector3d& r,
+                   const Eigen::Matrix<double, 3, 6>& J) {
+                 *rtr += r.squaredNorm();
+                 // Rows of axes inside the box are zero (box_hinge.hpp): skip them.
+                 for (int k = 0; k < 3; ++k) {
+                   if (r[k] == 0.0) continue;
+                   H->noalias() += J.row(k).transpose() * J.row(k);
+                   g->noalias() += J.row(k).transpose() * r[k];
+                 }
+               });
 }
 
 bool CompressedBoxCost::Evaluate(double const* const* parameters, double* residuals,
@@ -67,18 +80,9 @@ bool CompressedBoxCost::Evaluate(double const* const* parameters, double* residu
     Eigen::Vector3d t;
     RotationAndTranslation(x, &R, &t);
     double rtr = 0.0;
-    for (const BoxTerm& term : terms_) {
-      const Eigen::Matrix3d R_bc = term.T_board_camera.linear();
-      const Eigen::Vector3d t_bc = term.T_board_camera.translation();
-      const int n = term.num_used();
-      for (int i = 0; i < n; ++i) {
-        Eigen::Vector3d r;
-        detail::FixedBoardPointResidual(R, t, R_bc, t_bc,
-                                        term.points[i * term.stride].cast<double>(),
-                                        term.half_extent, huber_, &r, nullptr);
-        rtr += r.squaredNorm();
-      }
-    }
+    ForEachPoint(terms_, R, t, huber_, false,
+                 [&](const BoxTerm&, const Eigen::Vector3d&, const Eigen::Vector3d& r,
+                     const Eigen::Matrix<double, 3, 6>&) { rtr += r.squaredNorm(); });
     e[0] = std::sqrt(rtr);
     return true;
   }
@@ -106,22 +110,17 @@ bool CompressedBoxCost::Evaluate(double const* const* parameters, double* residu
 void CompressedBoxCost::Statistics(const Pose& T_camera_lidar, BoxStatistics* stats) const {
   const Eigen::Matrix3d R = T_camera_lidar.linear();
   const Eigen::Vector3d t = T_camera_lidar.translation();
-  for (const BoxTerm& term : terms_) {
-    const Eigen::Matrix3d R_bc = term.T_board_camera.linear();
-    const Eigen::Vector3d t_bc = term.T_board_camera.translation();
-    const int n = term.num_used();
-    for (int i = 0; i < n; ++i) {
-      const Eigen::Vector3d p = term.points[i * term.stride].cast<double>();
-      Eigen::Vector3d r;
-      Eigen::Matrix<double, 3, 6> J;
-      detail::FixedBoardPointResidual(R, t, R_bc, t_bc, p, term.half_extent, huber_, &r, &J);
-      stats->information.noalias() += J.transpose() * J;
-      stats->plane_information.noalias() += J.row(2).transpose() * J.row(2);
-      stats->sum_squared_residuals +=
-          detail::HingeResidual(R_bc * (R * p + t) + t_bc, term.half_extent).squaredNorm();
-    }
-    stats->points += n;
-  }
+  ForEachPoint(terms_, R, t, huber_, true,
+               [&](const BoxTerm& term, const Eigen::Vector3d& p, const Eigen::Vector3d&,
+                   const Eigen::Matrix<double, 3, 6>& J) {
+                 stats->information.noalias() += J.transpose() * J;
+                 stats->plane_information.noalias() += J.row(2).transpose() * J.row(2);
+                 const Eigen::Vector3d p_board =
+                     term.T_board_camera.linear() * (R * p + t) + term.T_board_camera.translation();
+                 stats->sum_squared_residuals +=
+                     detail::HingeResidual(p_board, term.half_extent).squaredNorm();
+                 ++stats->points;
+               });
 }
 
 }  // namespace calibd
