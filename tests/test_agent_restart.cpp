@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "agent_outputs.hpp"
+#include "agent_with_store.hpp"
 #include "calibd/calibration_result_t.hpp"
 #include "calibd/calibration_status_t.hpp"
 #include "calibd/drivers/atomic_file.hpp"
@@ -35,42 +36,24 @@ namespace calibd {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::AgentWithStore;
+using testing::HasActiveDtc;
+using testing::kTenDaysS;
+using testing::MakeAgentWithStore;
 using testing::Published;
 using testing::ReadPublished;
+using testing::ReadText;
 using testing::RunCommand;
+using testing::StoreFiles;
 using testing::TruthExtrinsic;
 using Clock = std::chrono::steady_clock;
 
 constexpr uint32_t kSessionInterruptedDtc = 0x5A0300;
-constexpr int64_t kTenDaysS = 10 * 24 * 3600;
 constexpr char kMarkerName[] = "session_in_progress";
-
-std::string ReadText(const std::string& path) {
-  std::string text, error;
-  EXPECT_TRUE(ReadWholeFile(path, &text, &error)) << error;
-  return text;
-}
 
 std::string ReadIfAny(const std::string& path) {
   std::string text, error;
   return ReadWholeFile(path, &text, &error) ? text : std::string();
-}
-
-// Every regular file under the store directory but the session marker (relative name ->
-// contents).
-std::map<std::string, std::string> StoreFiles(const std::string& root) {
-  std::map<std::string, std::string> files;
-  for (const auto& e : fs::recursive_directory_iterator(root))
-    if (e.is_regular_file() && e.path().filename() != kMarkerName)
-      files[fs::relative(e.path(), root).string()] = ReadText(e.path().string());
-  return files;
-}
-
-bool HasActiveDtc(const health_t& h, uint32_t dtc) {
-  const auto end =
-      h.active_dtcs.begin() +
-      std::min<ptrdiff_t>(h.num_active_dtcs, static_cast<ptrdiff_t>(h.active_dtcs.size()));
-  return std::find(h.active_dtcs.begin(), end, static_cast<int32_t>(dtc)) != end;
 }
 
 // calibd-agent in the background, its stderr into `log`, as systemd runs it.
@@ -120,48 +103,17 @@ TEST(AgentRestartTest, KilledDuringASessionRestartsIdleWithTheStoredCalibrationA
   testing::TempDir dir;
   // The default drive at 2 Hz (40 frame pairs, 20 s in real time), serials fixed so that the
   // stored calibration belongs to these sensors (as test_agent_store_faults).
-  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) +
-                       " --quiet --seed 5 --lidar ot128 --rate 2 --image-encoding jpeg"
-                       " --lidar-serial LDR-R9 --camera-serial CAM-R9 --out " +
-                       dir.file("s.lcmlog") + " --truth " + dir.file("truth.json") +
-                       " --config-out " + dir.file("agent.yaml")),
-            0);
   const std::string store_dir = dir.file("store");
   const std::string marker = store_dir + "/" + kMarkerName;
-  const std::string uds_dir = dir.file("uds");
-  fs::create_directories(uds_dir);
-  {
-    std::ofstream(dir.file("secret")) << "restart-test-secret-0123456789abcdef";
-    fs::permissions(dir.file("secret"), fs::perms::owner_read | fs::perms::owner_write);
-    std::string yaml = ReadText(dir.file("agent.yaml"));
-    // CAN on an interface that does not exist: the UDS server keeps the DTCs as on the vehicle.
-    yaml += "agent:\n  auto_commit: true\n  min_frames: 30\n  store:\n    directory: " + store_dir +
-            "\n  can:\n    enabled: true\n    interface: calibdnone0\n  uds:\n    secret_file: " +
-            dir.file("secret") + "\n    state_dir: " + uds_dir + "\n";
-    std::string error;
-    ASSERT_TRUE(WriteFileAtomic(dir.file("agent.yaml"), yaml, &error)) << error;
-  }
-
-  // The stored calibration: 3 deg off the truth, made ten days ago for these sensors.
+  // The default drive at 2 Hz (40 frame pairs, 20 s in real time).
+  AgentWithStore setup;
+  MakeAgentWithStore(dir, store_dir, "R9", &setup);
+  if (HasFatalFailure()) return;
+  const std::string& uds_dir = setup.uds_dir;
+  const Pose truth = TruthExtrinsic(dir.file("truth.json"));
   CalibrationStoreConfig store_config;
   store_config.directory = store_dir;
-  StoredCalibration previous;
-  previous.created_unix_s = static_cast<int64_t>(std::time(nullptr)) - kTenDaysS;
-  const Pose truth = TruthExtrinsic(dir.file("truth.json"));
-  previous.T_camera_lidar = truth;
-  previous.T_camera_lidar.linear() =
-      Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d(1, 1, 0).normalized()) * truth.linear();
-  previous.lidar_serial = "LDR-R9";
-  previous.camera_serial = "CAM-R9";
-  previous.source = "end_of_line";
-  previous.verdict = "end_of_line";
-  {
-    CalibrationStore store;
-    std::string error;
-    ASSERT_TRUE(store.Open(store_config, &error)) << error;
-    ASSERT_TRUE(store.Commit(previous, &error)) << error;
-  }
-  const auto files_before = StoreFiles(store_dir);
+  const auto files_before = StoreFiles(store_dir, kMarkerName);
   const std::string config = dir.file("agent.yaml");
   // The drive in real time: a session collects for 20 s, long enough to be stopped mid-way.
   const std::string live = "file://" + dir.file("s.lcmlog") + "?speed=1";
@@ -184,7 +136,7 @@ TEST(AgentRestartTest, KilledDuringASessionRestartsIdleWithTheStoredCalibrationA
   ASSERT_TRUE(fs::exists(marker)) << killed_log;
   EXPECT_NE(ReadText(marker).find("session 1\ntrigger --calibrate-now\n"), std::string::npos)
       << ReadText(marker);
-  EXPECT_EQ(StoreFiles(store_dir), files_before) << "the store's files changed";
+  EXPECT_EQ(StoreFiles(store_dir, kMarkerName), files_before) << "the store's files changed";
 
   // 2. Restarted (idle, as systemd restarts it): the log line, the DTC, the stored calibration.
   {
@@ -219,7 +171,7 @@ TEST(AgentRestartTest, KilledDuringASessionRestartsIdleWithTheStoredCalibrationA
   EXPECT_NE(ReadText(uds_dir + "/dtc_status").find("5A0300 2F\n"), std::string::npos)
       << ReadText(uds_dir + "/dtc_status");
   EXPECT_FALSE(fs::exists(marker));
-  EXPECT_EQ(StoreFiles(store_dir), files_before) << "the store's files changed";
+  EXPECT_EQ(StoreFiles(store_dir, kMarkerName), files_before) << "the store's files changed";
 
   // 3. A clean stop (SIGTERM) during a session leaves no marker: nothing to report next time.
   {
@@ -232,7 +184,7 @@ TEST(AgentRestartTest, KilledDuringASessionRestartsIdleWithTheStoredCalibrationA
     EXPECT_EQ(agent.Signal(SIGTERM), 0);
   }
   EXPECT_FALSE(fs::exists(marker)) << ReadText(dir.file("stopped.log"));
-  EXPECT_EQ(StoreFiles(store_dir), files_before) << "the store's files changed";
+  EXPECT_EQ(StoreFiles(store_dir, kMarkerName), files_before) << "the store's files changed";
 
   // 4. The next session ends with a result (committed): the DTC passes, no marker is left.
   EXPECT_EQ(RunCommand(std::string(CALIBD_AGENT_EXE) + " --once --calibrate-now --config " +

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "agent_outputs.hpp"
+#include "agent_with_store.hpp"
 #include "calibd/calibration_result_t.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_store.hpp"
@@ -28,37 +29,18 @@ namespace calibd {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::AgentWithStore;
+using testing::HasActiveDtc;
+using testing::kTenDaysS;
+using testing::MakeAgentWithStore;
 using testing::Published;
 using testing::ReadPublished;
+using testing::ReadText;
 using testing::RunCommand;
+using testing::StoreFiles;
 using testing::TruthExtrinsic;
 
 constexpr uint32_t kStoreWriteFailedDtc = 0x5A0044;
-constexpr int64_t kTenDaysS = 10 * 24 * 3600;
-
-std::string ReadText(const std::string& path) {
-  std::string text, error;
-  EXPECT_TRUE(ReadWholeFile(path, &text, &error)) << error;
-  return text;
-}
-
-// Every regular file under `root` (relative name -> contents).
-std::map<std::string, std::string> Snapshot(const std::string& root) {
-  std::map<std::string, std::string> files;
-  for (const auto& e : fs::recursive_directory_iterator(root))
-    if (e.is_regular_file())
-      files[fs::relative(e.path(), root).string()] = ReadText(e.path().string());
-  return files;
-}
-
-// Only the first num_active_dtcs entries count: LCM's decode leaves a longer vector from an
-// earlier message as it was when the count is 0.
-bool HasActiveDtc(const health_t& h, uint32_t dtc) {
-  const auto end =
-      h.active_dtcs.begin() +
-      std::min<ptrdiff_t>(h.num_active_dtcs, static_cast<ptrdiff_t>(h.active_dtcs.size()));
-  return std::find(h.active_dtcs.begin(), end, static_cast<int32_t>(dtc)) != end;
-}
 
 TEST(AgentStoreFaultTest, ReadOnlyStoreReportsTheFailedCommitAndKeepsThePreviousCalibration) {
   testing::TempDir dir;
@@ -66,48 +48,16 @@ TEST(AgentStoreFaultTest, ReadOnlyStoreReportsTheFailedCommitAndKeepsThePrevious
   CALIBD_REQUIRE_TMPFS(mount);
   // The default drive at 2 Hz: 40 frame pairs (as test_calibrate_cli; agent.min_frames 30 lets
   // them be solved), serials fixed so that the stored calibration belongs to these sensors.
-  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) +
-                       " --quiet --seed 5 --lidar ot128 --rate 2 --image-encoding jpeg"
-                       " --lidar-serial LDR-F9 --camera-serial CAM-F9 --out " +
-                       dir.file("s.lcmlog") + " --truth " + dir.file("truth.json") +
-                       " --config-out " + dir.file("agent.yaml")),
-            0);
   const std::string store_dir = dir.file("mnt/store");
-  const std::string uds_dir = dir.file("uds");
-  fs::create_directories(uds_dir);
-  {
-    std::ofstream(dir.file("secret")) << "store-fault-test-secret-0123456789";
-    fs::permissions(dir.file("secret"), fs::perms::owner_read | fs::perms::owner_write);
-    std::string yaml = ReadText(dir.file("agent.yaml"));
-    // CAN on an interface that does not exist: the agent logs it and retries, and its UDS
-    // server keeps the DTCs (agent.uds.state_dir) as on the vehicle.
-    yaml += "agent:\n  auto_commit: true\n  min_frames: 30\n  store:\n    directory: " + store_dir +
-            "\n  can:\n    enabled: true\n    interface: calibdnone0\n  uds:\n    secret_file: " +
-            dir.file("secret") + "\n    state_dir: " + uds_dir + "\n";
-    std::string error;
-    ASSERT_TRUE(WriteFileAtomic(dir.file("agent.yaml"), yaml, &error)) << error;
-  }
-
-  // The previous calibration: 3 deg off the truth, made ten days ago for these sensors.
+  AgentWithStore setup;
+  MakeAgentWithStore(dir, store_dir, "F9", &setup);
+  if (HasFatalFailure()) return;
+  const std::string& uds_dir = setup.uds_dir;
+  const StoredCalibration& previous = setup.previous;
+  const Pose truth = TruthExtrinsic(dir.file("truth.json"));
   CalibrationStoreConfig store_config;
   store_config.directory = store_dir;
-  StoredCalibration previous;
-  previous.created_unix_s = static_cast<int64_t>(std::time(nullptr)) - kTenDaysS;
-  const Pose truth = TruthExtrinsic(dir.file("truth.json"));
-  previous.T_camera_lidar = truth;
-  previous.T_camera_lidar.linear() =
-      Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d(1, 1, 0).normalized()) * truth.linear();
-  previous.lidar_serial = "LDR-F9";
-  previous.camera_serial = "CAM-F9";
-  previous.source = "end_of_line";
-  previous.verdict = "end_of_line";
-  {
-    CalibrationStore store;
-    std::string error;
-    ASSERT_TRUE(store.Open(store_config, &error)) << error;
-    ASSERT_TRUE(store.Commit(previous, &error)) << error;
-  }
-  const auto files_before = Snapshot(store_dir);
+  const auto files_before = StoreFiles(store_dir);
   auto agent = [&](const std::string& name) {
     return RunCommand(std::string(CALIBD_AGENT_EXE) + " --once --calibrate-now --config " +
                       dir.file("agent.yaml") + " --lcm-url 'file://" + dir.file("s.lcmlog") +
@@ -137,7 +87,7 @@ TEST(AgentStoreFaultTest, ReadOnlyStoreReportsTheFailedCommitAndKeepsThePrevious
   // The DTC persisted: testFailed, this cycle, pending, confirmed, since last clear (0x2F).
   EXPECT_NE(ReadText(uds_dir + "/dtc_status").find("5A0044 2F\n"), std::string::npos)
       << ReadText(uds_dir + "/dtc_status");
-  EXPECT_EQ(Snapshot(store_dir), files_before) << "the store's files changed";
+  EXPECT_EQ(StoreFiles(store_dir), files_before) << "the store's files changed";
   {
     CalibrationStore store;
     std::string error;
