@@ -212,6 +212,16 @@ TEST(IntrinsicsFileTest, WhateverTheParserThrowsTheFileIsRefused) {
   std::string error;
   EXPECT_FALSE(ParseIntrinsics(text, "bad.yaml", &intrinsics, &error));
   EXPECT_EQ(error.rfind("bad.yaml: ", 0), 0u) << error;
+
+  // An !!opencv-matrix declaring 100000 x 100000: OpenCV would allocate 80 GB before reading
+  // the data (fuzz_intrinsics ran out of memory); the size is checked first.
+  const std::string huge =
+      "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: !!opencv-matrix\n"
+      "   rows: 100000\n   cols: 100000\n   dt: d\n   data: [ 1., 2., 3. ]\n";
+  EXPECT_FALSE(ParseIntrinsics(huge, "huge.yaml", &intrinsics, &error));
+  EXPECT_NE(error.find("camera_matrix: an !!opencv-matrix needs rows and cols of 0-16"),
+            std::string::npos)
+      << error;
 }
 
 }  // namespace

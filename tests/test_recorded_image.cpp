@@ -56,6 +56,17 @@ TEST(RecordedImageTest, HugeDeclaredImagesAreRefusedBeforeDecoding) {
   }
   EXPECT_FALSE(LoadRecordedImage(entry, "cam0", false, &msg, &error));
   EXPECT_NE(error.find("declares 20000x20000 px"), std::string::npos) << error;
+
+  // Sides whose product overflows 64 bits (fuzz_recorded_image, UBSan): refused all the same.
+  {
+    std::ofstream out(entry.path, std::ios::binary | std::ios::trunc);
+    const unsigned char png[] = {0x89, 'P',  'N',  'G',  '\r', '\n', 0x1A, '\n',
+                                 0,    0,    0,    13,   'I',  'H',  'D',  'R',
+                                 0xC7, 0xC7, 0xC7, 0xC7, 0xC7, 0xC7, 0xC7, 0xC7};
+    out.write(reinterpret_cast<const char*>(png), sizeof(png));
+  }
+  EXPECT_FALSE(LoadRecordedImage(entry, "cam0", false, &msg, &error));
+  EXPECT_NE(error.find("declares 3351758791x3351758791 px"), std::string::npos) << error;
 }
 
 }  // namespace

@@ -39,6 +39,12 @@ void CvNumbers(const cv::FileNode& n, const std::string& key, std::vector<double
   if (n.isMap()) {
     // !!opencv-matrix, or a ROS-style {rows, cols, data} map.
     if (n["dt"].isString() && n["data"].isSeq()) {
+      // OpenCV allocates rows x cols before reading the data: bound them first (a camera
+      // matrix is 3x3, distortion at most 1x14; found by fuzz_intrinsics, 48 GB asked for).
+      const cv::FileNode rows = n["rows"], cols = n["cols"];
+      if (!rows.isInt() || !cols.isInt() || static_cast<int>(rows) < 0 ||
+          static_cast<int>(cols) < 0 || static_cast<int>(rows) > 16 || static_cast<int>(cols) > 16)
+        throw KeyError{key, "an !!opencv-matrix needs rows and cols of 0-16"};
       cv::Mat m;
       n >> m;
       cv::Mat d;

@@ -216,7 +216,9 @@ bool LoadRecordedImage(const RecordedEntry& entry, const std::string& camera_id,
   std::string bytes;
   if (!ReadWholeFile(entry.path, &bytes, error)) return false;
   int64_t width = 0, height = 0;
-  if (DeclaredSize(bytes, &width, &height) && width * height > kMaxImagePixels)
+  // Each side first: a PNG header holds sides up to 2^32 - 1, whose product overflows.
+  if (DeclaredSize(bytes, &width, &height) &&
+      (width > kMaxImagePixels || height > kMaxImagePixels || width * height > kMaxImagePixels))
     return Fail(error, entry.path + ": the image declares " + std::to_string(width) + "x" +
                            std::to_string(height) + " px, more than a camera frame's " +
                            std::to_string(kMaxImagePixels / 1'000'000) + " MP");
