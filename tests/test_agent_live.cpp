@@ -63,10 +63,11 @@ TEST(AgentLiveTest, CalibratesFromARealTimeUdpmStreamAndAccountsForEveryFrame) {
   ReadWholeFile(dir.file("sim.txt"), &sim_out, &error);
   std::printf("%s", sim_out.c_str());
   ASSERT_EQ(sim_out.find("SIM_FAILED"), std::string::npos) << sim_out;
-  ASSERT_EQ(agent_exit, 0) << "calibd-agent --once: 0 = verified/updated";
-
   // Every frame is accounted for: received by the agent, or counted as missing from the stream.
   const testing::Published out = ReadPublished(dir.file("out.lcmlog"));
+  ASSERT_EQ(agent_exit, 0) << "calibd-agent --once: 0 = verified/updated; result reason '"
+                           << out.last_result.reason << "', status error '"
+                           << out.last_status.last_error << "'";
   ASSERT_GE(out.health, 1);
   const health_t& h = out.last_health;
   std::printf(

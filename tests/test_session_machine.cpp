@@ -124,6 +124,34 @@ TEST(SessionMachineTest, StartRefusedForATimeLimitOutOfRange) {
   EXPECT_TRUE(m.Start(r, kT0).accepted);
 }
 
+// The agent may start a session long before the sensors send (test_agent_live: the publisher
+// starts 2 s after the agent). The no-pair timeout counts from when both sensors send, not from
+// the session's start: the first pair 1.5 s after they start is in time; 2.1 s without a pair
+// after that is no_pairs.
+TEST(SessionMachineTest, NoPairTimeoutCountsFromWhenBothSensorsSend) {
+  SessionMachine m(TestConfig());
+  ASSERT_TRUE(m.Start(Request(), kT0).accepted);
+  const int64_t t = kT0 + 5 * kS;  // nothing for 5 s
+  m.FrameArrived(SensorStream::kCamera, t);
+  m.FrameArrived(SensorStream::kLidar, t + 50000);
+  m.Tick(t + 100000);
+  EXPECT_EQ(m.state(), SessionState::kCollecting) << m.reason();
+  for (int64_t dt = 100000; dt <= 1500000; dt += 100000) {
+    m.FrameArrived(SensorStream::kCamera, t + dt);
+    m.FrameArrived(SensorStream::kLidar, t + dt);
+    m.Tick(t + dt);
+  }
+  EXPECT_EQ(m.state(), SessionState::kCollecting) << m.reason();
+  ASSERT_TRUE(m.FrameRecorded(Figures(1, 3), t + 1500000));
+  for (int64_t dt = 1600000; dt <= 3700000; dt += 100000) {
+    m.FrameArrived(SensorStream::kCamera, t + dt);
+    m.FrameArrived(SensorStream::kLidar, t + dt);
+    m.Tick(t + dt);
+  }
+  EXPECT_EQ(m.state(), SessionState::kFailed);
+  EXPECT_EQ(m.reason(), "no_pairs");
+}
+
 TEST(SessionMachineTest, TargetFramesEndCollectionAndRaiseNeedsSolveOnce) {
   SessionMachine m(TestConfig());
   ASSERT_TRUE(m.Start(Request(), kT0).accepted);

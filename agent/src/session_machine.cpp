@@ -97,7 +97,7 @@ RequestReply SessionMachine::Start(const StartRequest& request, int64_t now_us) 
   limit_us_ = request.max_duration_us > 0 ? request.max_duration_us : config_.max_duration_us;
   figures_ = CollectionFigures{};
   collection_end_ = CollectionEnd::kNone;
-  last_camera_us_ = last_lidar_us_ = last_pair_us_ = 0;
+  last_camera_us_ = last_lidar_us_ = last_pair_us_ = both_sending_us_ = 0;
   solve_pending_ = false;
   verdict_ = CalibrationOutcome::Verdict::kRejected;
   committed_ = false;
@@ -145,6 +145,7 @@ bool SessionMachine::FrameRecorded(const CollectionFigures& figures, int64_t now
 void SessionMachine::FrameArrived(SensorStream sensor, int64_t now_us) {
   if (state_ != SessionState::kCollecting) return;
   (sensor == SensorStream::kCamera ? last_camera_us_ : last_lidar_us_) = now_us;
+  if (both_sending_us_ == 0 && last_camera_us_ > 0 && last_lidar_us_ > 0) both_sending_us_ = now_us;
 }
 
 void SessionMachine::Tick(int64_t now_us) {
@@ -159,7 +160,8 @@ bool SessionMachine::CheckSensorTimeout(int64_t now_us) {
   const bool camera_silent = last_camera_us_ > 0 && now_us - last_camera_us_ > timeout;
   const bool lidar_silent = last_lidar_us_ > 0 && now_us - last_lidar_us_ > timeout;
   const bool unpaired = last_camera_us_ > 0 && last_lidar_us_ > 0 && !camera_silent &&
-                        !lidar_silent && now_us - std::max(last_pair_us_, started_us_) > timeout;
+                        !lidar_silent &&
+                        now_us - std::max(last_pair_us_, both_sending_us_) > timeout;
   if (!camera_silent && !lidar_silent && !unpaired) return false;
   if (figures_.frames_with_boards >= config_.min_frames && figures_.boards >= config_.min_boards) {
     EnterSolving(CollectionEnd::kSensorTimeout);  // enough already: solve what was collected

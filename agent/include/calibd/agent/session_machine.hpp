@@ -199,6 +199,9 @@ class SessionMachine {
   CollectionEnd collection_end_ = CollectionEnd::kNone;
   /// Arrival of the latest camera frame, LiDAR frame and recorded pair in this session (0: none).
   int64_t last_camera_us_ = 0, last_lidar_us_ = 0, last_pair_us_ = 0;
+  /// When both sensors had sent in this session (0: not yet): the no-pair timeout counts from
+  /// there, not from the session's start, which may be long before the sensors start.
+  int64_t both_sending_us_ = 0;
   bool solve_pending_ = false;
   CalibrationOutcome::Verdict verdict_ = CalibrationOutcome::Verdict::kRejected;
   bool committed_ = false;
