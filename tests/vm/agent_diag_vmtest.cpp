@@ -52,6 +52,7 @@
 #include <thread>
 #include <vector>
 
+#include "calibd/agent/uds/dtc_store.hpp"
 #include "calibd/agent/uds/security_access.hpp"
 #include "calibd/core/geometry.hpp"
 #include "calibd/core/status_frame.hpp"
@@ -941,7 +942,7 @@ TEST_F(AgentDiagVm, DtcsFromRealFaultsPersistClearAndFreeze) {
   // 0x14 FFFFFF: every DTC 0x50 (testNotCompletedSinceLastClear, ...ThisOperationCycle).
   EXPECT_EQ(Uds("14 FF FF FF").text, "54");
   dtcs = ReadDtcs();
-  EXPECT_EQ(dtcs.size(), 7u) << DtcText(dtcs);
+  EXPECT_EQ(dtcs.size(), uds::kDtcCount) << DtcText(dtcs);  // every DTC the agent has
   for (const auto& [number, status] : dtcs) EXPECT_EQ(status, 0x50) << DtcText(dtcs);
 
   // DTC setting off (extended session), then a fault the agent sees (a bus-off error frame; its
@@ -954,7 +955,7 @@ TEST_F(AgentDiagVm, DtcsFromRealFaultsPersistClearAndFreeze) {
   ASSERT_TRUE(WaitInLog("CAN vcan0: bus-off", 1, 3)) << ReadFile(agent_log_);
   dtcs = ReadDtcs();
   std::printf("bus-off with DTC setting off: %s\n", DtcText(dtcs).c_str());
-  EXPECT_EQ(dtcs.size(), 7u) << DtcText(dtcs);
+  EXPECT_EQ(dtcs.size(), uds::kDtcCount) << DtcText(dtcs);  // every DTC the agent has
   for (const auto& [number, status] : dtcs) EXPECT_EQ(status, 0x50) << DtcText(dtcs);
   // On again: the next bus-off (once the link is back up, which on vcan the next status frame
   // sent does) is recorded: confirmed and testFailedSinceLastClear (testFailed itself may have
