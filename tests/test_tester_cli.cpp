@@ -8,6 +8,7 @@
 
 #include "calibd/agent/uds/did_codec.hpp"
 #include "calibd/agent/uds/dtc_store.hpp"
+#include "calibd/agent/uds/routines.hpp"
 #include "tester_cli.hpp"
 #include "uds_decode.hpp"
 
@@ -226,6 +227,27 @@ TEST(TesterArgs, ErrorsSayWhatIsWrong) {
   EXPECT_NE(ParseError({"raw", "2"}).find("whole bytes"), std::string::npos);
   // The ISO-TP config's own check: 11-bit ids without --extended-ids.
   EXPECT_NE(ParseError({"--ids", "18DA10F1,18DAF110,18DB33F1", "dtc"}), "");
+}
+
+// The agent's reason strings and the tester's names of the results record's byte agree both
+// ways, for every code (0x0F: the agent logs commit_failed, the tester shows store_write_failed).
+TEST(RoutineReasonTest, EveryCodeRoundTripsBetweenAgentAndTester) {
+  int named = 0;
+  for (int code = 0x01; code < 0xFF; ++code) {
+    const std::string name = RoutineReasonName(static_cast<uint8_t>(code));
+    if (name == "unknown reason") continue;
+    ++named;
+    const std::string agent_text = name == "store_write_failed" ? "commit_failed" : name;
+    EXPECT_EQ(static_cast<int>(uds::RoutineReasonCode(agent_text)), code) << name;
+  }
+  EXPECT_EQ(named, 0x14) << "codes 0x01..0x14 each have a name";
+  // The sensor faults of issue 9 have their own codes, not "other".
+  EXPECT_EQ(uds::RoutineReasonCode("lidar_timeout"), uds::RoutineReason::kLidarTimeout);
+  EXPECT_EQ(uds::RoutineReasonCode("camera_timeout"), uds::RoutineReason::kCameraTimeout);
+  EXPECT_EQ(uds::RoutineReasonCode("no_pairs"), uds::RoutineReason::kNoPairs);
+  EXPECT_EQ(uds::RoutineReasonCode(""), uds::RoutineReason::kNone);
+  EXPECT_EQ(uds::RoutineReasonCode("a reason nobody coded"), uds::RoutineReason::kOther);
+  EXPECT_EQ(std::string(RoutineReasonName(0xFF)), "other (see the agent's log)");
 }
 
 }  // namespace

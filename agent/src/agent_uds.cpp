@@ -35,33 +35,6 @@ uds::ExtrinsicFigures Figures(const StoredCalibration* c) {
   return e;
 }
 
-// The results record's reason code of the machine's / engine's reason string (routines.hpp).
-uds::RoutineReason ReasonCode(const std::string& reason) {
-  using R = uds::RoutineReason;
-  static constexpr struct {
-    const char* text;
-    R code;
-  } kCodes[] = {{"stopped", R::kStopped},
-                {"session_ended", R::kSessionEnded},
-                {"too_few_frames", R::kTooFewFrames},
-                {"too_few_boards", R::kTooFewBoards},
-                {"no_camera_boards", R::kNoCameraBoards},
-                {"no_lidar_boards", R::kNoLidarBoards},
-                {"no_grid_candidate", R::kNoGridCandidate},
-                {"solver_failed", R::kSolverFailed},
-                {"poor_observability", R::kPoorObservability},
-                {"unstable_solution", R::kUnstableSolution},
-                {"high_reprojection_error", R::kHighReprojectionError},
-                {"high_residual", R::kHighResidual},
-                {"delta_beyond_tolerance", R::kDeltaBeyondTolerance},
-                {"invalid_config", R::kInvalidConfig},
-                {"commit_failed", R::kStoreWriteFailed}};
-  if (reason.empty()) return R::kNone;
-  for (const auto& c : kCodes)
-    if (reason == c.text) return c.code;
-  return R::kOther;
-}
-
 // The verdict as the routine results record (routines.hpp) and the status frame
 // (status_frame.hpp, deploy/calibd.dbc) code it: both name the same three verdicts.
 template <typename WireVerdict>
@@ -120,7 +93,7 @@ void Agent::AbortCalibration() {
 uds::RoutineSnapshot Agent::CalibrationStatus() const {
   uds::RoutineSnapshot r;
   const SessionState s = machine_.state();
-  r.reason = ReasonCode(machine_.reason());
+  r.reason = uds::RoutineReasonCode(machine_.reason());
   switch (s) {
     case SessionState::kIdle:
       r.status = uds::RoutineStatus::kIdle;
@@ -146,8 +119,8 @@ uds::RoutineSnapshot Agent::CalibrationStatus() const {
   if (s == SessionState::kDone && has_outcome_) {
     r.verdict = VerdictCode<uds::RoutineVerdict>(outcome_.verdict);
     // A failed commit is the news (store write failed) until a commit goes through.
-    r.reason =
-        ReasonCode(machine_.reason() == "commit_failed" ? machine_.reason() : outcome_.reason);
+    r.reason = uds::RoutineReasonCode(machine_.reason() == "commit_failed" ? machine_.reason()
+                                                                           : outcome_.reason);
     if (outcome_.solved) {
       r.delta_rotation_deg = outcome_.delta_rotation_deg;
       r.delta_translation_m = outcome_.delta_translation_m;

@@ -410,7 +410,12 @@ const char* RoutineReasonName(uint8_t reason) {
                                            "high_residual",
                                            "delta_beyond_tolerance",
                                            "invalid_config",
-                                           "store_write_failed"};
+                                           "store_write_failed",
+                                           "interlock_released",
+                                           "ecu_reset",
+                                           "lidar_timeout",
+                                           "camera_timeout",
+                                           "no_pairs"};
   if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
   return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
 }

@@ -32,6 +32,7 @@
 /// For commit and restore the result is the status byte of the last start (success or failed).
 
 #include <cstdint>
+#include <string_view>
 
 namespace calibd::uds {
 
@@ -92,9 +93,18 @@ enum class RoutineReason : uint8_t {
   kHighResidual = 0x0C,           ///< "high_residual"
   kDeltaBeyondTolerance = 0x0D,   ///< "delta_beyond_tolerance"
   kInvalidConfig = 0x0E,          ///< "invalid_config"
-  kStoreWriteFailed = 0x0F,       ///< commit/restore could not write the store
+  kStoreWriteFailed = 0x0F,       ///< "commit_failed": commit/restore could not write the store
+  kInterlockReleased = 0x10,      ///< "interlock_released" (GPIO interlock)
+  kEcuReset = 0x11,               ///< "ecu_reset" (0x11 during the session; seen in the LCM result)
+  kLidarTimeout = 0x12,           ///< "lidar_timeout": no LiDAR frame for sensor_timeout_s
+  kCameraTimeout = 0x13,          ///< "camera_timeout": no camera frame for sensor_timeout_s
+  kNoPairs = 0x14,                ///< "no_pairs": both sensors send, no frames pair in time
   kOther = 0xFF,                  ///< any other reason (the agent's log has the text)
 };
+
+/// The results record's code of a reason string of the session machine or the engine
+/// ("too_few_frames" -> kTooFewFrames): kNone for "", kOther for a reason without a code.
+RoutineReason RoutineReasonCode(std::string_view reason);
 
 /// What the owner reports for calibrate / verify (UdsBackend::CalibrationStatus).
 struct RoutineSnapshot {
