@@ -1,6 +1,7 @@
 // calibd-agent: the on-vehicle LiDAR-camera calibration daemon (see agent/include/calibd/agent/
 // agent.hpp). Exit codes: 0 stopped by a signal (or --once: verified/updated), 1 could not start
-// or the loop failed, 2 bad option or config, 3 (--once) rejected, 4 (--once) failed or aborted.
+// or the loop failed, 2 bad option or config, 3 (--once) rejected, 4 (--once) failed or aborted,
+// 5 (--once) updated but its automatic commit could not be written.
 
 #include <unistd.h>
 
@@ -32,12 +33,14 @@ Options:
                      when replaying, e.g. file:///tmp/out.lcmlog?mode=w)
   --calibrate-now    start a session at once, as a start request would
   --once             exit when the first session has ended (and at the end of a replayed log):
-                     exit code 0 verified/updated, 3 rejected, 4 failed or aborted
+                     exit code 0 verified/updated, 3 rejected, 4 failed or aborted, 5 updated
+                     but agent.auto_commit could not write the store (the previous calibration
+                     stays in use)
   --quiet            no log lines on stderr
 
 Exit codes: 0 stopped by SIGTERM/SIGINT (or --once: verified/updated), 1 could not start (store,
 LCM, detectors, UDS secret file, GPIO lines), 2 bad option or config (the message names the key),
-3/4 see --once. A UDS ECU reset (0x11 01) restarts the program in place (same arguments, same
+3/4/5 see --once. A UDS ECU reset (0x11 01) restarts the program in place (same arguments, same
 PID).
 )";
 

@@ -704,9 +704,11 @@ int Agent::Run() {
       if (session_over) {
         PublishStatus();
         PublishHealth();  // the final counts, for the fleet and for replays
-        if (s == SessionState::kDone)
-          return machine_.verdict() == CalibrationOutcome::Verdict::kRejected ? 3 : 0;
-        return 4;
+        if (s != SessionState::kDone) return 4;
+        if (machine_.verdict() == CalibrationOutcome::Verdict::kRejected) return 3;
+        // Updated, but auto_commit could not write the store: a factory line must not take
+        // it for stored.
+        return machine_.reason() == "commit_failed" ? 5 : 0;
       }
       if (end_of_log_ && machine_.session() == 0) {
         Log("the log ended before any session was started");
