@@ -10,40 +10,23 @@
 #include <chrono>
 #include <thread>
 
-#include "lcm_output.hpp"
-#include "session.hpp"
+#include "simulated_messages.hpp"
+#include "small_camera.hpp"
 
 namespace calibd {
 namespace {
 
-struct Messages {
-  std::vector<camera_frame_t> camera;
-  std::vector<lidar_frame_t> lidar;
-  CalibConfig config;
-};
+using Messages = testing::SimulatedMessages;
 
-// `count` frame pairs of the default drive (ot128), every 5th frame, as the sensors send them.
+// 6 frame pairs of the default drive, every 5th frame, as the sensors send them: the small
+// camera and the m1 LiDAR, which the simulator renders in a fraction of the default's time (each
+// test is a process of its own under ctest, and this runs under the sanitizers too).
 const Messages& SimulatedMessages() {
   static const Messages m = [] {
-    Messages out;
-    sim::SessionSimulator session;
-    std::string error;
-    EXPECT_TRUE(session.Init(sim::SessionOptions{}, &error)) << error;
-    out.config = session.UserConfig();
-    cv::Mat image;
-    sim::LidarScan scan;
-    sim::FrameTruth truth;
-    for (int k = 0; k < 6; ++k) {
-      session.SimulateFrame(5 * k, &image, &scan, &truth);
-      camera_frame_t c;
-      EXPECT_TRUE(sim::ToCameraMessage(image, truth.camera_utime, out.config.camera_id,
-                                       camera_frame_t::ENCODING_MONO8, 90, &c));
-      lidar_frame_t l;
-      sim::ToLidarMessage(scan, truth.lidar_utime, out.config.lidar_id, &l);
-      out.camera.push_back(std::move(c));
-      out.lidar.push_back(std::move(l));
-    }
-    return out;
+    sim::SessionOptions options;
+    options.lidar_model = "m1";
+    options.camera = testing::SmallCamera();
+    return testing::SimulateMessages(options, 6, 5);
   }();
   return m;
 }

@@ -34,8 +34,7 @@
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/core/range_image.hpp"
 #include "counting_new.hpp"
-#include "lcm_output.hpp"
-#include "session.hpp"
+#include "simulated_messages.hpp"
 #include "small_camera.hpp"
 
 namespace calibd {
@@ -48,44 +47,17 @@ constexpr int64_t kT0 = 1000000000;    // monotonic time of the first period
 constexpr int64_t kTickUs = 50000;     // the agent's poll loop timer
 constexpr int64_t kTimeoutUs = SessionConfig{}.sensor_timeout_us;
 
-struct Drive {
-  std::vector<camera_frame_t> camera;
-  std::vector<lidar_frame_t> lidar;
-  CalibConfig calib;
-  Pose T_camera_lidar;  // the truth
-  LidarModel lidar_model;
-};
+using Drive = testing::SimulatedMessages;
 
 // The default drive (6-30 m and back in 20 s) at 4 Hz, small camera, m1 LiDAR: simulated once.
 const Drive& SimulatedDrive() {
   static const Drive d = [] {
-    Drive out;
     sim::SessionOptions options;
     options.seed = 7;
     options.lidar_model = "m1";
     options.camera = testing::SmallCamera();
     options.trajectory.rate_hz = 1e6 / static_cast<double>(kPeriodUs);
-    sim::SessionSimulator sim;
-    std::string error;
-    EXPECT_TRUE(sim.Init(options, &error)) << error;
-    EXPECT_EQ(sim.num_frames(), kPairs);
-    out.calib = sim.UserConfig();
-    out.T_camera_lidar = sim.T_camera_lidar();
-    out.lidar_model = sim.lidar_model();
-    cv::Mat image;
-    sim::LidarScan scan;
-    sim::FrameTruth truth;
-    for (int k = 0; k < kPairs; ++k) {
-      sim.SimulateFrame(k, &image, &scan, &truth);
-      camera_frame_t c;
-      EXPECT_TRUE(sim::ToCameraMessage(image, truth.camera_utime, out.calib.camera_id,
-                                       camera_frame_t::ENCODING_MONO8, 90, &c));
-      lidar_frame_t l;
-      sim::ToLidarMessage(scan, truth.lidar_utime, out.calib.lidar_id, &l);
-      out.camera.push_back(std::move(c));
-      out.lidar.push_back(std::move(l));
-    }
-    return out;
+    return testing::SimulateMessages(options, kPairs);
   }();
   return d;
 }
@@ -99,7 +71,7 @@ int64_t LidarArrival(int i) { return kT0 + i * kPeriodUs + 120000; }
 class Rig {
  public:
   explicit Rig(const Drive& drive) : drive_(drive) {
-    config_.calib = drive.calib;
+    config_.calib = drive.config;
     config_.stop_on_coverage = false;  // collect the whole drive unless a fault ends it
     config_.target_frames = 100000;
     config_.max_duration_s = 3600.0;
@@ -131,6 +103,18 @@ class Rig {
   void Pair(int i) {
     Camera(drive_.camera[static_cast<size_t>(i)], CameraArrival(i));
     Lidar(drive_.lidar[static_cast<size_t>(i)], LidarArrival(i));
+  }
+  // Pairs [begin, end), except that `silent` sends nothing for the pairs [silent_from,
+  // silent_to): only the other sensor's frames arrive then.
+  void PairsWithSilence(int begin, int end, SensorStream silent, int silent_from, int silent_to) {
+    for (int i = begin; i < end; ++i) {
+      if (i < silent_from || i >= silent_to)
+        Pair(i);
+      else if (silent == SensorStream::kLidar)
+        Camera(drive_.camera[static_cast<size_t>(i)], CameraArrival(i));
+      else
+        Lidar(drive_.lidar[static_cast<size_t>(i)], LidarArrival(i));
+    }
   }
 
   // The timer's ticks up to `t_us` (each a Step), then the clock at `t_us`.
@@ -235,12 +219,7 @@ TEST(SensorFaultsTest, LidarStopsMidSession) {
   constexpr int kStop = 30;
   for (int i = 0; i < kWarmup; ++i) rig.Pair(i);
   const long news = testing::Allocations();
-  for (int i = kWarmup; i < kPairs; ++i) {
-    if (i < kStop)
-      rig.Pair(i);
-    else
-      rig.Camera(d.camera[static_cast<size_t>(i)], CameraArrival(i));
-  }
+  rig.PairsWithSilence(kWarmup, kPairs, SensorStream::kLidar, kStop, kPairs);
   EXPECT_EQ(testing::Allocations() - news, 0);
   const SessionMachine& m = rig.machine();
   ASSERT_EQ(m.state(), SessionState::kFailed);
@@ -271,12 +250,7 @@ TEST(SensorFaultsTest, CameraStopsMidSessionAfterEnoughPairs) {
   constexpr int kStop = 60;
   for (int i = 0; i < kWarmup; ++i) rig.Pair(i);
   const long news = testing::Allocations();
-  for (int i = kWarmup; i < kPairs; ++i) {
-    if (i < kStop)
-      rig.Pair(i);
-    else
-      rig.Lidar(d.lidar[static_cast<size_t>(i)], LidarArrival(i));
-  }
+  rig.PairsWithSilence(kWarmup, kPairs, SensorStream::kCamera, kStop, kPairs);
   EXPECT_EQ(testing::Allocations() - news, 0);
   EXPECT_EQ(rig.machine().collection_end(), CollectionEnd::kSensorTimeout);
   EXPECT_GT(rig.ended_us() - CameraArrival(kStop - 1), kTimeoutUs);
@@ -315,12 +289,7 @@ TEST(SensorFaultsTest, LidarPausesAndResumes) {
   constexpr int kPauseFrom = 40, kPauseTo = 46;
   for (int i = 0; i < kWarmup; ++i) rig.Pair(i);
   const long news = testing::Allocations();
-  for (int i = kWarmup; i < kPairs; ++i) {
-    if (i >= kPauseFrom && i < kPauseTo)
-      rig.Camera(d.camera[static_cast<size_t>(i)], CameraArrival(i));
-    else
-      rig.Pair(i);
-  }
+  rig.PairsWithSilence(kWarmup, kPairs, SensorStream::kLidar, kPauseFrom, kPauseTo);
   EXPECT_EQ(testing::Allocations() - news, 0);
   ASSERT_EQ(rig.machine().state(), SessionState::kCollecting) << rig.machine().detail();
   rig.EndOfData();
