@@ -1,11 +1,8 @@
 #include "agent_session.hpp"
 
 #include <fcntl.h>
-#include <poll.h>
 #include <signal.h>
 #include <sys/resource.h>
-#include <sys/socket.h>
-#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -13,9 +10,9 @@
 #include <chrono>
 #include <cstring>
 #include <filesystem>
-#include <string_view>
 
 #include "calibd/drivers/atomic_file.hpp"
+#include "notify_socket.hpp"
 #include "private_network.hpp"
 #include "run.hpp"
 
@@ -26,62 +23,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 std::string Errno(const char* what) { return std::string(what) + ": " + std::strerror(errno); }
-
-// The datagram socket systemd would give a Type=notify service (sd_notify(3)), bound at `path`.
-class NotifySocket {
- public:
-  ~NotifySocket() {
-    if (fd_ >= 0) ::close(fd_);
-    if (!path_.empty()) ::unlink(path_.c_str());
-  }
-  bool Bind(const std::string& path, std::string* error) {
-    sockaddr_un addr{};
-    if (path.size() >= sizeof(addr.sun_path)) {
-      *error = "notify socket path too long: " + path;
-      return false;
-    }
-    ::unlink(path.c_str());
-    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    addr.sun_family = AF_UNIX;
-    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
-      *error = Errno("notify socket");
-      return false;
-    }
-    path_ = path;
-    return true;
-  }
-  /// Waits up to `timeout_ms` for a datagram with a READY=1 line; false on timeout.
-  bool WaitReady(int timeout_ms) {
-    const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
-    char buf[4096];
-    while (Clock::now() < deadline) {
-      pollfd p{fd_, POLLIN, 0};
-      const auto left =
-          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-      if (::poll(&p, 1, static_cast<int>(std::max<long long>(left, 0))) <= 0) continue;
-      const ssize_t n = ::recv(fd_, buf, sizeof(buf), 0);
-      if (n <= 0) continue;
-      const std::string_view text(buf, static_cast<size_t>(n));
-      if (text.substr(0, 8) == "READY=1\n" || text == "READY=1" ||
-          text.find("\nREADY=1") != std::string_view::npos)
-        return true;
-    }
-    return false;
-  }
-  /// Closes the socket: the agent's later notifications fail (ECONNREFUSED) instead of filling a
-  /// buffer nobody reads.
-  void Close() {
-    if (fd_ >= 0) ::close(fd_);
-    fd_ = -1;
-    if (!path_.empty()) ::unlink(path_.c_str());
-    path_.clear();
-  }
-
- private:
-  int fd_ = -1;
-  std::string path_;
-};
 
 void Stop(pid_t pid) {
   ::kill(pid, SIGTERM);

@@ -10,6 +10,7 @@
 #include "detect_bench.hpp"
 #include "pipeline_bench.hpp"
 #include "resolution_bench.hpp"
+#include "soak_bench.hpp"
 
 namespace {
 
@@ -21,6 +22,7 @@ Usage: calibd-bench detect [options]
        calibd-bench agent-memory [options]
        calibd-bench pipeline [options]
        calibd-bench resolution [--repeat N]
+       calibd-bench soak --drive LOG --calib-yaml FILE [options]
 
 detect   camera and LiDAR board detection over the default simulated session (3 boards, clutter,
          driving 6-30 m): precision, recall (a LiDAR detection is a true positive within 0.2 m of
@@ -92,6 +94,31 @@ resolution
          and the median CPU time of the thread (target: < 20 ms for 200k points).
   --repeat N          timed runs per model (default 50)
 
+soak     one calibd-agent through back-to-back workshop sessions for N minutes: calibd-sim
+         publishes the drive over LCM (looping); a tester over CAN (UDS on the kernel's ISO-TP,
+         calibd-tester's client) unlocks, calibrates, commits and restores the reference, session
+         after session; the agent's RSS, open fds, threads and CPU time are read from /proc once a
+         second. One row per session, then the checks: every session updated, committed and
+         restored; the agent alive and stopping cleanly; no fd or thread more and at most
+         --max-rss-growth-mb more RSS after any session than after the first; the store within
+         its history. Needs a CAN interface with can-isotp: tests/vm/soak.sh MINUTES runs it in
+         the test VM on the agent_diag_vmtest drive.
+  --minutes X         start sessions until X minutes have passed (default 2)
+  --drive LOG         the drive to publish (calibd-sim --out; required)
+  --calib-yaml FILE   its calibration config (calibd-sim --config-out; required)
+  --agent PATH        calibd-agent to run (default: this build's)
+  --sim PATH          calibd-sim to publish with (default: this build's)
+  --interface NAME    CAN interface (default vcan0)
+  --lcm-url URL       where the drive goes and the agent listens
+                      (default udpm://239.255.76.67:7667?ttl=0&recv_buf_size=16777216)
+  --speed X           replay speed of the drive (default 1)
+  --min-frames N      the agent's min_frames (default 60)
+  --p2-ms MS          the tester's P2 (default 2000, for an emulated guest)
+  --max-rss-growth-mb X
+                      allowed RSS growth after the first session (default 8)
+  --work-dir DIR      the agent's config, store, logs (default: a temporary directory, kept)
+  --json FILE         also write the sessions and every sample as JSON
+
 Exit codes: 0 done, 1 failed, 2 bad option.
 )";
 
@@ -103,6 +130,75 @@ bool ParseInt(const std::string& s, long long lo, long long hi, long long* v) {
   return true;
 }
 
+bool ParseDouble(const std::string& s, double lo, double hi, double* v) {
+  char* end = nullptr;
+  const double x = std::strtod(s.c_str(), &end);
+  if (s.empty() || *end != '\0' || !(x >= lo && x <= hi)) return false;
+  *v = x;
+  return true;
+}
+
+int RunSoak(int argc, char** argv) {
+  calibd::bench::SoakBenchOptions o;
+  o.agent_path = CALIBD_AGENT_EXE;
+  o.sim_path = CALIBD_SIM_EXE;
+  for (int i = 0; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--help" || arg == "-h") {
+      std::cout << kHelp;
+      return 0;
+    }
+    if (i + 1 >= argc) {
+      std::cerr << "calibd-bench: option " << arg << " needs a value (see --help)\n";
+      return 2;
+    }
+    const std::string value = argv[++i];
+    long long n = 0;
+    double x = 0;
+    if (arg == "--minutes" && ParseDouble(value, 0.01, 10000, &x)) {
+      o.minutes = x;
+    } else if (arg == "--drive") {
+      o.drive_log = value;
+    } else if (arg == "--calib-yaml") {
+      o.calib_yaml = value;
+    } else if (arg == "--agent") {
+      o.agent_path = value;
+    } else if (arg == "--sim") {
+      o.sim_path = value;
+    } else if (arg == "--interface") {
+      o.interface = value;
+    } else if (arg == "--lcm-url") {
+      o.lcm_url = value;
+    } else if (arg == "--speed" && ParseDouble(value, 0.01, 100, &x)) {
+      o.speed = x;
+    } else if (arg == "--min-frames" && ParseInt(value, 1, 100000, &n)) {
+      o.min_frames = static_cast<int>(n);
+    } else if (arg == "--p2-ms" && ParseInt(value, 1, 60000, &n)) {
+      o.p2_ms = static_cast<int>(n);
+    } else if (arg == "--max-rss-growth-mb" && ParseDouble(value, 0, 100000, &x)) {
+      o.max_rss_growth_mb = x;
+    } else if (arg == "--work-dir") {
+      o.work_dir = value;
+    } else if (arg == "--json") {
+      o.json_path = value;
+    } else {
+      std::cerr << "calibd-bench: bad option or value '" << arg << " " << value
+                << "' (see --help)\n";
+      return 2;
+    }
+  }
+  if (o.drive_log.empty() || o.calib_yaml.empty()) {
+    std::cerr << "calibd-bench: soak needs --drive LOG and --calib-yaml FILE (see --help)\n";
+    return 2;
+  }
+  std::string error;
+  if (!calibd::bench::RunSoakBench(o, std::cout, &std::cerr, &error)) {
+    std::cerr << "calibd-bench: " << error << "\n";
+    return 1;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -112,6 +208,7 @@ int main(int argc, char** argv) {
   }
   const std::string command = argv[1];
   if (command == "resolution") return calibd::bench::RunResolutionBench(argc - 2, argv + 2);
+  if (command == "soak") return RunSoak(argc - 2, argv + 2);
   const bool calib = command == "calib";
   const bool memory = command == "agent-memory";
   const bool pipeline = command == "pipeline";
