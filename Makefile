@@ -1,7 +1,8 @@
 # Thin wrapper over CMake presets. `make demo` and `make test` install missing Debian packages,
 # configure, build and run. `make test` runs the suite twice: optimised (release) and under
 # AddressSanitizer + UndefinedBehaviorSanitizer (asan), the latter without the whole-session
-# suites labelled `slow` and the VM tests labelled `vm` (tests/vm/: kernel I/O, not memory).
+# suites labelled `slow` and the VM tests labelled `vm` (tests/vm/: kernel I/O, not memory);
+# then every libFuzzer target for a short fixed time from its seed corpus (fuzz-smoke).
 # The sanitizer build is -O1 -g1 (ASan's recommended level, line tables for its stack traces):
 # it compiles in about half the time of -O2 -g.
 # `make check PRESET=debug|release|asan` runs one build's suite.
@@ -34,6 +35,7 @@ check: build
 test: deps
 	@$(MAKE) --no-print-directory check PRESET=release
 	@$(MAKE) --no-print-directory check PRESET=asan CTEST_ARGS="-LE 'slow|vm'"
+	@$(MAKE) --no-print-directory fuzz-smoke
 
 install:
 	@$(MAKE) --no-print-directory build PRESET=release
@@ -49,7 +51,7 @@ cross-test:
 	@JOBS=$(JOBS) bash toolchains/cross-test.sh $(CTEST_ARGS)
 
 # libFuzzer targets (tests/fuzz/, preset fuzz: clang, ASan+UBSan): `make fuzz-smoke` builds only
-# them and runs each for 15 s from its seed corpus (ctest -L fuzz); `make fuzz FUZZ_SECONDS=600`
+# them and runs each for 10 s from its seed corpus (ctest -L fuzz; part of `make test`); `make fuzz FUZZ_SECONDS=600`
 # runs each for FUZZ_SECONDS, FUZZ_JOBS at a time, and prints executions and coverage per target.
 # Both fuzz copies of the corpora in build/fuzz/tests/fuzz/; crash inputs land in their artifacts/.
 FUZZ_SECONDS ?= 600

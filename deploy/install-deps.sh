@@ -7,6 +7,8 @@ set -euo pipefail
 PACKAGES=(
   # toolchain
   build-essential cmake ninja-build pkg-config git clang-format
+  # LLVM's linker: host builds link with it, several times faster than GNU ld (cmake/CalibdLinker.cmake)
+  lld
   # libraries (core, drivers)
   libeigen3-dev libopencv-dev libapriltag-dev libceres-dev
   liblcm-dev liblcm-bin libglib2.0-dev libgpiod-dev
