@@ -365,6 +365,21 @@ class Soak {
         out_ << "        RSS trend over sessions 2.." << sessions_.size() << ": "
              << Fixed(RssSlope() * 1024.0, 0) << " kB per session\n";
       }
+      // The heap settles in the first sessions (one arena, never trimmed: its high-water mark
+      // creeps up while the solves' allocations find their places); a leak keeps growing. From
+      // kSettledSessions on, the second half of the run must be flat.
+      if (sessions_.size() >= kSettledSessions) {
+        const size_t half = sessions_.size() / 2;
+        const double at_half = sessions_[half - 1].end.rss_mb;
+        double late_max = 0.0;
+        for (size_t i = half; i < sessions_.size(); ++i)
+          late_max = std::max(late_max, sessions_[i].end.rss_mb);
+        check(late_max - at_half <= kFlatMb,
+              "RSS over the second half (sessions " + std::to_string(half + 1) + ".." +
+                  std::to_string(sessions_.size()) + "): at most " + Mb(late_max) +
+                  " MB, after session " + std::to_string(half) + " " + Mb(at_half) +
+                  " MB (limit +" + Mb(kFlatMb) + ")");
+      }
     }
     if (!sessions_.empty()) {
       // current.json, reference.json and the current plus keep_previous versions in history/;
@@ -439,6 +454,8 @@ class Soak {
   static std::string Mb(double v) { return Fixed(v, 1); }
 
   static constexpr int kKeepPrevious = 5;
+  static constexpr size_t kSettledSessions = 16;
+  static constexpr double kFlatMb = 1.0;
   const SoakBenchOptions& o_;
   std::ostream& out_;
   std::ostream* progress_;
