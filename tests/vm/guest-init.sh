@@ -13,7 +13,12 @@
 #      CALIBD_VM_GPIOSIM (the simulator's sysfs folder: sim_gpioN/{pull,value}).
 # 5. Writes the job's exit code to SHARED/vm-exit-code and powers off. Nothing is written there
 #    when the VM could not set up, which vm_run.sh reports as a VM failure.
-# Kernel command line: calibd.job=/abs/job.sh calibd.shared=/abs/host/folder (no spaces).
+# With calibd.init=systemd, step 4 differs: the root becomes the real root (switch_root) and the
+# host's systemd boots it as PID 1, with the job as the one unit asked for
+# (calibd-vm-job.service, the same environment plus CALIBD_VM_INIT=systemd), so that a job can
+# run calibd.service as a vehicle would; the service writes the exit code and powers off.
+# Kernel command line: calibd.job=/abs/job.sh calibd.shared=/abs/host/folder (no spaces)
+# [calibd.init=systemd].
 PATH=/bin:/sbin
 export PATH
 R=/newroot
@@ -40,10 +45,12 @@ done </etc/modules.load
 
 job=
 shared=
+init=
 for arg in $(cat /proc/cmdline); do
   case $arg in
     calibd.job=*) job=${arg#*=} ;;
     calibd.shared=*) shared=${arg#*=} ;;
+    calibd.init=*) init=${arg#*=} ;;
   esac
 done
 [ -n "$job" ] && [ -n "$shared" ] || fatal "calibd.job= or calibd.shared= missing on the command line"
@@ -99,6 +106,35 @@ else
 fi
 
 say "ready at $(uptime_s) s: vcan0 vcan1, gpio-sim $chip (calibd-sim)"
+if [ "$init" = systemd ]; then
+  wrapper=/etc/calibd-vm-job.sh
+  cat >"$R$wrapper" <<JOB
+#!/bin/bash
+cd "$shared" || exit 1
+echo "=== job $job (under systemd)"
+/bin/bash "$job" </dev/null
+rc=\$?
+echo "=== job exit \$rc at \$(cut -d' ' -f1 /proc/uptime) s"
+echo "\$rc" >"$shared/vm-exit-code.tmp" && mv "$shared/vm-exit-code.tmp" "$shared/vm-exit-code"
+sync
+systemctl poweroff --force --force
+JOB
+  cat >"$R/etc/systemd/system/calibd-vm-job.service" <<UNIT
+[Unit]
+Description=calibd test VM job
+After=basic.target
+[Service]
+Type=oneshot
+Environment=HOME=/root TERM=dumb LANG=C.UTF-8 CALIBD_VM=1 CALIBD_VM_INIT=systemd
+Environment=CALIBD_VM_SHARED=$shared CALIBD_VM_GPIOCHIP=$chip CALIBD_VM_GPIOSIM=$simdir
+ExecStart=/bin/bash $wrapper
+StandardOutput=tty
+StandardError=tty
+TTYPath=/dev/console
+UNIT
+  exec switch_root "$R" /lib/systemd/systemd --unit=calibd-vm-job.service --log-level=warning \
+    --show-status=false
+fi
 echo "=== job $job"
 chroot "$R" /usr/bin/env -i -C "$shared" HOME=/root TERM=dumb LANG=C.UTF-8 \
   PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \

@@ -3,10 +3,10 @@
 # the kernel's can-isotp) and its loopback multicast (LCM udpm), on the drive agent_diag_vmtest
 # uses (100 pairs at 5 Hz, m1, 960x480 JPEG), replayed at half speed for the emulated guest.
 #   tests/vm/soak.sh BUILD_DIR MINUTES [SHARED_DIR]
-# BUILD_DIR: a release build (its calibd-bench, and tests/tmp/agent_diag_vmtest, which its build
-# fills). SHARED_DIR (default BUILD_DIR/tests/tmp/soak) receives the programs, the job, the
-# console log, soak.txt (the table and checks) and soak.json (every sample). Exit code:
-# calibd-bench's (1: a check failed), or vm_run.sh's 97/98/99.
+# BUILD_DIR: a release build. SHARED_DIR (default BUILD_DIR/tests/tmp/soak) receives the
+# programs (tests/vm/agent_job.sh), the job, the console log, soak.txt (the table and checks),
+# soak-progress.txt and soak.json (every sample). Exit code: calibd-bench's (1: a check
+# failed), or vm_run.sh's 97/98/99.
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 if [ $# -lt 2 ]; then
@@ -14,22 +14,9 @@ if [ $# -lt 2 ]; then
   exit 2
 fi
 build=$(cd "$1" && pwd) minutes=$2 shared=${3:-$1/tests/tmp/soak}
-data=$build/tests/tmp/agent_diag_vmtest
-for f in "$build/tools/bench/calibd-bench" "$data/calibd-agent" "$data/calibd-sim" \
-  "$data/session.lcmlog" "$data/calib.yaml"; do
-  [ -e "$f" ] || {
-    echo "soak: missing $f (build the release preset first)" >&2
-    exit 2
-  }
-done
 mkdir -p "$shared" || exit 2
 shared=$(cd "$shared" && pwd -P)
-rm -f "$shared/soak.txt" "$shared/soak.json"
-cp -f "$build/tools/bench/calibd-bench" "$shared/" || exit 2
-# Copies, not links: a rebuild while the soak runs must not change the programs under it.
-for f in calibd-agent calibd-sim session.lcmlog calib.yaml; do
-  cp -f "$data/$f" "$shared/$f" || exit 2
-done
+rm -f "$shared/soak.txt" "$shared/soak.json" "$shared/soak-progress.txt"
 job=$shared/soak-job.sh
 cat >"$job" <<JOB
 #!/bin/bash
@@ -47,7 +34,7 @@ JOB
 # The VM's own time limit: the soak, the session running when it ends (up to the agent's
 # 150 s limit), the agent's start in the guest and the boot.
 timeout=$(awk -v m="$minutes" 'BEGIN { printf "%d", m * 60 + 420 }')
-"$here/vm_run.sh" "$job" "$shared" "$timeout"
+"$here/agent_job.sh" "$build" "$job" "$shared" "$timeout" "$build/tools/bench/calibd-bench"
 code=$?
 cat "$shared/soak-progress.txt" "$shared/soak.txt" 2>/dev/null
 exit "$code"

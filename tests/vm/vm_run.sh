@@ -12,7 +12,8 @@
 # The guest console goes to SHARED_DIR/vm-console.log and is printed when anything fails
 # (always with CALIBD_VM_VERBOSE=1).
 # Assets come from prepare.sh (run here first; a no-op once built) in $CALIBD_VM_CACHE, default
-# build/vm of this checkout. CALIBD_VM_MEM (MiB, default 1024) and CALIBD_VM_CPUS (default 2).
+# build/vm of this checkout. CALIBD_VM_MEM (MiB, default 1024) and CALIBD_VM_CPUS (default 2);
+# CALIBD_VM_INIT=systemd boots the guest with systemd and runs the job as a service.
 set -uo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -63,6 +64,17 @@ cp "$job_src" "$job"
 console=$shared/vm-console.log
 rm -f "$shared/vm-exit-code" "$console"
 
+# CALIBD_VM_INIT=systemd: the host's systemd boots the guest and runs the job as a service
+# (guest-init.sh), for jobs that need systemd itself (tests/vm/systemd-job.sh).
+init_arg=
+case ${CALIBD_VM_INIT:-} in
+  '') ;;
+  systemd) init_arg=" calibd.init=systemd" ;;
+  *)
+    err "CALIBD_VM_INIT must be empty or systemd, got '$CALIBD_VM_INIT'"
+    exit 2
+    ;;
+esac
 t0=$(date +%s.%N)
 # -nodefaults: no network, display or monitor; the serial port is the console; -no-reboot turns a
 # guest reboot or panic (panic=-1) into qemu exiting. KVM does not boot a stock kernel on our
@@ -73,7 +85,7 @@ timeout -k 5 "$timeout_s" qemu-system-x86_64 -accel tcg,thread=multi -cpu max -M
   -kernel "$CALIBD_VM_KERNEL_IMAGE" -initrd "$CALIBD_VM_INITRAMFS" \
   -virtfs local,path=/,mount_tag=hostroot,security_model=none,readonly=on,multidevs=remap \
   -virtfs "local,path=$shared,mount_tag=shared,security_model=none,multidevs=remap" \
-  -append "console=ttyS0 quiet panic=-1 calibd.job=$job calibd.shared=$shared" \
+  -append "console=ttyS0 quiet panic=-1 calibd.job=$job calibd.shared=$shared$init_arg" \
   </dev/null >"$console" 2>&1
 qemu_rc=$?
 sed -i 's/\r$//' "$console" 2>/dev/null
