@@ -37,6 +37,16 @@ wait_for() { # wait_for TENTHS COMMAND...: polls until the command succeeds
 }
 show() { systemctl show -p "$1" --value calibd; }
 tester() { ./calibd-tester --interface vcan0 --p2-ms 2000 --quiet "$@"; }
+# UDS answers (0x22 F195) within TRIES half-second attempts: a fresh agent in the emulated guest
+# takes a few seconds to serve its first request.
+uds_answers() {
+  local i
+  for ((i = 0; i < $1; i++)); do
+    tester read F195 >/dev/null 2>&1 && return 0
+    sleep 0.5
+  done
+  return 1
+}
 readonly lcm_url="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=16777216"
 [ "${CALIBD_VM_INIT:-}" = systemd ] && [ "$(cat /proc/1/comm)" = systemd ] || {
   echo "FAIL not under systemd (run with CALIBD_VM_INIT=systemd: tests/vm/systemd.sh)"
@@ -96,12 +106,7 @@ check "runs as user calibd" test "$(stat -c %U "/proc/$pid")" = calibd
 check "no effective capabilities" grep -q $'^CapEff:\t0000000000000000$' <<<"$status"
 check "no new privileges" grep -q $'^NoNewPrivs:\t1$' <<<"$status"
 check "seccomp filter in force" grep -q $'^Seccomp:\t2$' <<<"$status"
-answered=0
-for ((i = 0; i < 10; i++)); do
-  tester read F195 >/dev/null 2>&1 && answered=1 && break
-  sleep 0.5
-done
-check "UDS answers on vcan0" test "$answered" = 1
+check "UDS answers on vcan0" uds_answers 10
 
 # --- a workshop session to a committed calibration ---
 out=$(tester --secret /root/tester.secret calibrate --max-duration 150 2>&1)
@@ -125,12 +130,7 @@ restarted() { [ "$(show ActiveState)" = active ] && [ "$(show MainPID)" != "$pid
 check "restarted by systemd within 60 s" wait_for 600 restarted
 check "NRestarts=1" test "$(show NRestarts)" = 1
 echo "  new main PID $(show MainPID)"
-answered=0
-for ((i = 0; i < 20; i++)); do
-  tester read F195 >/dev/null 2>&1 && answered=1 && break
-  sleep 0.5
-done
-check "UDS answers after the restart" test "$answered" = 1
+check "UDS answers after the restart" uds_answers 20
 results=$(tester results 2>&1)
 echo "$results" | sed 's/^/  results: /'
 # A fresh agent has no routine to report (0x24) until a calibration is started.
