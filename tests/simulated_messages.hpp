@@ -19,6 +19,7 @@ struct SimulatedMessages {
   CalibConfig config;   ///< the user config the simulator writes for the drive
   Pose T_camera_lidar;  ///< the truth
   LidarModel lidar_model;
+  int drive_frames = 0;  ///< frames in the whole drive (the simulator's num_frames)
 };
 
 /// Frames first, first + stride, ... (`count` of them) of the drive `options` describes.
@@ -29,6 +30,7 @@ inline SimulatedMessages SimulateMessages(const sim::SessionOptions& options, in
   std::string error;
   EXPECT_TRUE(sim.Init(options, &error)) << error;
   EXPECT_GE(sim.num_frames(), first + (count - 1) * stride + 1);
+  out.drive_frames = sim.num_frames();
   out.config = sim.UserConfig();
   out.T_camera_lidar = sim.T_camera_lidar();
   out.lidar_model = sim.lidar_model();

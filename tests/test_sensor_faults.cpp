@@ -57,7 +57,9 @@ const Drive& SimulatedDrive() {
     options.lidar_model = "m1";
     options.camera = testing::SmallCamera();
     options.trajectory.rate_hz = 1e6 / static_cast<double>(kPeriodUs);
-    return testing::SimulateMessages(options, kPairs);
+    Drive out = testing::SimulateMessages(options, kPairs);
+    EXPECT_EQ(out.drive_frames, kPairs) << "the whole drive, 6-30 m and back";
+    return out;
   }();
   return d;
 }

@@ -708,7 +708,7 @@ int Agent::Run() {
         if (machine_.verdict() == CalibrationOutcome::Verdict::kRejected) return 3;
         // Updated, but auto_commit could not write the store: a factory line must not take
         // it for stored.
-        return machine_.reason() == "commit_failed" ? 5 : 0;
+        return machine_.commit_failed() ? 5 : 0;
       }
       if (end_of_log_ && machine_.session() == 0) {
         Log("the log ended before any session was started");

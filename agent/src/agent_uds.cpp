@@ -119,8 +119,8 @@ uds::RoutineSnapshot Agent::CalibrationStatus() const {
   if (s == SessionState::kDone && has_outcome_) {
     r.verdict = VerdictCode<uds::RoutineVerdict>(outcome_.verdict);
     // A failed commit is the news (store write failed) until a commit goes through.
-    r.reason = uds::RoutineReasonCode(machine_.reason() == "commit_failed" ? machine_.reason()
-                                                                           : outcome_.reason);
+    r.reason =
+        uds::RoutineReasonCode(machine_.commit_failed() ? machine_.reason() : outcome_.reason);
     if (outcome_.solved) {
       r.delta_rotation_deg = outcome_.delta_rotation_deg;
       r.delta_translation_m = outcome_.delta_translation_m;

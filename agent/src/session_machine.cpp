@@ -313,7 +313,7 @@ RequestReply SessionMachine::CommitRequested() {
   } else {
     committed_ = true;
     reply.accepted = true;
-    if (reason_ == "commit_failed") {  // retried: the failure is no longer the news
+    if (commit_failed()) {  // retried: the failure is no longer the news
       reason_.clear();
       detail_.clear();
     }
@@ -325,7 +325,7 @@ RequestReply SessionMachine::CommitRequested() {
 void SessionMachine::CommitFailed(const std::string& detail) {
   if (state_ != SessionState::kDone || !committed_) return;
   committed_ = false;
-  reason_ = "commit_failed";
+  reason_ = kCommitFailed;
   detail_ = detail;
   UpdateGuidance();
 }

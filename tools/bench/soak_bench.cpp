@@ -47,11 +47,9 @@ struct TesterRun {
 struct SoakSession {
   int index = 0;
   double start_s = 0.0, seconds = 0.0;  ///< since the soak's start; the session's length
-  int calibrate_code = -1;              ///< calibd-tester's exit code for calibrate
   std::string verdict = "none";         ///< the routine's verdict ("updated" expected)
-  bool committed = false, restored = false;
-  std::string failure;  ///< empty when every step of the session went through
-  double cpu_s = 0.0;   ///< the agent's CPU time during the session
+  std::string failure;                  ///< empty when every step of the session went through
+  double cpu_s = 0.0;                   ///< the agent's CPU time during the session
   double peak_rss_mb = 0.0;
   ProcSample end;                         ///< the agent after its session
   int store_files = 0, export_files = 0;  ///< in the store directory, in its export/ folder
@@ -260,22 +258,20 @@ class Soak {
     const double cpu0 = SampleProcess(agent_.pid()).cpu_s;
     TesterRun r = Tester({"--secret", Path("secret"), "calibrate", "--max-duration",
                           std::to_string(o_.max_duration_s)});
-    s.calibrate_code = r.code;
     const size_t at = r.out.find("verdict: ");
     if (at != std::string::npos) s.verdict = r.out.substr(at + 9, r.out.find('\n', at) - at - 9);
     if (r.code != 0 || s.verdict != "updated") {
       s.failure =
           "calibrate: exit " + std::to_string(r.code) + ", verdict " + s.verdict + " " + r.err;
     } else {
-      r = Tester({"--secret", Path("secret"), "commit"});
-      s.committed = r.code == 0;
-      if (s.committed) {
-        r = Tester({"--secret", Path("secret"), "restore-reference"});
-        s.restored = r.code == 0;
+      const char* step = "commit";
+      r = Tester({"--secret", Path("secret"), step});
+      if (r.code == 0) {
+        step = "restore-reference";
+        r = Tester({"--secret", Path("secret"), step});
       }
-      if (!s.restored)
-        s.failure = std::string(s.committed ? "restore-reference" : "commit") + ": exit " +
-                    std::to_string(r.code) + " " + r.out + r.err;
+      if (r.code != 0)
+        s.failure = std::string(step) + ": exit " + std::to_string(r.code) + " " + r.out + r.err;
     }
     s.seconds = SecondsSince(t0) - s.start_s;
     s.end = SampleProcess(agent_.pid());
@@ -343,24 +339,26 @@ class Soak {
     check(agent_alive, "calibd-agent running to the end");
     check(agent_exit == 0, "calibd-agent exit code on SIGTERM: " + std::to_string(agent_exit));
     if (!sessions_.empty()) {
-      const ProcSample& first = sessions_.front().end;
-      int max_fds = 0, max_threads = 0;
+      const SoakSession& first = sessions_.front();
+      int max_fds = 0, max_threads = 0, max_store = 0, max_export = 0;
       double max_rss = 0.0;
       for (const SoakSession& s : sessions_) {
         max_fds = std::max(max_fds, s.end.fds);
         max_threads = std::max(max_threads, s.end.threads);
         max_rss = std::max(max_rss, s.end.rss_mb);
+        max_store = std::max(max_store, s.store_files);
+        max_export = std::max(max_export, s.export_files);
       }
-      check(max_fds <= first.fds, "open fds after each session: at most " +
-                                      std::to_string(max_fds) + ", after the first " +
-                                      std::to_string(first.fds));
-      check(max_threads <= first.threads, "threads after each session: at most " +
-                                              std::to_string(max_threads) + ", after the first " +
-                                              std::to_string(first.threads));
-      check(max_rss - first.rss_mb <= o_.max_rss_growth_mb,
+      check(max_fds <= first.end.fds, "open fds after each session: at most " +
+                                          std::to_string(max_fds) + ", after the first " +
+                                          std::to_string(first.end.fds));
+      check(max_threads <= first.end.threads,
+            "threads after each session: at most " + std::to_string(max_threads) +
+                ", after the first " + std::to_string(first.end.threads));
+      check(max_rss - first.end.rss_mb <= o_.max_rss_growth_mb,
             "RSS after each session: at most " + Mb(max_rss) + " MB, after the first " +
-                Mb(first.rss_mb) + " MB (growth " + Mb(max_rss - first.rss_mb) + " MB, limit " +
-                Mb(o_.max_rss_growth_mb) + ")");
+                Mb(first.end.rss_mb) + " MB (growth " + Mb(max_rss - first.end.rss_mb) +
+                " MB, limit " + Mb(o_.max_rss_growth_mb) + ")");
       if (sessions_.size() >= 3) {
         out_ << "        RSS trend over sessions 2.." << sessions_.size() << ": "
              << Fixed(RssSlope() * 1024.0, 0) << " kB per session\n";
@@ -380,22 +378,15 @@ class Soak {
                   " MB, after session " + std::to_string(half) + " " + Mb(at_half) +
                   " MB (limit +" + Mb(kFlatMb) + ")");
       }
-    }
-    if (!sessions_.empty()) {
       // current.json, reference.json and the current plus keep_previous versions in history/;
       // export/ (the calibration in other tools' formats) is rewritten, never added to.
       const int store_limit = 2 + 1 + kKeepPrevious;
-      int max_store = 0, max_export = 0;
-      for (const SoakSession& s : sessions_) {
-        max_store = std::max(max_store, s.store_files);
-        max_export = std::max(max_export, s.export_files);
-      }
       check(max_store <= store_limit, "store files after each session: at most " +
                                           std::to_string(max_store) + " (current, reference, " +
                                           "history: limit " + std::to_string(store_limit) + ")");
-      check(max_export == sessions_.front().export_files,
+      check(max_export == first.export_files,
             "export files after each session: at most " + std::to_string(max_export) +
-                ", after the first " + std::to_string(sessions_.front().export_files));
+                ", after the first " + std::to_string(first.export_files));
     }
     if (failed.empty()) return true;
     *error = "soak failed: " + failed.front();

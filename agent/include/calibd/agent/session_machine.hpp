@@ -169,6 +169,9 @@ class SessionMachine {
   /// The solve's verdict (meaningful in kDone).
   CalibrationOutcome::Verdict verdict() const { return verdict_; }
   bool committed() const { return committed_; }
+  /// The last commit (CommitFailed) could not be written and none went through since: reason()
+  /// is then "commit_failed", the news until a commit succeeds.
+  bool commit_failed() const { return reason_ == kCommitFailed; }
   CollectionEnd collection_end() const { return collection_end_; }
   const CollectionFigures& figures() const { return figures_; }
   const StartRequest& request() const { return request_; }
@@ -207,6 +210,7 @@ class SessionMachine {
   bool committed_ = false;
   double progress_ = 0.0;
   // Reserved once: rewritten while collecting without allocating.
+  static constexpr const char* kCommitFailed = "commit_failed";
   std::string reason_, detail_, guidance_;
 };
 
