@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iostream>
 #include <set>
 #include <vector>
 
@@ -89,6 +90,90 @@ TEST(LidarModelTest, KindFromNameParsesKnownAndRejectsOthers) {
   EXPECT_EQ(kind, LidarKind::kOt128);
   EXPECT_FALSE(LidarKindFromName("velodyne", &kind, &error));
   EXPECT_NE(error.find("velodyne"), std::string::npos) << error;
+}
+
+TEST(LidarModelTest, EveryListedNameParsesToAModelOfThatName) {
+  const std::string names = LidarModelNames();
+  int count = 0;
+  size_t start = 0;
+  while (start < names.size()) {
+    size_t end = names.find(", ", start);
+    if (end == std::string::npos) end = names.size();
+    const std::string name = names.substr(start, end - start);
+    LidarKind kind;
+    std::string error;
+    ASSERT_TRUE(LidarKindFromName(name, &kind, &error)) << name << ": " << error;
+    EXPECT_EQ(MakeLidarModel(kind).name, name);
+    ++count;
+    start = end + 2;
+  }
+  EXPECT_EQ(count, 9);
+  EXPECT_EQ(SimulatedLidarKinds().size(), 8u);
+  std::string error;
+  LidarKind kind;
+  EXPECT_FALSE(LidarKindFromName("VLP16", &kind, &error));
+  EXPECT_NE(error.find("vlp16"), std::string::npos) << "the error lists the names: " << error;
+}
+
+std::vector<double> SortedRings(const LidarModel& m) {
+  std::vector<double> r = m.ring_elevation_deg;
+  std::sort(r.begin(), r.end());
+  return r;
+}
+
+TEST(LidarModelTest, Vlp16Has16RingsTwoDegreesApartInFiringOrder) {
+  const LidarModel m = MakeLidarModel(LidarKind::kVlp16);
+  ASSERT_TRUE(m.has_rings);
+  ASSERT_EQ(m.ring_elevation_deg.size(), 16u);
+  // Packets list the lasers interleaved: -15, +1, -13, +3, ...
+  EXPECT_DOUBLE_EQ(m.ring_elevation_deg[0], -15.0);
+  EXPECT_DOUBLE_EQ(m.ring_elevation_deg[1], 1.0);
+  EXPECT_DOUBLE_EQ(m.ring_elevation_deg[15], 15.0);
+  const std::vector<double> r = SortedRings(m);
+  for (int i = 0; i < 16; ++i) EXPECT_DOUBLE_EQ(r[i], -15.0 + 2.0 * i);
+  EXPECT_DOUBLE_EQ(m.elevation_resolution_deg, 2.0);
+  EXPECT_DOUBLE_EQ(m.azimuth_resolution_deg, 0.2);
+  EXPECT_EQ(m.nominal_points_per_frame, 1800 * 16);
+}
+
+TEST(LidarModelTest, Vlp32cPacksItsRingsAroundTheHorizon) {
+  const LidarModel m = MakeLidarModel(LidarKind::kVlp32c);
+  ASSERT_EQ(m.ring_elevation_deg.size(), 32u);
+  const std::vector<double> r = SortedRings(m);
+  EXPECT_DOUBLE_EQ(r.front(), -25.0);
+  EXPECT_DOUBLE_EQ(r.back(), 15.0);
+  EXPECT_NEAR(m.elevation_resolution_deg, 0.333, 0.001);
+  for (size_t i = 1; i < r.size(); ++i) {
+    EXPECT_GT(r[i], r[i - 1]) << "distinct rings";
+    if (r[i - 1] >= -4.01 && r[i] <= 1.7) {
+      EXPECT_NEAR(r[i] - r[i - 1], 0.333, 0.002);
+    }
+  }
+}
+
+TEST(LidarModelTest, Os1_64HasEvenlySpacedRingsOver45Degrees) {
+  const LidarModel m = MakeLidarModel(LidarKind::kOs1_64);
+  ASSERT_EQ(m.ring_elevation_deg.size(), 64u);
+  const std::vector<double> r = SortedRings(m);
+  EXPECT_NEAR(r.front(), -22.5, 1e-9);
+  EXPECT_NEAR(r.back(), 22.5, 1e-9);
+  for (size_t i = 1; i < r.size(); ++i) EXPECT_NEAR(r[i] - r[i - 1], 45.0 / 63.0, 1e-9);
+  EXPECT_NEAR(m.azimuth_resolution_deg, 360.0 / 1024.0, 1e-12);
+  EXPECT_EQ(m.nominal_points_per_frame, 1024 * 64);
+}
+
+TEST(LidarModelTest, LivoxLikeModelsAreRinglessWithTheirDatasheetFields) {
+  const LidarModel avia = MakeLidarModel(LidarKind::kAvia);
+  EXPECT_FALSE(avia.has_rings);
+  EXPECT_NEAR(avia.azimuth_max_deg - avia.azimuth_min_deg, 70.4, 1e-9);
+  EXPECT_NEAR(avia.elevation_max_deg - avia.elevation_min_deg, 77.2, 1e-9);
+  EXPECT_EQ(avia.nominal_points_per_frame, 24000);
+  const LidarModel mid = MakeLidarModel(LidarKind::kMid360);
+  EXPECT_FALSE(mid.has_rings);
+  EXPECT_DOUBLE_EQ(mid.azimuth_max_deg - mid.azimuth_min_deg, 360.0);
+  EXPECT_DOUBLE_EQ(mid.elevation_min_deg, -7.0);
+  EXPECT_DOUBLE_EQ(mid.elevation_max_deg, 52.0);
+  EXPECT_EQ(mid.nominal_points_per_frame, 20000);
 }
 
 void ExpectPatternInsideModel(const LidarModel& m, const std::vector<sim::Beam>& beams) {
@@ -193,6 +278,61 @@ TEST(LidarPatternTest, FalconHasDenseCentralBandAndDocumentedSize) {
   const double s1 = beams[400].azimuth_rad - beams[399].azimuth_rad;
   EXPECT_NEAR(s0, s1, 1e-6);
   EXPECT_GT(s0, 0.0);
+}
+
+TEST(LidarPatternTest, SpinningModelsFireEveryRingInEveryColumn) {
+  for (LidarKind kind : {LidarKind::kVlp16, LidarKind::kVlp32c, LidarKind::kOs1_64}) {
+    const LidarModel m = MakeLidarModel(kind);
+    SCOPED_TRACE(m.name);
+    std::vector<sim::Beam> beams;
+    sim::MakeScanPattern(m, 0, &beams);
+    ASSERT_EQ(static_cast<int>(beams.size()), m.nominal_points_per_frame);
+    ExpectPatternInsideModel(m, beams);
+    const size_t rings = m.ring_elevation_deg.size();
+    for (size_t ring = 0; ring < rings; ++ring)
+      EXPECT_NEAR(beams[rings + ring].elevation_rad * kRadToDeg, m.ring_elevation_deg[ring], 1e-4);
+  }
+}
+
+// Fraction of the 0.4 deg cells inside the central half of the field that `frames` frames hit.
+double CentralCoverage(const LidarModel& m, int frames) {
+  const double half_az = 0.25 * (m.azimuth_max_deg - m.azimuth_min_deg);
+  const double mid_el = 0.5 * (m.elevation_max_deg + m.elevation_min_deg);
+  const double half_el = 0.25 * (m.elevation_max_deg - m.elevation_min_deg);
+  const int cols = static_cast<int>(2 * half_az / 0.4), rows = static_cast<int>(2 * half_el / 0.4);
+  std::vector<char> hit(static_cast<size_t>(cols) * rows, 0);
+  std::vector<sim::Beam> beams;
+  for (int f = 0; f < frames; ++f) {
+    sim::MakeScanPattern(m, f, &beams);
+    for (const sim::Beam& b : beams) {
+      const int c = static_cast<int>(std::floor((b.azimuth_rad * kRadToDeg + half_az) / 0.4));
+      const int r = static_cast<int>(std::floor((b.elevation_rad * kRadToDeg - mid_el + half_el) / 0.4));
+      if (c >= 0 && c < cols && r >= 0 && r < rows) hit[static_cast<size_t>(r) * cols + c] = 1;
+    }
+  }
+  return static_cast<double>(std::count(hit.begin(), hit.end(), 1)) /
+         static_cast<double>(hit.size());
+}
+
+TEST(LidarPatternTest, LivoxLikePatternsNeverRepeatAndFillTheFieldOverFrames) {
+  for (LidarKind kind : {LidarKind::kAvia, LidarKind::kMid360}) {
+    const LidarModel m = MakeLidarModel(kind);
+    SCOPED_TRACE(m.name);
+    std::vector<sim::Beam> a, b;
+    sim::MakeScanPattern(m, 0, &a);
+    sim::MakeScanPattern(m, 1, &b);
+    ASSERT_EQ(static_cast<int>(a.size()), m.nominal_points_per_frame);
+    ExpectPatternInsideModel(m, a);
+    ExpectPatternInsideModel(m, b);
+    int moved = 0;
+    for (size_t i = 0; i < a.size(); ++i)
+      moved += std::abs(a[i].azimuth_rad - b[i].azimuth_rad) + std::abs(a[i].elevation_rad - b[i].elevation_rad) > 1e-4 ? 1 : 0;
+    EXPECT_GT(moved, static_cast<int>(a.size()) * 9 / 10);
+    const double one = CentralCoverage(m, 1), ten = CentralCoverage(m, 10);
+    std::cout << m.name << ": 0.4 deg cells of the central field hit by 1 frame " << one
+              << ", by 10 frames " << ten << "\n";
+    EXPECT_GT(ten, 1.5 * one);
+  }
 }
 
 }  // namespace

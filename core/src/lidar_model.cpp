@@ -5,21 +5,43 @@
 
 namespace calibd {
 
+namespace {
+
+// The one table of model names.
+struct NamedKind {
+  const char* name;
+  LidarKind kind;
+};
+constexpr NamedKind kLidarNames[] = {
+    {"ot128", LidarKind::kOt128},   {"m1", LidarKind::kM1},         {"falcon", LidarKind::kFalcon},
+    {"vlp16", LidarKind::kVlp16},   {"vlp32c", LidarKind::kVlp32c}, {"os1-64", LidarKind::kOs1_64},
+    {"avia", LidarKind::kAvia},     {"mid360", LidarKind::kMid360}, {"generic", LidarKind::kGeneric},
+};
+
+}  // namespace
+
 bool LidarKindFromName(const std::string& name, LidarKind* kind, std::string* error) {
-  if (name == "ot128")
-    *kind = LidarKind::kOt128;
-  else if (name == "m1")
-    *kind = LidarKind::kM1;
-  else if (name == "falcon")
-    *kind = LidarKind::kFalcon;
-  else if (name == "generic")
-    *kind = LidarKind::kGeneric;
-  else {
-    if (error)
-      *error = "unknown LiDAR model '" + name + "' (expected ot128, m1, falcon or generic)";
-    return false;
+  for (const NamedKind& n : kLidarNames) {
+    if (name == n.name) {
+      *kind = n.kind;
+      return true;
+    }
   }
-  return true;
+  if (error) *error = "unknown LiDAR model '" + name + "' (expected one of " + LidarModelNames() + ")";
+  return false;
+}
+
+std::string LidarModelNames() {
+  std::string out;
+  for (const NamedKind& n : kLidarNames) out += (out.empty() ? "" : ", ") + std::string(n.name);
+  return out;
+}
+
+std::vector<LidarKind> SimulatedLidarKinds() {
+  std::vector<LidarKind> out;
+  for (const NamedKind& n : kLidarNames)
+    if (n.kind != LidarKind::kGeneric) out.push_back(n.kind);
+  return out;
 }
 
 namespace {
@@ -117,6 +139,123 @@ LidarModel MakeFalcon() {
   return m;
 }
 
+// A spinning LiDAR of `rings` (elevations, degrees) and `columns` firings per turn.
+LidarModel MakeSpinning(LidarKind kind, const char* name, std::vector<double> rings, int columns) {
+  LidarModel m;
+  m.kind = kind;
+  m.name = name;
+  m.has_rings = true;
+  m.ring_elevation_deg = std::move(rings);
+  m.azimuth_resolution_deg = 360.0 / columns;
+  m.azimuth_min_deg = -180.0;
+  m.azimuth_max_deg = 180.0;
+  m.elevation_min_deg = *std::min_element(m.ring_elevation_deg.begin(), m.ring_elevation_deg.end());
+  m.elevation_max_deg = *std::max_element(m.ring_elevation_deg.begin(), m.ring_elevation_deg.end());
+  std::vector<double> sorted = m.ring_elevation_deg;
+  std::sort(sorted.begin(), sorted.end());
+  m.elevation_resolution_deg = 1e9;
+  for (size_t i = 1; i < sorted.size(); ++i)
+    m.elevation_resolution_deg = std::min(m.elevation_resolution_deg, sorted[i] - sorted[i - 1]);
+  m.frame_rate_hz = 10.0;
+  m.nominal_points_per_frame = columns * static_cast<int>(m.ring_elevation_deg.size());
+  return m;
+}
+
+// Velodyne VLP-16 (datasheet 63-9229 and user manual 63-9243): 16 lasers from -15 to +15 deg in 2
+// deg steps (listed in firing order, as the packets carry them: -15, 1, -13, 3, ...), 0.2 deg
+// azimuth steps at 10 Hz (1800 firings a turn, ~300,000 points/s), 100 m, +-3 cm typical accuracy,
+// 2 mm distance units in the packet.
+LidarModel MakeVlp16() {
+  std::vector<double> rings;
+  for (int i = 0; i < 16; ++i) rings.push_back(i % 2 == 0 ? -15.0 + i : 1.0 + (i - 1));
+  LidarModel m = MakeSpinning(LidarKind::kVlp16, "vlp16", rings, 1800);
+  m.min_range_m = 0.5;
+  m.max_range_m = 100.0;
+  m.range_quantization_m = 0.002;
+  return m;
+}
+
+// Velodyne VLP-32C (user manual 63-9325, "VLP-32C laser angles"): 32 lasers over -25..+15 deg,
+// packed around the horizon (0.33 deg apart from -4 to +1.7 deg), in firing order; 0.2 deg
+// azimuth steps at 10 Hz (~600,000 points/s), 200 m, +-3 cm, 4 mm distance units.
+constexpr double kVlp32cElevationDeg[32] = {
+    -25.0,  -1.0,   -1.667, -15.639, -11.31, 0.0,    -0.667, -8.843, -7.254, 0.333,  -0.333,
+    -6.148, -5.333, 1.333,  0.667,   -4.0,   -4.667, 1.667,  1.0,    -3.667, -3.333, 3.333,
+    2.333,  -2.667, -3.0,   7.0,     4.667,  -2.333, -2.0,   15.0,   10.333, -1.333,
+};
+
+LidarModel MakeVlp32c() {
+  LidarModel m = MakeSpinning(LidarKind::kVlp32c, "vlp32c",
+                              {std::begin(kVlp32cElevationDeg), std::end(kVlp32cElevationDeg)},
+                              1800);
+  m.min_range_m = 0.5;
+  m.max_range_m = 200.0;
+  m.range_quantization_m = 0.004;
+  return m;
+}
+
+// Ouster OS1-64 (OS1 datasheet, rev 6/7): 64 channels evenly spread over a 45 deg vertical field
+// (+22.5..-22.5 deg, 0.71 deg apart), 1024 columns at 10 Hz (the default "1024x10" mode),
+// 0.5 m minimum and ~120 m range, +-1.5-5 cm precision, 1 mm range resolution. A real unit
+// staggers its beams in azimuth by a few degrees; the driver's destaggered cloud and its ring
+// field are what we read.
+LidarModel MakeOs1_64() {
+  std::vector<double> rings;
+  for (int i = 0; i < 64; ++i) rings.push_back(22.5 - i * 45.0 / 63.0);
+  LidarModel m = MakeSpinning(LidarKind::kOs1_64, "os1-64", rings, 1024);
+  m.min_range_m = 0.5;
+  m.max_range_m = 120.0;
+  m.range_quantization_m = 0.001;
+  return m;
+}
+
+// Livox-Avia-like (Avia datasheet): non-repetitive scanning over a 70.4 x 77.2 deg field, 240,000
+// points/s (first return; 24,000 a 10 Hz frame), 2 cm range precision, angular precision under
+// 0.05 deg, 1 mm range units; returns from about 1 m. No scan lines: in one frame the rosette's
+// petals cross the field about 0.4 deg apart on average (densest at the centre), so the range
+// image bins are 0.4 deg and the segmentation bridges the empty ones.
+LidarModel MakeAvia() {
+  LidarModel m;
+  m.kind = LidarKind::kAvia;
+  m.name = "avia";
+  m.has_rings = false;
+  m.azimuth_resolution_deg = 0.4;
+  m.elevation_resolution_deg = 0.4;
+  m.azimuth_min_deg = -35.2;
+  m.azimuth_max_deg = 35.2;
+  m.elevation_min_deg = -38.6;
+  m.elevation_max_deg = 38.6;
+  m.min_range_m = 1.0;
+  m.max_range_m = 190.0;  // at 10% reflectivity
+  m.range_quantization_m = 0.001;
+  m.frame_rate_hz = 10.0;
+  m.nominal_points_per_frame = 24000;
+  return m;
+}
+
+// Livox-Mid-360-like (Mid-360 user manual): 360 deg around, -7..+52 deg vertically, 200,000
+// points/s (20,000 a 10 Hz frame), non-repetitive, 0.1 m blind zone, 40 m at 10% reflectivity,
+// <= 2 cm range precision, angular precision under 0.15 deg, 1 mm range units. About one point a
+// square degree per frame: 1 deg bins.
+LidarModel MakeMid360() {
+  LidarModel m;
+  m.kind = LidarKind::kMid360;
+  m.name = "mid360";
+  m.has_rings = false;
+  m.azimuth_resolution_deg = 1.0;
+  m.elevation_resolution_deg = 1.0;
+  m.azimuth_min_deg = -180.0;
+  m.azimuth_max_deg = 180.0;
+  m.elevation_min_deg = -7.0;
+  m.elevation_max_deg = 52.0;
+  m.min_range_m = 0.1;
+  m.max_range_m = 70.0;  // 40 m at 10% reflectivity, 70 m at 80%
+  m.range_quantization_m = 0.001;
+  m.frame_rate_hz = 10.0;
+  m.nominal_points_per_frame = 20000;
+  return m;
+}
+
 LidarModel MakeGenericPlaceholder() {
   LidarModel m;
   m.kind = LidarKind::kGeneric;
@@ -146,6 +285,16 @@ LidarModel MakeLidarModel(LidarKind kind) {
       return MakeM1();
     case LidarKind::kFalcon:
       return MakeFalcon();
+    case LidarKind::kVlp16:
+      return MakeVlp16();
+    case LidarKind::kVlp32c:
+      return MakeVlp32c();
+    case LidarKind::kOs1_64:
+      return MakeOs1_64();
+    case LidarKind::kAvia:
+      return MakeAvia();
+    case LidarKind::kMid360:
+      return MakeMid360();
     case LidarKind::kGeneric:
       return MakeGenericPlaceholder();
   }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "agent_memory_bench.hpp"
+#include "calibd/core/lidar_model.hpp"
 #include "calib_bench.hpp"
 #include "detect_bench.hpp"
 #include "pipeline_bench.hpp"
@@ -122,6 +123,12 @@ soak     one calibd-agent through back-to-back workshop sessions for N minutes: 
 Exit codes: 0 done, 1 failed, 2 bad option.
 )";
 
+// A model the simulator has a scan pattern for.
+bool IsSimulatedLidar(const std::string& name) {
+  calibd::LidarKind kind;
+  return calibd::LidarKindFromName(name, &kind, nullptr) && kind != calibd::LidarKind::kGeneric;
+}
+
 bool ParseInt(const std::string& s, long long lo, long long hi, long long* v) {
   char* end = nullptr;
   const long long x = std::strtoll(s.c_str(), &end, 10);
@@ -214,7 +221,7 @@ int main(int argc, char** argv) {
     if (memory) {
       if (arg == "--agent") {
         m.agent_path = value;
-      } else if (arg == "--lidar" && (value == "ot128" || value == "m1" || value == "falcon")) {
+      } else if (arg == "--lidar" && IsSimulatedLidar(value)) {
         m.lidar = value;
       } else if (arg == "--frames" && ParseInt(value, 10, 100000, &n)) {
         m.frames = static_cast<int>(n);
@@ -260,9 +267,10 @@ int main(int argc, char** argv) {
       std::stringstream ss(value);
       std::string item;
       while (std::getline(ss, item, ',')) {
-        if (item != "ot128" && item != "m1" && item != "falcon") {
+        if (!IsSimulatedLidar(item)) {
           std::cerr << "calibd-bench: unknown LiDAR model '" << item
-                    << "' in --lidar (expected ot128, m1, falcon)\n";
+                    << "' in --lidar (expected any of " << calibd::LidarModelNames()
+                    << " but generic)\n";
           return 2;
         }
         d.lidars.push_back(item);

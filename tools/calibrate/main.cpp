@@ -61,7 +61,8 @@ Options:
                        rational_polynomial with k4-k6 = 0, or equidistant), or JSON
                        {"K": 3x3 or 9 numbers, "D": [...], "width": W, "height": H}
   --config FILE        calibration config: intrinsics, boards, LiDAR model, prior (required).
-                       lidar.model ot128, m1, falcon or generic: any LiDAR described only by its
+                       lidar.model ot128, m1, falcon, vlp16, vlp32c, os1-64, avia, mid360 or
+                       generic: any LiDAR described only by its
                        points; its resolution and field of view are estimated from the first
                        lidar.generic.estimation_frames (3) LiDAR frames of the log or folder
                        unless lidar.generic.* gives them, printed and written to the report's

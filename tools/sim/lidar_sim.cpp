@@ -32,14 +32,13 @@ namespace {
 constexpr double kDegToRad = M_PI / 180.0;
 
 // Pattern layouts. Beam index formulas (used again to find a beam's neighbours in the pattern):
-//   ot128:  i = column * 128 + ring
+//   spinning (ot128, vlp16, vlp32c, os1-64): i = column * rings + ring
 //   m1:     i = (line * kM1Samples + sample) * kM1Zones + zone
 //   falcon: i = line * kFalconSamples + sample
-constexpr int kOtColumns = 1800;  // 360 deg / 0.2 deg
-constexpr int kOtRings = 128;
-// Channels of one column do not fire at once (the manual's firing-time table spreads them over
-// the block); we spread them evenly over the first 45 us of the 55.6 us column period.
-constexpr int kOtRingSpreadUs = 45;
+//   avia, mid360: i = sample * lasers + laser (the lasers fire together)
+// Channels of one column do not fire at once (the manuals' firing-time tables spread them over
+// the block); we spread them evenly over the first 80% of the column period.
+constexpr double kRingSpreadFraction = 0.8;
 
 constexpr int kM1Zones = 5;
 constexpr int kM1Lines = 126;    // fast-axis sweeps per zone and frame
@@ -58,21 +57,116 @@ double Frac(double v) { return v - std::floor(v); }
 // fraction of a sample/line so that they interleave, as real MEMS patterns drift frame to frame.
 int M1PhaseKey(int frame_index) { return ((frame_index % 16) + 16) % 16; }
 
-void MakeOt128Pattern(const LidarModel& model, double period_us, std::vector<Beam>* beams) {
-  const double column_us = period_us / kOtColumns;
-  for (int col = 0; col < kOtColumns; ++col) {
-    // Hesai spins clockwise seen from above, so azimuth = atan2(y, x) decreases with time; the
-    // frame starts and ends behind the sensor (+-180 deg) so nothing in front is split.
+// Layout of a pattern for PatternNeighbours().
+struct PatternShape {
+  LidarKind kind = LidarKind::kOt128;
+  int rings = 0, columns = 0;                // spinning
+  std::vector<int> ring_below, ring_above;   // spinning: next ring down/up in elevation, or -1
+  int lasers = 0;                            // avia, mid360
+};
+
+bool IsSpinning(const LidarModel& m) { return m.has_rings && !m.ring_elevation_deg.empty(); }
+
+PatternShape ShapeOf(const LidarModel& m) {
+  PatternShape s;
+  s.kind = m.kind;
+  if (IsSpinning(m)) {
+    s.rings = static_cast<int>(m.ring_elevation_deg.size());
+    s.columns = static_cast<int>(std::lround(360.0 / m.azimuth_resolution_deg));
+    std::vector<int> order(s.rings);
+    for (int r = 0; r < s.rings; ++r) order[r] = r;
+    std::sort(order.begin(), order.end(), [&](int a, int b) {
+      return m.ring_elevation_deg[a] < m.ring_elevation_deg[b];
+    });
+    s.ring_below.assign(s.rings, -1);
+    s.ring_above.assign(s.rings, -1);
+    for (int k = 0; k < s.rings; ++k) {
+      if (k > 0) s.ring_below[order[k]] = order[k - 1];
+      if (k + 1 < s.rings) s.ring_above[order[k]] = order[k + 1];
+    }
+  }
+  if (m.kind == LidarKind::kAvia) s.lasers = 6;
+  if (m.kind == LidarKind::kMid360) s.lasers = 4;
+  return s;
+}
+
+void MakeSpinningPattern(const LidarModel& model, double period_us, std::vector<Beam>* beams) {
+  const PatternShape shape = ShapeOf(model);
+  const double column_us = period_us / shape.columns;
+  const double spread_us = kRingSpreadFraction * column_us;
+  for (int col = 0; col < shape.columns; ++col) {
+    // Hesai and Velodyne spin clockwise seen from above, so azimuth = atan2(y, x) decreases with
+    // time; the frame starts and ends behind the sensor (+-180 deg) so nothing in front is split.
     const double az_deg = 180.0 - model.azimuth_resolution_deg * col;
     const float az = static_cast<float>(az_deg * kDegToRad);
-    const int t0 = static_cast<int>(std::floor(col * column_us));
-    for (int ring = 0; ring < kOtRings; ++ring) {
+    const double t0 = col * column_us;
+    for (int ring = 0; ring < shape.rings; ++ring) {
       Beam b;
       b.azimuth_rad = az;
       b.elevation_rad = static_cast<float>(model.ring_elevation_deg[ring] * kDegToRad);
       b.ring = static_cast<int16_t>(ring);
-      b.time_offset_us = t0 + (ring * kOtRingSpreadUs) / kOtRings;
+      b.time_offset_us = static_cast<int>(std::floor(t0 + spread_us * ring / shape.rings));
       beams->push_back(b);
+    }
+  }
+}
+
+// Livox-Avia-like rosette: each laser looks through two wedge prisms turning in opposite
+// directions (a Risley pair, Livox's published design), so its direction is the sum of two
+// rotating deflections: a line through the centre that swings back and forth at (f1 + f2) / 2
+// while it turns at (f1 - f2) / 2. The prism rates are incommensurate, so the pattern never
+// repeats and each frame fills other gaps. Laser l's pattern is turned by l * 180 / lasers deg.
+// Time runs on across frames: frame k continues where frame k - 1 ended.
+constexpr int kAviaLasers = 6;
+constexpr double kAviaPrism1Hz = 120.3, kAviaPrism2Hz = 78.9;
+
+void MakeAviaPattern(const LidarModel& model, int frame_index, double period_us,
+                     std::vector<Beam>* beams) {
+  const int samples = model.nominal_points_per_frame / kAviaLasers;
+  const double dt_us = period_us / samples;
+  const double half_az = 0.5 * (model.azimuth_max_deg - model.azimuth_min_deg);
+  const double half_el = 0.5 * (model.elevation_max_deg - model.elevation_min_deg);
+  for (int k = 0; k < samples; ++k) {
+    const double t = (frame_index * period_us + k * dt_us) * 1e-6;
+    const double a = 2.0 * M_PI * kAviaPrism1Hz * t, b = -2.0 * M_PI * kAviaPrism2Hz * t;
+    const double u0 = 0.5 * (std::cos(a) + std::cos(b)), v0 = 0.5 * (std::sin(a) + std::sin(b));
+    for (int l = 0; l < kAviaLasers; ++l) {
+      const double r = M_PI * l / kAviaLasers;
+      const double u = std::cos(r) * u0 - std::sin(r) * v0, v = std::sin(r) * u0 + std::cos(r) * v0;
+      Beam beam;
+      beam.azimuth_rad = static_cast<float>(u * half_az * kDegToRad);
+      beam.elevation_rad = static_cast<float>(v * half_el * kDegToRad);
+      beam.ring = -1;
+      beam.time_offset_us = static_cast<int>(std::floor(k * dt_us));
+      beams->push_back(beam);
+    }
+  }
+}
+
+// Livox-Mid-360-like: the head turns once a frame while each of 4 lasers, 90 deg apart, sweeps the
+// vertical field up and down ~45 times a turn; the sweep's rate is incommensurate with the turn, so
+// successive frames cross the field at other azimuths.
+constexpr int kMid360Lasers = 4;
+constexpr double kMid360SweepHz = 447.3;
+
+void MakeMid360Pattern(const LidarModel& model, int frame_index, double period_us,
+                       std::vector<Beam>* beams) {
+  const int samples = model.nominal_points_per_frame / kMid360Lasers;
+  const double dt_us = period_us / samples;
+  const double mid = 0.5 * (model.elevation_max_deg + model.elevation_min_deg);
+  const double half = 0.5 * (model.elevation_max_deg - model.elevation_min_deg);
+  for (int k = 0; k < samples; ++k) {
+    const double t = (frame_index * period_us + k * dt_us) * 1e-6;
+    const double turn_deg = 360.0 * k / samples;
+    for (int l = 0; l < kMid360Lasers; ++l) {
+      const double az = std::remainder(turn_deg + 90.0 * l, 360.0);
+      const double el = mid + half * std::sin(2.0 * M_PI * kMid360SweepHz * t + 0.5 * M_PI * l);
+      Beam beam;
+      beam.azimuth_rad = static_cast<float>(az * kDegToRad);
+      beam.elevation_rad = static_cast<float>(el * kDegToRad);
+      beam.ring = -1;
+      beam.time_offset_us = static_cast<int>(std::floor(k * dt_us));
+      beams->push_back(beam);
     }
   }
 }
@@ -141,15 +235,27 @@ void MakeFalconPattern(const LidarModel& model, double period_us, std::vector<Be
 }
 
 // Indices of the beams next to beam i in the pattern (same line/ring, and the adjacent ones).
-int PatternNeighbours(LidarKind kind, int i, int n, int out[4]) {
+int PatternNeighbours(const PatternShape& shape, int i, int n, int out[4]) {
   int c = 0;
-  switch (kind) {
-    case LidarKind::kOt128: {
-      const int col = i / kOtRings, ring = i % kOtRings;
-      out[c++] = ((col + 1) % kOtColumns) * kOtRings + ring;  // the sweep wraps around
-      out[c++] = ((col + kOtColumns - 1) % kOtColumns) * kOtRings + ring;
-      if (ring > 0) out[c++] = i - 1;
-      if (ring + 1 < kOtRings) out[c++] = i + 1;
+  switch (shape.kind) {
+    case LidarKind::kOt128:
+    case LidarKind::kVlp16:
+    case LidarKind::kVlp32c:
+    case LidarKind::kOs1_64: {
+      const int rings = shape.rings, columns = shape.columns;
+      const int col = i / rings, ring = i % rings;
+      out[c++] = ((col + 1) % columns) * rings + ring;  // the sweep wraps around
+      out[c++] = ((col + columns - 1) % columns) * rings + ring;
+      // Rings are in firing order: the ones above and below in elevation come from the table.
+      if (shape.ring_below[ring] >= 0) out[c++] = col * rings + shape.ring_below[ring];
+      if (shape.ring_above[ring] >= 0) out[c++] = col * rings + shape.ring_above[ring];
+      break;
+    }
+    case LidarKind::kAvia:
+    case LidarKind::kMid360: {
+      // Along the laser's track; the tracks next to it are not at a fixed index.
+      if (i >= shape.lasers) out[c++] = i - shape.lasers;
+      if (i + shape.lasers < n) out[c++] = i + shape.lasers;
       break;
     }
     case LidarKind::kM1: {
@@ -260,8 +366,19 @@ void MakeScanPattern(const LidarModel& model, int frame_index, std::vector<Beam>
   const double period_us = 1e6 / model.frame_rate_hz;
   switch (model.kind) {
     case LidarKind::kOt128:
-      beams->reserve(static_cast<size_t>(kOtColumns) * kOtRings);
-      MakeOt128Pattern(model, period_us, beams);
+    case LidarKind::kVlp16:
+    case LidarKind::kVlp32c:
+    case LidarKind::kOs1_64:
+      beams->reserve(static_cast<size_t>(model.nominal_points_per_frame));
+      MakeSpinningPattern(model, period_us, beams);
+      break;
+    case LidarKind::kAvia:
+      beams->reserve(static_cast<size_t>(model.nominal_points_per_frame));
+      MakeAviaPattern(model, frame_index, period_us, beams);
+      break;
+    case LidarKind::kMid360:
+      beams->reserve(static_cast<size_t>(model.nominal_points_per_frame));
+      MakeMid360Pattern(model, frame_index, period_us, beams);
       break;
     case LidarKind::kM1:
       beams->reserve(static_cast<size_t>(kM1Zones) * kM1Lines * kM1Samples);
@@ -280,7 +397,11 @@ LidarSimulator::LidarSimulator(const LidarModel& model, const LidarNoise& noise)
     : model_(model), noise_(noise) {}
 
 void LidarSimulator::RebuildPatternIfNeeded(int frame_index) {
-  const int key = model_.kind == LidarKind::kM1 ? M1PhaseKey(frame_index) : 0;
+  // Non-repetitive patterns differ every frame; the M1's raster cycles through 16 phases.
+  int key = 0;
+  if (model_.kind == LidarKind::kM1) key = M1PhaseKey(frame_index);
+  if (model_.kind == LidarKind::kAvia || model_.kind == LidarKind::kMid360)
+    key = std::max(frame_index, 0);
   if (key == pattern_key_) return;
   MakeScanPattern(model_, frame_index, &beams_);
   nominal_dir_.resize(beams_.size() * 3);
@@ -343,6 +464,7 @@ void LidarSimulator::FinishBeams(const Scene& scene, const Pose& T_world_lidar_s
   const double footprint_rad = 0.5e-3 * noise_.beam_divergence_mrad;  // half-angle
   const double gap = noise_.mixed_point_min_gap_m;
   const int n = static_cast<int>(beams_.size());
+  const PatternShape shape = ShapeOf(model_);
   const size_t begin = chunk * kChunkBeams, end = std::min(beams_.size(), begin + kChunkBeams);
   Eigen::Vector3d origin, e_az, e_el;
   Eigen::Matrix3d R;
@@ -358,7 +480,7 @@ void LidarSimulator::FinishBeams(const Scene& scene, const Pose& T_world_lidar_s
     bool edge = false;
     if (footprint_rad > 0.0) {
       int nb[4];
-      const int c = PatternNeighbours(model_.kind, static_cast<int>(i), n, nb);
+      const int c = PatternNeighbours(shape, static_cast<int>(i), n, nb);
       for (int k = 0; k < c && !edge; ++k) {
         const BeamState& sn = state_[nb[k]];
         if ((st.primitive < 0) != (sn.primitive < 0))

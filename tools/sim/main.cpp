@@ -45,7 +45,8 @@ Live publishing (instead of simulating; as the sensor drivers would publish):
   --start-delay S          wait S seconds before the first event (default 0.5)
 Session:
   --seed N                 random seed; same seed, same output (default 1)
-  --lidar MODEL            ot128 | m1 | falcon (default ot128)
+  --lidar MODEL            ot128 | m1 | falcon | vlp16 | vlp32c | os1-64 | avia | mid360
+                           (default ot128)
   --trajectory MODE        drive (back and forth) | static | close (6-8.5 m) | far (25-30 m)
                            (default drive)
   --distance MIN,MAX       drive range from the LiDAR to the boards, m (default 6,30)

@@ -41,9 +41,9 @@ bool SessionOptions::IsValid(std::string* error) const {
   LidarKind kind;
   if (!LidarKindFromName(lidar_model, &kind, error)) return false;
   if (kind == LidarKind::kGeneric)
-    return fail(
-        "--lidar: the simulator needs a scan pattern: ot128, m1 or falcon (calibrate a "
-        "simulated session with lidar.model: generic instead)");
+    return fail("--lidar: the simulator needs a scan pattern, any model but generic (" +
+                LidarModelNames() +
+                "; calibrate a simulated session with lidar.model: generic instead)");
   std::string why;
   if (!camera.IsValid(&why)) return fail("camera intrinsics: " + why);
   if (!(std::abs(prior_rot_deg) <= 10.0)) return fail("--prior-rot-deg must be within +-10 deg");

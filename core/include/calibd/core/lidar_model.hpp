@@ -12,6 +12,11 @@ enum class LidarKind {
   kOt128,   ///< Hesai OT128-like mechanical spinning LiDAR, 128 rings (Pandar128E4X table)
   kM1,      ///< RoboSense M1-like MEMS LiDAR: 5 lasers, ~120x25 deg, no rings
   kFalcon,  ///< Seyond/Innovusion Falcon-like polygon-mirror LiDAR, denser central band, no rings
+  kVlp16,   ///< Velodyne VLP-16 (Puck): 16 rings 2 deg apart over +-15 deg
+  kVlp32c,  ///< Velodyne VLP-32C: 32 rings over -25..+15 deg, densest around the horizon
+  kOs1_64,  ///< Ouster OS1-64: 64 evenly spaced rings over +-22.5 deg, 1024 columns
+  kAvia,    ///< Livox-Avia-like: 6 lasers behind Risley prisms, non-repetitive rosette, no rings
+  kMid360,  ///< Livox-Mid-360-like: 360 deg spin with a non-repetitive vertical sweep, no rings
   /// Any sensor described only by its point cloud (no ring, unknown pattern): resolution and field
   /// of view are estimated from its frames or set in the config (lidar_resolution.hpp).
   kGeneric,
@@ -19,7 +24,7 @@ enum class LidarKind {
 
 struct LidarModel {
   LidarKind kind = LidarKind::kOt128;
-  std::string name;                        ///< "ot128", "m1", "falcon", "generic"
+  std::string name;                        ///< as LidarKindFromName() parses it
   bool has_rings = true;                   ///< ring index is meaningful (row of the range image)
   std::vector<double> ring_elevation_deg;  ///< per ring index, degrees (empty without rings)
   double azimuth_resolution_deg = 0.2;     ///< horizontal angular step of the pattern
@@ -36,8 +41,15 @@ struct LidarModel {
   int nominal_points_per_frame = 0;  ///< typical returns per frame (for buffer sizing)
 };
 
-/// Parses "ot128", "m1", "falcon" or "generic". Returns false and sets `error` for any other name.
+/// Parses a model name (LidarModelNames()). Returns false and sets `error`, listing the names, for
+/// any other.
 bool LidarKindFromName(const std::string& name, LidarKind* kind, std::string* error);
+
+/// Every model name, comma-separated ("ot128, m1, ..., generic"): for errors and --help.
+std::string LidarModelNames();
+
+/// The models the simulator has a scan pattern for (every kind but kGeneric).
+std::vector<LidarKind> SimulatedLidarKinds();
 
 /// The built-in description of a LiDAR kind. For kGeneric only a ringless placeholder (0.2 deg,
 /// 360 x 40 deg): use MakeGenericLidarModel() with the estimate or the config's values.
