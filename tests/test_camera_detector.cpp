@@ -230,7 +230,7 @@ TEST_F(CameraDetectorSimTest, TrackingAgreesWithFullFrameSearchWhileDriving) {
   for (int k = 0; k < 30; ++k) {
     s.SimulateFrame(k, &image, &scan, &truth);
     auto t0 = std::chrono::steady_clock::now();
-    tracked.Detect(View(image), &a);
+    tracked.Detect(View(image), &a, truth.camera_utime);
     auto t1 = std::chrono::steady_clock::now();
     full.Detect(View(image), &b);
     auto t2 = std::chrono::steady_clock::now();
@@ -284,12 +284,23 @@ TEST_F(CameraDetectorSimTest, SearchesTheFullFrameOnlyWhenABoardIsMissing) {
     CameraDetections out;
     std::vector<int> full_frames;
     for (int k = 0; k < 12; ++k) {
-      detector.Detect(View(image), &out);
+      detector.Detect(View(image), &out, int64_t{100000} * k);  // a 10 Hz stream
       EXPECT_EQ(out.boards.size(), 3u) << "frame " << k;
       if (out.full_frame_search) full_frames.push_back(k);
     }
     EXPECT_EQ(full_frames, every == 0 ? std::vector<int>{0} : std::vector<int>({0, 5, 10}))
         << "full_frame_every " << every;
+  }
+  // Not a stream: frames 2 s apart (still poses) or without capture times are each searched
+  // whole, and every board is found in each.
+  for (const int64_t step_us : {int64_t{2000000}, int64_t{0}}) {
+    CameraDetector detector(CameraDetectorConfig{}, s.options().camera, s.workshop().geometries);
+    CameraDetections out;
+    for (int k = 0; k < 4; ++k) {
+      detector.Detect(View(image), &out, step_us > 0 ? step_us * k : kUnknownCaptureTime);
+      EXPECT_TRUE(out.full_frame_search) << "frame " << k << ", step " << step_us << " us";
+      EXPECT_EQ(out.boards.size(), 3u);
+    }
   }
   // A board out of view (its tag blanked): the others are tracked, and the full frame is searched
   // again every missing_search_every frames to find it.
@@ -313,7 +324,7 @@ TEST_F(CameraDetectorSimTest, SearchesTheFullFrameOnlyWhenABoardIsMissing) {
   CameraDetections out;
   std::vector<int> full_frames;
   for (int k = 0; k < 10; ++k) {
-    detector.Detect(View(hidden), &out);
+    detector.Detect(View(hidden), &out, int64_t{100000} * k);
     EXPECT_EQ(out.boards.size(), 2u) << "frame " << k;
     if (out.full_frame_search) full_frames.push_back(k);
   }

@@ -280,7 +280,8 @@ void FrameIntake::Worker(bool camera) {
       ImageView view;
       slot->camera_ok = CameraFrameToView(slot->camera, config_.limits, &camera_decoded_, &view,
                                           &slot->camera_error);
-      if (slot->camera_ok) camera_detector_->Detect(view, &slot->camera_detections);
+      if (slot->camera_ok)
+        camera_detector_->Detect(view, &slot->camera_detections, slot->camera.utime);
       slot->camera_ms = MsSince(t0);
     } else {
       PointCloudView cloud;

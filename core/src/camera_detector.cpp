@@ -43,6 +43,8 @@ bool CameraDetectorConfig::IsValid(std::string* error) const {
     why << "full_frame_every must be >= 0 (0: never while every board is tracked)";
   else if (missing_search_every < 1)
     why << "missing_search_every must be >= 1";
+  else if (!(max_stream_gap_s >= 0.0 && max_stream_gap_s <= 3600.0))
+    why << "max_stream_gap_s must be in [0, 3600] s";
   else if (!(max_reprojection_rms_px > 0.0))
     why << "max_reprojection_rms_px must be positive";
   else if (!(min_decision_margin >= 0.0))
@@ -105,6 +107,13 @@ struct CameraDetector::Impl {
   // Tracking state (per board index).
   std::vector<Track> tracks;
   int frames_since_full = std::numeric_limits<int>::max() / 2;
+  int64_t last_utime = kUnknownCaptureTime;  // capture time of the previous frame
+
+  // The next frame searches the whole image.
+  void ForgetTracks() {
+    for (auto& t : tracks) t.active = false;
+    frames_since_full = std::numeric_limits<int>::max() / 2;
+  }
 
   // Scratch reused across frames, sized in the constructor.
   std::vector<Candidate> candidates;
@@ -396,7 +405,7 @@ struct CameraDetector::Impl {
 
   // ---- One frame ----
 
-  void Detect(const ImageView& im, CameraDetections* out) {
+  void Detect(const ImageView& im, CameraDetections* out, int64_t capture_utime) {
     // Reserved on the first use of `out` (at most one detection per configured board); later
     // frames only clear and refill.
     if (out->boards.capacity() < boards.size()) out->boards.reserve(boards.size());
@@ -404,6 +413,12 @@ struct CameraDetector::Impl {
     out->full_frame_search = false;
     out->rejected = 0;
     if (!ok || !im.data || im.width < 16 || im.height < 16 || im.stride < im.width) return;
+    const bool stream = capture_utime != kUnknownCaptureTime &&
+                        last_utime != kUnknownCaptureTime && capture_utime > last_utime &&
+                        static_cast<double>(capture_utime - last_utime) <=
+                            config.max_stream_gap_s * 1e6;
+    last_utime = capture_utime;
+    if (!stream) ForgetTracks();
     if (td) {
       int tracked = 0;
       for (const auto& t : tracks) tracked += t.active ? 1 : 0;
@@ -454,17 +469,15 @@ bool CameraDetector::ok() const { return impl_->ok; }
 
 const std::string& CameraDetector::error() const { return impl_->error; }
 
-void CameraDetector::Detect(const ImageView& image, CameraDetections* out) {
-  impl_->Detect(image, out);
+void CameraDetector::Detect(const ImageView& image, CameraDetections* out,
+                            int64_t capture_utime) {
+  impl_->Detect(image, out, capture_utime);
 }
 
 void CameraDetector::ReserveOutput(CameraDetections* out) const {
   if (out->boards.capacity() < impl_->boards.size()) out->boards.reserve(impl_->boards.size());
 }
 
-void CameraDetector::ResetTracking() {
-  for (auto& t : impl_->tracks) t.active = false;
-  impl_->frames_since_full = std::numeric_limits<int>::max() / 2;
-}
+void CameraDetector::ResetTracking() { impl_->ForgetTracks(); }
 
 }  // namespace calibd

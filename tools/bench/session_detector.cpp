@@ -63,7 +63,7 @@ void DetectedSession::Detect(int k, bool with_camera, FrameDetections* out) {
   const ImageView view{image_.data, image_.cols, image_.rows, static_cast<int>(image_.step[0])};
   const auto tc = Clock::now();
   const double cc = ProcessCpuMs();
-  camera_detector_->Detect(view, &out->camera);
+  camera_detector_->Detect(view, &out->camera, out->truth.camera_utime);
   out->camera_ms = MsSince(tc);
   out->camera_cpu_ms = ProcessCpuMs() - cc;
 }

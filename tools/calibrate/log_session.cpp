@@ -98,7 +98,9 @@ class SessionBuilder {
     const int pair_index = stats_->pairs++;
     if (options_.detect) {
       auto t0 = std::chrono::steady_clock::now();
-      camera_detector_->Detect(view, &cd_);
+      // A folder paired by name stem has pseudo times 1 s apart (RecordedFolderOptions): beyond
+      // the stream gap, so each of its images is searched whole.
+      camera_detector_->Detect(view, &cd_, pending_->utime);
       stats_->camera_ms.push_back(MsSince(t0));
       t0 = std::chrono::steady_clock::now();
       lidar_detector_->Detect(cloud, &ld_);

@@ -47,8 +47,11 @@ Session:
   --seed N                 random seed; same seed, same output (default 1)
   --lidar MODEL            ot128 | m1 | falcon | vlp16 | vlp32c | os1-64 | avia | mid360
                            (default ot128)
-  --trajectory MODE        drive (back and forth) | static | close (6-8.5 m) | far (25-30 m)
-                           (default drive)
+  --trajectory MODE        drive (back and forth) | static | close (6-8.5 m) | far (25-30 m) |
+                           stills: parked while the boards are moved between frames (on a
+                           tripod or held by a person, turned, with a chair, a wall, a box or a
+                           bystander within 0.3-1 m), one still pose a frame (default drive)
+  --still-distance MIN,MAX stills: LiDAR to board distance, m (default 1.5,8)
   --distance MIN,MAX       drive range from the LiDAR to the boards, m (default 6,30)
   --static-distance M      distance in static mode, m (default 10)
   --duration S             session length, s (default 20)
@@ -197,6 +200,11 @@ int main(int argc, char** argv) {
                             o.trajectory.max_distance_m = n[1];
                           })},
       {"--static-distance", number(&o.trajectory.static_distance_m, 1, 150)},
+      {"--still-distance", list(2, 2,
+                                [&](auto& n) {
+                                  o.stills.min_distance_m = n[0];
+                                  o.stills.max_distance_m = n[1];
+                                })},
       {"--duration", number(&o.trajectory.duration_s, 0.1, 3600)},
       {"--rate", number(&o.trajectory.rate_hz, 0.1, 50)},
       {"--frames", integer(&frames, 1, 100000)},

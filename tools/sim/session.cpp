@@ -46,6 +46,9 @@ bool SessionOptions::IsValid(std::string* error) const {
                 "; calibrate a simulated session with lidar.model: generic instead)");
   std::string why;
   if (!camera.IsValid(&why)) return fail("camera intrinsics: " + why);
+  if (!(stills.min_distance_m >= 0.5 && stills.max_distance_m > stills.min_distance_m &&
+        stills.max_distance_m <= 60.0))
+    return fail("--still-distance must satisfy 0.5 <= min < max <= 60 m");
   if (!(std::abs(prior_rot_deg) <= 10.0)) return fail("--prior-rot-deg must be within +-10 deg");
   if (!(std::abs(prior_trans_m) <= 0.5)) return fail("--prior-trans-m must be within +-0.5 m");
   if (!(lidar_noise.range_sigma_m >= 0.0 && lidar_noise.range_sigma_m <= 0.5))
@@ -75,6 +78,11 @@ bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
   T_vehicle_camera_ = MountPose(options.camera_mount);
   T_vehicle_camera_.linear() = T_vehicle_camera_.linear() * R_body_optical();
   T_camera_lidar_ = T_vehicle_camera_.inverse() * T_vehicle_lidar_;
+  if (options.trajectory.mode == "stills") {
+    // Every pose is placed now, so that SimulateFrame cannot fail later.
+    for (int k = num_frames() - 1; k >= 0; --k)
+      if (!BuildPose(k, error)) return false;
+  }
 
   std::mt19937_64 rng(Mix(options.seed, 0, 3));
   std::normal_distribution<double> n01(0.0, 1.0);
@@ -106,8 +114,37 @@ bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
   return true;
 }
 
+bool SessionSimulator::BuildPose(int k, std::string* error) {
+  if (pose_ == k) return true;
+  const Pose T_world_vehicle =
+      VehiclePoseAt(options_.trajectory, T_vehicle_lidar_.translation().x(), 0.0);
+  const Pose T_world_camera = T_world_vehicle * T_vehicle_camera_;
+  // Usable by the camera: printed side towards it and every board corner 20 px inside the image.
+  auto visible = [&](const Pose& T_world_board, const BoardGeometry& g) {
+    const Pose T_camera_board = T_world_camera.inverse() * T_world_board;
+    if (T_camera_board.linear().col(2).dot(-T_camera_board.translation()) <= 0.0) return false;
+    for (double sx : {-0.5, 0.5})
+      for (double sy : {-0.5, 0.5}) {
+        Eigen::Vector2d uv;
+        if (!camera_->model().Project(
+                T_camera_board * Eigen::Vector3d(sx * g.width_m, sy * g.height_m, 0.0), &uv, 20.0))
+          return false;
+      }
+    return true;
+  };
+  if (!BuildStillPose(options_.workshop, options_.stills, lidar_->model(),
+                      T_world_vehicle * T_vehicle_lidar_, visible, options_.seed, k, &workshop_,
+                      error))
+    return false;
+  pose_ = k;
+  return true;
+}
+
 void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, FrameTruth* truth) {
   const auto& traj = options_.trajectory;
+  if (traj.mode == "stills") {
+    BuildPose(k, nullptr);  // Init() placed every pose: the same draws place it again
+  }
   const double lidar_x = T_vehicle_lidar_.translation().x();
   const int64_t frame_period_us = static_cast<int64_t>(std::llround(1e6 / traj.rate_hz));
   const int64_t camera_utime = options_.start_utime + k * frame_period_us;

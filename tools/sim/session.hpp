@@ -14,6 +14,7 @@
 #include "calibd/core/lidar_model.hpp"
 #include "camera_render.hpp"
 #include "lidar_sim.hpp"
+#include "stills.hpp"
 #include "trajectory.hpp"
 #include "workshop.hpp"
 
@@ -23,6 +24,8 @@ struct SessionOptions {
   uint64_t seed = 1;
   WorkshopOptions workshop;
   TrajectoryOptions trajectory;
+  /// Where the boards go in each frame of a trajectory.mode "stills" session.
+  StillPoseOptions stills;
   std::string lidar_model = "ot128";
   LidarNoise lidar_noise;
   CameraIntrinsics camera;
@@ -90,6 +93,9 @@ class SessionSimulator {
   /// k).
   void SimulateFrame(int k, cv::Mat* image, LidarScan* scan, FrameTruth* truth);
 
+  /// Still-pose sessions: builds the scene of pose k (SimulateFrame does it for its frame).
+  bool BuildPose(int k, std::string* error);
+
   /// The calibration config a user would write for this vehicle: intrinsics, boards, LiDAR model
   /// and the perturbed prior. Nothing from the truth beyond what a real vehicle would know.
   CalibConfig UserConfig() const;
@@ -101,6 +107,7 @@ class SessionSimulator {
   std::optional<CameraRenderer> camera_;  // built once: its ray table is large
   Pose T_vehicle_lidar_, T_vehicle_camera_, T_camera_lidar_, prior_T_camera_lidar_;
   int64_t camera_phase_us_ = 0;
+  int pose_ = -1;  // the still pose workshop_ holds, -1 for the workshop of a drive
 };
 
 }  // namespace calibd::sim

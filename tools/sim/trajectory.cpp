@@ -9,8 +9,8 @@ bool TrajectoryOptions::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (mode != "drive" && mode != "static" && mode != "close" && mode != "far")
-    return fail("--trajectory must be drive, static, close or far (got '" + mode + "')");
+  if (mode != "drive" && mode != "static" && mode != "close" && mode != "far" && mode != "stills")
+    return fail("--trajectory must be drive, static, close, far or stills (got '" + mode + "')");
   if (!(min_distance_m >= 1.0 && max_distance_m > min_distance_m && max_distance_m <= 150.0))
     return fail("--distance must satisfy 1 <= min < max <= 150 m");
   if (!(static_distance_m >= 1.0 && static_distance_m <= 150.0))
@@ -34,7 +34,7 @@ Pose VehiclePoseAt(const TrajectoryOptions& o, double lidar_x_m, double t) {
     far = 30.0;
   }
   double distance = o.static_distance_m, lateral = 0.0, yaw = 0.0;
-  if (o.mode != "static") {
+  if (o.mode != "static" && o.mode != "stills") {
     // One smooth out-and-back: starts and ends at the near distance, at rest.
     const double phase = 2.0 * M_PI * t / o.duration_s;
     distance = near + (far - near) * 0.5 * (1.0 - std::cos(phase));

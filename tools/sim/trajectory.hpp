@@ -12,7 +12,8 @@ namespace calibd::sim {
 
 struct TrajectoryOptions {
   /// "drive" (back and forth between min and max distance), "static" (parked at static_distance),
-  /// "close" (back and forth within 6-8.5 m) or "far" (within 25-30 m): paper Table II subsets.
+  /// "close" (back and forth within 6-8.5 m) or "far" (within 25-30 m): paper Table II subsets;
+  /// "stills": parked at static_distance while the boards move between frames (stills.hpp).
   std::string mode = "drive";
   double min_distance_m = 6.0;   ///< LiDAR-to-board-line distance at the near end
   double max_distance_m = 30.0;  ///< at the far end

@@ -6,10 +6,6 @@
 
 namespace calibd::sim {
 
-namespace {
-
-constexpr double kDeg = M_PI / 180.0;
-
 Primitive Box(SurfaceKind kind, const Eigen::Vector3d& centre, double yaw,
               const Eigen::Vector3d& half, float albedo) {
   Primitive p;
@@ -35,6 +31,10 @@ Primitive Cylinder(SurfaceKind kind, double x, double y, double radius, double h
   p.albedo = albedo;
   return p;
 }
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
 
 // Board pose: facing the vehicle (z_B = -x_W), x_B = -y_W (the viewer's right), y_B = z_W, then
 // turned by yaw about the vertical and tilted by `tilt` about x_B.
@@ -108,6 +108,47 @@ bool WorkshopOptions::IsValid(std::string* error) const {
   return true;
 }
 
+BoardGeometry WorkshopBoardGeometry(const WorkshopOptions& o, int i) {
+  BoardGeometry g;
+  g.board_id = o.tag_ids.empty() ? i : o.tag_ids[i];
+  g.tag_id = g.board_id;
+  g.width_m = o.board_width_m;
+  g.height_m = o.board_height_m;
+  g.tag_family = o.tag_family;
+  g.tag_size_m = o.tag_size_m;
+  if (i == o.checkerboard_board) {
+    g.pattern = BoardGeometry::PatternKind::kCheckerboard;
+    g.checker_inner_rows = o.checker_inner_rows;
+    g.checker_inner_cols = o.checker_inner_cols;
+    g.checker_square_size_m = o.checker_square_m;
+  }
+  return g;
+}
+
+bool AddBoard(const WorkshopOptions& o, int i, const Pose& T_world_board, Workshop* out,
+              std::string* error) {
+  const BoardGeometry g = WorkshopBoardGeometry(o, i);
+  BoardFace face;
+  if (!face.Build(g, error)) return false;
+  // The slab's front face is the board frame's z = 0 plane (board.hpp), so it sits behind it.
+  Primitive slab;
+  slab.shape = Primitive::Shape::kBox;
+  slab.kind = SurfaceKind::kBoard;
+  slab.T_world_local = T_world_board;
+  slab.T_world_local.translation() +=
+      T_world_board.linear() * Eigen::Vector3d(0.0, 0.0, -o.board_thickness_m / 2.0);
+  slab.half_extents = Eigen::Vector3d(g.width_m / 2.0, g.height_m / 2.0, o.board_thickness_m / 2.0);
+  slab.albedo = face.white_albedo;
+  slab.board_index = static_cast<int>(out->scene.boards.size());
+  PlacedBoard placed;
+  placed.T_world_board = T_world_board;
+  placed.primitive_index = out->scene.Add(slab);
+  out->scene.boards.push_back(placed);
+  out->faces.push_back(face);
+  out->geometries.push_back(g);
+  return true;
+}
+
 bool BuildWorkshop(const WorkshopOptions& o, uint64_t seed, Workshop* out, std::string* error) {
   if (!o.IsValid(error)) return false;
   *out = Workshop{};
@@ -129,39 +170,10 @@ bool BuildWorkshop(const WorkshopOptions& o, uint64_t seed, Workshop* out, std::
 
   const auto placements = Layout(o);
   for (int i = 0; i < o.num_boards; ++i) {
-    BoardGeometry g;
-    g.board_id = o.tag_ids.empty() ? i : o.tag_ids[i];
-    g.tag_id = g.board_id;
-    g.width_m = o.board_width_m;
-    g.height_m = o.board_height_m;
-    g.tag_family = o.tag_family;
-    g.tag_size_m = o.tag_size_m;
-    if (i == o.checkerboard_board) {
-      g.pattern = BoardGeometry::PatternKind::kCheckerboard;
-      g.checker_inner_rows = o.checker_inner_rows;
-      g.checker_inner_cols = o.checker_inner_cols;
-      g.checker_square_size_m = o.checker_square_m;
-    }
-    BoardFace face;
-    if (!face.Build(g, error)) return false;
-
     const Pose T_world_board =
         BoardPose(placements[i].centre, placements[i].yaw, placements[i].tilt);
-    // The slab's front face is the board frame's z = 0 plane (board.hpp), so it sits behind it.
-    Primitive slab;
-    slab.shape = Primitive::Shape::kBox;
-    slab.kind = SurfaceKind::kBoard;
-    slab.T_world_local = T_world_board;
-    slab.T_world_local.translation() +=
-        T_world_board.linear() * Eigen::Vector3d(0.0, 0.0, -o.board_thickness_m / 2.0);
-    slab.half_extents =
-        Eigen::Vector3d(g.width_m / 2.0, g.height_m / 2.0, o.board_thickness_m / 2.0);
-    slab.albedo = face.white_albedo;
-    slab.board_index = i;
-    PlacedBoard placed;
-    placed.T_world_board = T_world_board;
-    placed.primitive_index = scene.Add(slab);
-    scene.boards.push_back(placed);
+    if (!AddBoard(o, i, T_world_board, out, error)) return false;
+    const BoardGeometry& g = out->geometries.back();
 
     // Stand: a thin post from the ground to the board's lower edge, just behind the board, on a
     // base plate. The post touches the board, so segmentation must separate them by geometry.
@@ -171,8 +183,6 @@ bool BuildWorkshop(const WorkshopOptions& o, uint64_t seed, Workshop* out, std::
                        0.3f));
     scene.Add(
         Box(SurfaceKind::kStand, {behind.x(), behind.y(), 0.015}, 0.0, {0.25, 0.25, 0.015}, 0.25f));
-    out->faces.push_back(face);
-    out->geometries.push_back(g);
   }
 
   if (o.clutter) {

@@ -46,6 +46,21 @@ struct Workshop {
   std::vector<BoardGeometry> geometries;  ///< geometries[i] of scene.boards[i]
 };
 
+/// The geometry of board i (its id, size, tag or checkerboard) from the options.
+BoardGeometry WorkshopBoardGeometry(const WorkshopOptions& options, int i);
+
+/// Adds board i of the options at T_world_board: its slab (a box whose front face is the board
+/// frame's z = 0 plane), its face texture and geometry. False with `error` on a bad tag.
+bool AddBoard(const WorkshopOptions& options, int i, const Pose& T_world_board, Workshop* out,
+              std::string* error);
+
+/// A box primitive centred at `centre`, turned by `yaw` about the vertical, of half sizes `half`.
+Primitive Box(SurfaceKind kind, const Eigen::Vector3d& centre, double yaw,
+              const Eigen::Vector3d& half, float albedo);
+/// An upright cylinder standing on the ground at (x, y).
+Primitive Cylinder(SurfaceKind kind, double x, double y, double radius, double height,
+                   float albedo);
+
 /// Builds the workshop. Clutter placement depends on `seed`. False with `error` on bad options
 /// (unknown tag family, tag id out of range).
 bool BuildWorkshop(const WorkshopOptions& options, uint64_t seed, Workshop* out,

@@ -6,6 +6,8 @@
 /// interest in the next frame.
 
 #include <array>
+#include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,6 +18,9 @@
 #include "calibd/core/image_view.hpp"
 
 namespace calibd {
+
+/// The capture time of a frame whose time the caller does not know (CameraDetector::Detect).
+inline constexpr int64_t kUnknownCaptureTime = std::numeric_limits<int64_t>::min();
 
 struct CameraDetectorConfig {
   /// AprilTag quad_decimate for full-frame searches: 2 halves the resolution of the quad search
@@ -54,6 +59,10 @@ struct CameraDetectorConfig {
   int roi_max_decimate = 6;
   int full_frame_every = 0;
   int missing_search_every = 3;
+  /// Tracking needs a stream: a frame more than this after the previous one, or without a capture
+  /// time (still poses, a folder of pairs), is searched whole, so that a board moved or hidden
+  /// between still poses is never looked for only where it was, nor skipped.
+  double max_stream_gap_s = 0.5;
 
   /// Reject detections whose PnP reprojection RMS exceeds this (pixels).
   double max_reprojection_rms_px = 2.0;
@@ -102,8 +111,10 @@ class CameraDetector {
   const std::string& error() const;
 
   /// Detects the configured boards. A frame with no boards (or an empty/null image) gives an empty
-  /// result, not an error.
-  void Detect(const ImageView& image, CameraDetections* out);
+  /// result, not an error. `capture_utime` (us) lets the tracking follow a stream
+  /// (max_stream_gap_s); without it every frame is searched whole.
+  void Detect(const ImageView& image, CameraDetections* out,
+              int64_t capture_utime = kUnknownCaptureTime);
   /// Reserves `out` for any frame (one detection per configured board), so that its first
   /// Detect() does not allocate either: for output buffers made at start-up.
   void ReserveOutput(CameraDetections* out) const;

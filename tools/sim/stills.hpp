@@ -1,0 +1,38 @@
+#pragma once
+/// \file
+/// Still-pose sessions, as most calibration rigs record them: the sensors stand still and, for
+/// each pose, people place the board(s) somewhere else in front of them (on a tripod or held by
+/// hand), turned as people turn them, among the room's furniture. Each pose is a scene of its own.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "calibd/core/lidar_model.hpp"
+#include "workshop.hpp"
+
+namespace calibd::sim {
+
+struct StillPoseOptions {
+  double min_distance_m = 1.5;  ///< LiDAR to board centre
+  double max_distance_m = 8.0;
+  double max_yaw_deg = 40.0;    ///< board turned about the vertical, either way
+  double max_tilt_deg = 25.0;   ///< tipped forward or back
+  double max_roll_deg = 15.0;   ///< turned in its own plane
+  /// Clutter within 0.3-1 m of the boards: a person holding the board (else a tripod), a chair,
+  /// a wall behind, a box on the floor behind and below, a bystander. False: tripods only.
+  bool clutter = true;
+};
+
+/// True when a board at T_world_board is usable by the camera (the caller's camera model).
+using BoardVisible = std::function<bool(const Pose& T_world_board, const BoardGeometry& g)>;
+
+/// Builds the scene of still pose `pose`: a room (floor, walls, furniture along them) and the
+/// workshop options' boards, each placed at random within the distances in front of the LiDAR at
+/// T_world_lidar, inside the LiDAR's field of view and where `visible` accepts it, apart from
+/// each other. Deterministic per (seed, pose). False with `error` when no placement was found.
+bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& options,
+                    const LidarModel& lidar, const Pose& T_world_lidar, const BoardVisible& visible,
+                    uint64_t seed, int pose, Workshop* out, std::string* error);
+
+}  // namespace calibd::sim
