@@ -80,7 +80,7 @@ TEST(FrameIntakeTest, DetectsPairsLikeTheDetectorsDirectly) {
     ASSERT_TRUE(LidarFrameToView(m.lidar[k], FrameLimits{}, &cloud, &error));
     CameraDetections cd;
     LidarDetections ld;
-    camera.Detect(view, &cd);
+    camera.Detect(view, &cd, m.camera[k].utime);  // tracks the stream as the intake does
     lidar.Detect(cloud, &ld);
     direct.AddFrame(cd, ld, m.config.boards, FrameTimes{m.camera[k].utime, m.lidar[k].utime});
   }

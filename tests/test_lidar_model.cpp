@@ -306,7 +306,8 @@ double CentralCoverage(const LidarModel& m, int frames) {
     sim::MakeScanPattern(m, f, &beams);
     for (const sim::Beam& b : beams) {
       const int c = static_cast<int>(std::floor((b.azimuth_rad * kRadToDeg + half_az) / 0.4));
-      const int r = static_cast<int>(std::floor((b.elevation_rad * kRadToDeg - mid_el + half_el) / 0.4));
+      const int r =
+          static_cast<int>(std::floor((b.elevation_rad * kRadToDeg - mid_el + half_el) / 0.4));
       if (c >= 0 && c < cols && r >= 0 && r < rows) hit[static_cast<size_t>(r) * cols + c] = 1;
     }
   }
@@ -326,7 +327,11 @@ TEST(LidarPatternTest, LivoxLikePatternsNeverRepeatAndFillTheFieldOverFrames) {
     ExpectPatternInsideModel(m, b);
     int moved = 0;
     for (size_t i = 0; i < a.size(); ++i)
-      moved += std::abs(a[i].azimuth_rad - b[i].azimuth_rad) + std::abs(a[i].elevation_rad - b[i].elevation_rad) > 1e-4 ? 1 : 0;
+      moved += std::abs(a[i].azimuth_rad - b[i].azimuth_rad) +
+                           std::abs(a[i].elevation_rad - b[i].elevation_rad) >
+                       1e-4
+                   ? 1
+                   : 0;
     EXPECT_GT(moved, static_cast<int>(a.size()) * 9 / 10);
     const double one = CentralCoverage(m, 1), ten = CentralCoverage(m, 10);
     std::cout << m.name << ": 0.4 deg cells of the central field hit by 1 frame " << one

@@ -413,10 +413,10 @@ struct CameraDetector::Impl {
     out->full_frame_search = false;
     out->rejected = 0;
     if (!ok || !im.data || im.width < 16 || im.height < 16 || im.stride < im.width) return;
-    const bool stream = capture_utime != kUnknownCaptureTime &&
-                        last_utime != kUnknownCaptureTime && capture_utime > last_utime &&
-                        static_cast<double>(capture_utime - last_utime) <=
-                            config.max_stream_gap_s * 1e6;
+    const bool stream =
+        capture_utime != kUnknownCaptureTime && last_utime != kUnknownCaptureTime &&
+        capture_utime > last_utime &&
+        static_cast<double>(capture_utime - last_utime) <= config.max_stream_gap_s * 1e6;
     last_utime = capture_utime;
     if (!stream) ForgetTracks();
     if (td) {
@@ -469,8 +469,7 @@ bool CameraDetector::ok() const { return impl_->ok; }
 
 const std::string& CameraDetector::error() const { return impl_->error; }
 
-void CameraDetector::Detect(const ImageView& image, CameraDetections* out,
-                            int64_t capture_utime) {
+void CameraDetector::Detect(const ImageView& image, CameraDetections* out, int64_t capture_utime) {
   impl_->Detect(image, out, capture_utime);
 }
 

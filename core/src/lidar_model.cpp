@@ -13,9 +13,9 @@ struct NamedKind {
   LidarKind kind;
 };
 constexpr NamedKind kLidarNames[] = {
-    {"ot128", LidarKind::kOt128},   {"m1", LidarKind::kM1},         {"falcon", LidarKind::kFalcon},
-    {"vlp16", LidarKind::kVlp16},   {"vlp32c", LidarKind::kVlp32c}, {"os1-64", LidarKind::kOs1_64},
-    {"avia", LidarKind::kAvia},     {"mid360", LidarKind::kMid360}, {"generic", LidarKind::kGeneric},
+    {"ot128", LidarKind::kOt128}, {"m1", LidarKind::kM1},         {"falcon", LidarKind::kFalcon},
+    {"vlp16", LidarKind::kVlp16}, {"vlp32c", LidarKind::kVlp32c}, {"os1-64", LidarKind::kOs1_64},
+    {"avia", LidarKind::kAvia},   {"mid360", LidarKind::kMid360}, {"generic", LidarKind::kGeneric},
 };
 
 }  // namespace
@@ -27,7 +27,8 @@ bool LidarKindFromName(const std::string& name, LidarKind* kind, std::string* er
       return true;
     }
   }
-  if (error) *error = "unknown LiDAR model '" + name + "' (expected one of " + LidarModelNames() + ")";
+  if (error)
+    *error = "unknown LiDAR model '" + name + "' (expected one of " + LidarModelNames() + ")";
   return false;
 }
 
@@ -185,9 +186,9 @@ constexpr double kVlp32cElevationDeg[32] = {
 };
 
 LidarModel MakeVlp32c() {
-  LidarModel m = MakeSpinning(LidarKind::kVlp32c, "vlp32c",
-                              {std::begin(kVlp32cElevationDeg), std::end(kVlp32cElevationDeg)},
-                              1800);
+  LidarModel m =
+      MakeSpinning(LidarKind::kVlp32c, "vlp32c",
+                   {std::begin(kVlp32cElevationDeg), std::end(kVlp32cElevationDeg)}, 1800);
   m.min_range_m = 0.5;
   m.max_range_m = 200.0;
   m.range_quantization_m = 0.004;

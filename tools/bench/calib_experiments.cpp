@@ -24,6 +24,40 @@ double Mean(const std::vector<double>& v) {
   return v.empty() ? 0.0 : sum / static_cast<double>(v.size());
 }
 
+// Adds one frame's LiDAR true/false positives and misses to the drive's counts.
+void ScoreLidar(const FrameDetections& frame, std::vector<int>* board_of_point,
+                RecordedDrive* drive) {
+  board_of_point->clear();
+  const auto& truth = frame.truth.boards;
+  for (size_t b = 0; b < truth.size(); ++b) {
+    drive->camera_boards_in_view += truth[b].tag_in_image ? 1 : 0;
+    for (int i : truth[b].lidar_point_indices) {
+      if (static_cast<size_t>(i) >= board_of_point->size())
+        board_of_point->resize(static_cast<size_t>(i) + 1, -1);
+      (*board_of_point)[static_cast<size_t>(i)] = static_cast<int>(b);
+    }
+  }
+  std::vector<char> found(truth.size(), 0);
+  for (const BoardCluster& c : frame.lidar.boards) {
+    std::vector<int> votes(truth.size(), 0);
+    for (int k = c.first_point; k < c.first_point + c.num_points; ++k) {
+      const auto i = static_cast<size_t>(frame.lidar.point_indices[static_cast<size_t>(k)]);
+      if (i < board_of_point->size() && (*board_of_point)[i] >= 0)
+        ++votes[static_cast<size_t>((*board_of_point)[i])];
+    }
+    const auto best = std::max_element(votes.begin(), votes.end());
+    if (best != votes.end() && 2 * *best > c.num_points) {
+      found[static_cast<size_t>(best - votes.begin())] = 1;
+      ++drive->lidar_tp;
+    } else {
+      ++drive->lidar_fp;
+    }
+  }
+  for (size_t b = 0; b < truth.size(); ++b)
+    if (!found[b] && static_cast<int>(truth[b].lidar_point_indices.size()) >= kVisibleBoardPoints)
+      ++drive->lidar_fn;
+}
+
 }  // namespace
 
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error) {
@@ -42,8 +76,11 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
   drive->timings.clear();
   drive->incomplete_frames = 0;
   FrameDetections frame;
+  std::vector<int> board_of_point;
+  drive->lidar_tp = drive->lidar_fp = drive->lidar_fn = drive->camera_boards_in_view = 0;
   for (int k = 0; k < frames; ++k) {
     detected.Detect(k, true, &frame);
+    ScoreLidar(frame, &board_of_point, drive);
     const FrameTimes times{frame.truth.camera_utime, frame.truth.lidar_utime};
     if (!drive->observations.AddFrame(frame.camera, frame.lidar, boards, times))
       ++drive->incomplete_frames;

@@ -33,7 +33,15 @@ struct RecordedDrive {
     bool camera_full_frame = false;  ///< the camera detector searched the whole image
   };
   std::vector<FrameTiming> timings;
+  /// LiDAR detections against the truth: a cluster is a true positive when most of its points lie
+  /// on one true board; a board with at least kVisibleBoardPoints points and no true positive is
+  /// a false negative.
+  int lidar_tp = 0, lidar_fp = 0, lidar_fn = 0;
+  int camera_boards_in_view = 0;  ///< boards whose tag the camera could see (truth)
 };
+
+/// A board with fewer LiDAR points is not counted as missed (too far or hidden to be a plane).
+inline constexpr int kVisibleBoardPoints = 30;
 
 /// Simulates every frame pair of a drive and runs the real detectors on it into
 /// `drive->observations`, the way tests/recorded_session.hpp does.

@@ -6,10 +6,11 @@
 #include <string>
 
 #include "agent_memory_bench.hpp"
-#include "calibd/core/lidar_model.hpp"
 #include "calib_bench.hpp"
+#include "calibd/core/lidar_model.hpp"
 #include "detect_bench.hpp"
 #include "pipeline_bench.hpp"
+#include "recordings_bench.hpp"
 #include "resolution_bench.hpp"
 #include "soak_bench.hpp"
 
@@ -24,6 +25,7 @@ Usage: calibd-bench detect [options]
        calibd-bench pipeline [options]
        calibd-bench resolution [--repeat N]
        calibd-bench soak --drive LOG --calib-yaml FILE [options]
+       calibd-bench recordings [options]
 
 detect   camera and LiDAR board detection over the default simulated session (3 boards, clutter,
          driving 6-30 m): precision, recall (a LiDAR detection is a true positive within 0.2 m of
@@ -120,6 +122,18 @@ soak     one calibd-agent through back-to-back workshop sessions for N minutes: 
   --work-dir DIR      the agent's config, store, logs (default: a temporary directory, kept)
   --json FILE         also write the sessions and every sample as JSON
 
+recordings
+         still-pose sessions as other rigs record them (one board on a tripod or held by a
+         person among furniture, 1.5-10 m; VLP-16, VLP-32C, OS1-64, Livox-Avia- and Mid-360-like
+         LiDARs; pinhole and fisheye cameras), each calibrated from a config with only the board
+         geometry, intrinsics, the LiDAR model's name and a prior 8 deg / 15 cm off: LiDAR board
+         recall and precision, verdict, error against the truth and grid-search convergence from
+         priors rotated by up to +-10 deg, against the targets. Fails when a target is missed.
+  --scenario LIST     comma-separated scenarios (default: all)
+  --seed N            simulation seed (default 1)
+  --trials N          grid-search trials per scenario (default 20; 0 skips)
+  --json FILE         also write the figures as JSON
+
 Exit codes: 0 done, 1 failed, 2 bad option.
 )";
 
@@ -158,7 +172,8 @@ int main(int argc, char** argv) {
   const bool memory = command == "agent-memory";
   const bool pipeline = command == "pipeline";
   const bool soak = command == "soak";
-  if (command != "detect" && !calib && !memory && !pipeline && !soak) {
+  const bool recordings = command == "recordings";
+  if (command != "detect" && !calib && !memory && !pipeline && !soak && !recordings) {
     std::cerr << "calibd-bench: unknown command '" << command << "' (see --help)\n";
     return 2;
   }
@@ -169,6 +184,7 @@ int main(int argc, char** argv) {
   calibd::bench::PipelineBenchOptions p;
   p.agent_path = CALIBD_AGENT_EXE;
   calibd::bench::SoakBenchOptions k;
+  calibd::bench::RecordingsBenchOptions r;
   k.agent_path = CALIBD_AGENT_EXE;
   k.sim_path = CALIBD_SIM_EXE;
   for (int i = 2; i < argc; ++i) {
@@ -184,6 +200,24 @@ int main(int argc, char** argv) {
     const std::string value = argv[++i];
     long long n = 0;
     double x = 0;
+    if (recordings) {
+      if (arg == "--scenario") {
+        std::stringstream ss(value);
+        std::string item;
+        while (std::getline(ss, item, ',')) r.scenarios.push_back(item);
+      } else if (arg == "--seed" && ParseInt(value, 0, 1LL << 53, &n)) {
+        r.seed = static_cast<unsigned long long>(n);
+      } else if (arg == "--trials" && ParseInt(value, 0, 100000, &n)) {
+        r.grid_trials = static_cast<int>(n);
+      } else if (arg == "--json") {
+        r.json_path = value;
+      } else {
+        std::cerr << "calibd-bench: bad option or value '" << arg << " " << value
+                  << "' (see --help)\n";
+        return 2;
+      }
+      continue;
+    }
     if (soak) {
       if (arg == "--minutes" && ParseDouble(value, 0.01, 10000, &x)) {
         k.minutes = x;
@@ -297,7 +331,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::string error;
-  const bool ok = soak       ? calibd::bench::RunSoakBench(k, std::cout, &std::cerr, &error)
+  const bool ok = recordings ? calibd::bench::RunRecordingsBench(r, std::cout, &std::cerr, &error)
+                  : soak     ? calibd::bench::RunSoakBench(k, std::cout, &std::cerr, &error)
                   : memory   ? calibd::bench::RunAgentMemoryBench(m, std::cout, &std::cerr, &error)
                   : pipeline ? calibd::bench::RunPipelineBench(p, std::cout, &std::cerr, &error)
                   : calib    ? calibd::bench::RunCalibBench(c, std::cout, &std::cerr, &error)

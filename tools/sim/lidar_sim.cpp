@@ -60,9 +60,9 @@ int M1PhaseKey(int frame_index) { return ((frame_index % 16) + 16) % 16; }
 // Layout of a pattern for PatternNeighbours().
 struct PatternShape {
   LidarKind kind = LidarKind::kOt128;
-  int rings = 0, columns = 0;                // spinning
-  std::vector<int> ring_below, ring_above;   // spinning: next ring down/up in elevation, or -1
-  int lasers = 0;                            // avia, mid360
+  int rings = 0, columns = 0;               // spinning
+  std::vector<int> ring_below, ring_above;  // spinning: next ring down/up in elevation, or -1
+  int lasers = 0;                           // avia, mid360
 };
 
 bool IsSpinning(const LidarModel& m) { return m.has_rings && !m.ring_elevation_deg.empty(); }
@@ -75,9 +75,8 @@ PatternShape ShapeOf(const LidarModel& m) {
     s.columns = static_cast<int>(std::lround(360.0 / m.azimuth_resolution_deg));
     std::vector<int> order(s.rings);
     for (int r = 0; r < s.rings; ++r) order[r] = r;
-    std::sort(order.begin(), order.end(), [&](int a, int b) {
-      return m.ring_elevation_deg[a] < m.ring_elevation_deg[b];
-    });
+    std::sort(order.begin(), order.end(),
+              [&](int a, int b) { return m.ring_elevation_deg[a] < m.ring_elevation_deg[b]; });
     s.ring_below.assign(s.rings, -1);
     s.ring_above.assign(s.rings, -1);
     for (int k = 0; k < s.rings; ++k) {

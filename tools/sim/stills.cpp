@@ -107,8 +107,8 @@ void AddTripod(const Pose& T_world_board, double thickness, Scene* scene) {
   for (int k = 0; k < 3; ++k) {
     const double a = 2.0 * M_PI * k / 3.0 + 0.4;
     const Eigen::Vector3d foot = hub + Eigen::Vector3d(0.4 * std::cos(a), 0.4 * std::sin(a), 0.0);
-    scene->Add(Segment(SurfaceKind::kStand, hub, Eigen::Vector3d(foot.x(), foot.y(), 0.0), 0.012,
-                       0.3f));
+    scene->Add(
+        Segment(SurfaceKind::kStand, hub, Eigen::Vector3d(foot.x(), foot.y(), 0.0), 0.012, 0.3f));
   }
 }
 
@@ -137,7 +137,8 @@ bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& o,
       // a board larger than the vertical field is centred in it.
       const double az_lo = std::max(lidar.azimuth_min_deg + half_angle, -35.0);
       const double az_hi = std::min(lidar.azimuth_max_deg - half_angle, 35.0);
-      double el_lo = lidar.elevation_min_deg + half_angle, el_hi = lidar.elevation_max_deg - half_angle;
+      double el_lo = lidar.elevation_min_deg + half_angle,
+             el_hi = lidar.elevation_max_deg - half_angle;
       if (el_lo > el_hi) el_lo = el_hi = 0.5 * (lidar.elevation_min_deg + lidar.elevation_max_deg);
       el_hi = std::min(el_hi, 20.0);  // people do not hold boards over their heads
       el_lo = std::max(el_lo, -20.0);
@@ -185,9 +186,9 @@ bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& o,
       AddPerson(body, heading, &out->scene);
       const Eigen::Vector3d shoulder = body + Eigen::Vector3d(0.0, 0.0, 1.42) - s * 0.2 * across;
       const double edge = T_world_board.linear().col(0).dot(across) > 0.0 ? s : -s;
-      const Eigen::Vector3d grip = T_world_board * Eigen::Vector3d(
-                                                       edge * 0.5 * g.width_m, 0.0,
-                                                       -workshop.board_thickness_m - 0.02);
+      const Eigen::Vector3d grip =
+          T_world_board *
+          Eigen::Vector3d(edge * 0.5 * g.width_m, 0.0, -workshop.board_thickness_m - 0.02);
       out->scene.Add(Segment(SurfaceKind::kClutter, shoulder, grip, 0.04, 0.45f));
     } else {
       AddTripod(T_world_board, workshop.board_thickness_m, &out->scene);
@@ -200,15 +201,15 @@ bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& o,
     }
     if (u01(rng) < 0.4) {
       const Eigen::Vector3d wall = foot + uniform(0.5, 1.0) * away + Eigen::Vector3d(0, 0, 1.4);
-      out->scene.Add(Box(SurfaceKind::kWall, wall, heading + uniform(-0.25, 0.25),
-                         {0.05, 2.0, 1.4}, 0.6f));
+      out->scene.Add(
+          Box(SurfaceKind::kWall, wall, heading + uniform(-0.25, 0.25), {0.05, 2.0, 1.4}, 0.6f));
     }
     if (u01(rng) < 0.5) {
       const double h = uniform(0.12, 0.25);
-      out->scene.Add(Box(SurfaceKind::kClutter,
-                         foot + uniform(0.3, 0.9) * away + uniform(-0.3, 0.3) * across +
-                             Eigen::Vector3d(0, 0, h),
-                         u01(rng), {h, h, h}, static_cast<float>(uniform(0.3, 0.7))));
+      out->scene.Add(Box(
+          SurfaceKind::kClutter,
+          foot + uniform(0.3, 0.9) * away + uniform(-0.3, 0.3) * across + Eigen::Vector3d(0, 0, h),
+          u01(rng), {h, h, h}, static_cast<float>(uniform(0.3, 0.7))));
     }
     if (u01(rng) < 0.3) {
       const double s = u01(rng) < 0.5 ? 1.0 : -1.0;

@@ -16,9 +16,9 @@ namespace calibd::sim {
 struct StillPoseOptions {
   double min_distance_m = 1.5;  ///< LiDAR to board centre
   double max_distance_m = 8.0;
-  double max_yaw_deg = 40.0;    ///< board turned about the vertical, either way
-  double max_tilt_deg = 25.0;   ///< tipped forward or back
-  double max_roll_deg = 15.0;   ///< turned in its own plane
+  double max_yaw_deg = 40.0;   ///< board turned about the vertical, either way
+  double max_tilt_deg = 25.0;  ///< tipped forward or back
+  double max_roll_deg = 15.0;  ///< turned in its own plane
   /// Clutter within 0.3-1 m of the boards: a person holding the board (else a tripod), a chair,
   /// a wall behind, a box on the floor behind and below, a bystander. False: tripods only.
   bool clutter = true;
