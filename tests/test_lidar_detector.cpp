@@ -467,6 +467,33 @@ TEST(LidarDetectorTest, ABoxStandingOnTheFloorIsNoBoardButABoardOnAStandIs) {
   for (const BoardCluster& b : out_without.boards)
     crate_found = crate_found || (b.centroid - crate_lidar).norm() < 0.5;
   EXPECT_TRUE(crate_found);
+
+  // report_clusters says where each cluster stopped: the board is a board, the crate stands on
+  // the floor; without it nothing is reported.
+  EXPECT_TRUE(out.clusters.empty());
+  LidarDetectorConfig reporting;
+  reporting.report_clusters = true;
+  LidarDetector reporter(reporting, model, {BoardGeometry{}});
+  LidarDetections reported;
+  reporter.Detect(ViewOf(scan), &reported);
+  ASSERT_EQ(reported.boards.size(), 1u);
+  const LidarClusterReport* board_report = nullptr;
+  int crate_on_ground = 0, crate_boards = 0;  // the crate's front face (its top may be apart)
+  for (const LidarClusterReport& r : reported.clusters) {
+    if ((r.centroid - board_lidar).norm() < 0.1) board_report = &r;
+    if ((r.centroid - crate_lidar).norm() > 0.5) continue;
+    crate_on_ground += r.gate == ClusterGate::kOnGround ? 1 : 0;
+    crate_boards += r.gate == ClusterGate::kBoard ? 1 : 0;
+  }
+  ASSERT_NE(board_report, nullptr);
+  EXPECT_EQ(board_report->gate, ClusterGate::kBoard);
+  EXPECT_STREQ(ClusterGateName(board_report->gate), "board");
+  EXPECT_GE(board_report->score, 0.94);
+  EXPECT_NEAR(board_report->rectangle(0), 0.6, 0.15);
+  EXPECT_LT(board_report->tilt_deg, 10.0);
+  EXPECT_EQ(crate_on_ground, 1);
+  EXPECT_EQ(crate_boards, 0);
+  EXPECT_STREQ(ClusterGateName(ClusterGate::kOnGround), "on_ground");
 }
 
 TEST(LidarDetectorTest, SampleAreaWeightsCentreBoardsAcrossTheFalconsDenseBand) {

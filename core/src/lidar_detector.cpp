@@ -239,29 +239,33 @@ struct LidarDetector::Impl {
 
   // The cheap gates before the descriptor; `rectangle` is set once the planarity and tilt gates
   // pass (zero before).
-  bool PassesGates(const ClusterPca& pca, const Eigen::Vector3f* points, int n,
-                   double beam_spacing_rad, Eigen::Vector2d* rectangle) const {
+  ClusterGate Gates(const ClusterPca& pca, const Eigen::Vector3f* points, int n,
+                    double beam_spacing_rad, Eigen::Vector2d* rectangle) const {
     *rectangle = Eigen::Vector2d::Zero();
-    if (n < config.min_cluster_points) return false;
-    if (pca.planarity() > config.max_planarity) return false;
-    // Upright: the normal's angle above the horizontal plane.
-    const double tilt = std::asin(std::min(1.0, std::fabs(pca.axes(2, 2)))) / kDegToRad;
-    if (tilt > config.max_board_tilt_deg) return false;
+    if (pca.planarity() > config.max_planarity) return ClusterGate::kNotPlanar;
+    if (TiltDeg(pca) > config.max_board_tilt_deg) return ClusterGate::kTilted;
     const double spacing = pca.centroid.norm() * beam_spacing_rad;
     const double size = std::sqrt(std::max(0.0, pca.eigenvalues(0) + pca.eigenvalues(1)));
     const double size_tol = config.size_tolerance;
     *rectangle = InPlaneRectangle(pca, points, n);
+    ClusterGate gate = ClusterGate::kRectangle;
     for (const BoardGeometry& g : boards) {
       const double lo = (1.0 - config.extent_tolerance) * std::min(g.width_m, g.height_m) - spacing;
       const double hi =
           (1.0 + config.max_side_tolerance) * std::max(g.width_m, g.height_m) + 0.5 * spacing;
       if ((*rectangle)(0) > hi || (*rectangle)(1) < lo) continue;
+      gate = ClusterGate::kSize;
       // RMS size of a uniformly sampled w x h rectangle: sqrt((w^2 + h^2) / 12).
       const double full = std::sqrt((g.width_m * g.width_m + g.height_m * g.height_m) / 12.0);
       if (size >= (1.0 - size_tol) * full - 0.5 * spacing && size <= (1.0 + size_tol) * full)
-        return true;
+        return ClusterGate::kBoard;
     }
-    return false;
+    return gate;
+  }
+
+  // Upright: the normal's angle above the horizontal plane, degrees.
+  static double TiltDeg(const ClusterPca& pca) {
+    return std::asin(std::min(1.0, std::fabs(pca.axes(2, 2)))) / kDegToRad;
   }
 
   // One reference: the standardized mean of the descriptors of `view` of a width x height board
@@ -414,6 +418,30 @@ double LidarDetector::ScoreCluster(const std::vector<Eigen::Vector3f>& points) {
   return d.BestScore();
 }
 
+const char* ClusterGateName(ClusterGate gate) {
+  switch (gate) {
+    case ClusterGate::kBoard:
+      return "board";
+    case ClusterGate::kTooLarge:
+      return "too_large";
+    case ClusterGate::kOnGround:
+      return "on_ground";
+    case ClusterGate::kNotPlanar:
+      return "not_planar";
+    case ClusterGate::kTilted:
+      return "tilted";
+    case ClusterGate::kRectangle:
+      return "rectangle";
+    case ClusterGate::kSize:
+      return "size";
+    case ClusterGate::kDescriptor:
+      return "descriptor";
+    case ClusterGate::kCapacity:
+      return "capacity";
+  }
+  return "board";
+}
+
 void LidarDetector::ReserveOutput(LidarDetections* out) const {
   const LidarDetectorConfig& c = impl_->config;
   const size_t point_capacity = static_cast<size_t>(c.max_boards) * c.max_board_points;
@@ -423,6 +451,8 @@ void LidarDetector::ReserveOutput(LidarDetections* out) const {
   if (out->point_time_s.capacity() < point_capacity) out->point_time_s.reserve(point_capacity);
   if (out->candidates.capacity() < static_cast<size_t>(c.max_clusters))
     out->candidates.reserve(c.max_clusters);
+  if (c.report_clusters && out->clusters.capacity() < static_cast<size_t>(c.max_clusters))
+    out->clusters.reserve(c.max_clusters);
 }
 
 void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
@@ -436,6 +466,7 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
   out->point_indices.clear();
   out->point_time_s.clear();
   out->candidates.clear();
+  out->clusters.clear();
   out->invalid_points = out->outside_points = out->dropped_points = out->overflow_points = 0;
   out->chained_points = 0;
   out->num_clusters = out->dropped_candidates = out->dropped_boards = 0;
@@ -459,6 +490,13 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
 
   const int32_t* members = d.segmenter.members();
   const int32_t* next_point = d.image.next_point().data();
+  // With report_clusters, where each cluster stopped and its figures.
+  LidarClusterReport report;
+  auto stop = [&](ClusterGate gate) {
+    if (!c.report_clusters || static_cast<int>(out->clusters.size()) >= c.max_clusters) return;
+    report.gate = gate;
+    out->clusters.push_back(report);
+  };
   for (int s = 0; s < d.segmenter.num_segments(); ++s) {
     const Segment& seg = d.segmenter.segment(s);
     // One point per cell, the mean of the cell's points (paper §III-C-1: the average of a pixel
@@ -469,13 +507,24 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
     // points go to the output.
     const int n = seg.size();
     if (n < c.min_cluster_points) continue;
+    report = LidarClusterReport{};
+    report.num_points = n;
+    report.first_cell = members[seg.begin];
+    report.segment = s;
     // Fast pre-check: a board whose sides pass the rectangle gate covers at most max_board_area_m2
     // / r^2 steradians at range r, so at most that many cells of the finest grid step (twice that,
     // for safety): walls and large objects stop here before the per-cell work below.
     double min_range = 1e300;
     for (int k = 0; k < n; ++k)
       min_range = std::min(min_range, double{d.image.cell(members[seg.begin + k]).range});
-    if (n > 2.0 * d.max_board_area_m2 / (min_range * min_range * d.min_cell_sr)) continue;
+    if (n > 2.0 * d.max_board_area_m2 / (min_range * min_range * d.min_cell_sr)) {
+      if (c.report_clusters) {
+        const RangeImageCell& first = d.image.cell(members[seg.begin]);
+        report.centroid = Eigen::Vector3d(first.x, first.y, first.z);
+      }
+      stop(ClusterGate::kTooLarge);
+      continue;
+    }
     double spacing_sum = 0.0;
     for (int k = 0; k < n; ++k) {
       const int32_t id = members[seg.begin + k];
@@ -488,19 +537,38 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
       spacing_sum += d.image.row_spacing_rad(d.image.RowOf(id));
     }
     const double beam_spacing = std::max(d.image.azimuth_step_rad(), spacing_sum / n);
-    if (c.min_board_clearance_m > 0.0 && d.RestsOnGround(n, seg)) continue;
+    const bool on_ground = c.min_board_clearance_m > 0.0 && d.RestsOnGround(n, seg);
+    if (on_ground && !c.report_clusters) continue;
     if (c.weight_by_sample_area) d.RowWeights(n);
     const float* weights = c.weight_by_sample_area ? d.cluster_weights.data() : nullptr;
     ClusterPca pca;
     ComputeClusterPca(d.cluster_points.data(), n, &pca, weights);
+    report.centroid = pca.centroid;
+    report.planarity = pca.planarity();
+    report.tilt_deg = Impl::TiltDeg(pca);
+    report.size_m = std::sqrt(std::max(0.0, pca.eigenvalues(0) + pca.eigenvalues(1)));
+    if (on_ground) {
+      stop(ClusterGate::kOnGround);
+      continue;
+    }
     Eigen::Vector2d rectangle;
-    if (!d.PassesGates(pca, d.cluster_points.data(), n, beam_spacing, &rectangle)) continue;
+    const ClusterGate gate = d.Gates(pca, d.cluster_points.data(), n, beam_spacing, &rectangle);
+    report.rectangle = rectangle;
+    if (c.report_clusters && rectangle.isZero()) {
+      report.rectangle = InPlaneRectangle(pca, d.cluster_points.data(), n);
+    }
+    if (gate != ClusterGate::kBoard) {
+      stop(gate);
+      continue;
+    }
     if (static_cast<int>(out->candidates.size()) >= c.max_clusters) {
       ++out->dropped_candidates;
+      stop(ClusterGate::kCapacity);
       continue;
     }
     const double score =
         d.describer.Describe(d.cluster_points.data(), n, pca, weights) ? d.BestScore() : 0.0;
+    report.score = score;
     LidarCandidate cand;
     cand.centroid = pca.centroid;
     cand.score = score;
@@ -510,11 +578,16 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
     cand.eigenvalues = pca.eigenvalues;
     cand.rectangle = rectangle;
     out->candidates.push_back(cand);
-    if (score < c.match_threshold) continue;
-    if (static_cast<int>(out->boards.size()) >= c.max_boards) {
-      ++out->dropped_boards;
+    if (score < c.match_threshold) {
+      stop(ClusterGate::kDescriptor);
       continue;
     }
+    if (static_cast<int>(out->boards.size()) >= c.max_boards) {
+      ++out->dropped_boards;
+      stop(ClusterGate::kCapacity);
+      continue;
+    }
+    stop(ClusterGate::kBoard);
     BoardCluster board;
     board.centroid = pca.centroid;
     board.normal = pca.axes.col(2);

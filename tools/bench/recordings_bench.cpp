@@ -128,8 +128,9 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
   nlohmann::json doc;
   doc["seed"] = o.seed;
   bool all_met = true;
-  out << "| scenario | LiDAR boards: recall / precision | verdict | rotation / translation error "
-         "| grid search from +-10 deg | targets met |\n|---|---|---|---|---|---|\n";
+  out << "| scenario | camera boards found / in view | LiDAR boards: recall / precision | verdict "
+         "| rotation / translation error | grid search from +-10 deg | targets met |\n"
+         "|---|---|---|---|---|---|---|\n";
   for (const Scenario& s : kScenarios) {
     if (!o.scenarios.empty() &&
         std::find(o.scenarios.begin(), o.scenarios.end(), s.name) == o.scenarios.end())
@@ -158,8 +159,9 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
     const bool met = recall >= s.min_recall && precision >= s.min_precision && updated &&
                      accurate && (o.grid_trials == 0 || grid.converged_with == o.grid_trials);
     all_met = all_met && met;
-    out << "| " << s.name << " | " << Fixed(recall, 3) << " / " << Fixed(precision, 3) << " (" << tp
-        << " TP, " << fp << " FP, " << fn << " FN) | " << run.verdict
+    out << "| " << s.name << " | " << drive.observations.camera.size() << " / "
+        << drive.camera_boards_in_view << " | " << Fixed(recall, 3) << " / " << Fixed(precision, 3)
+        << " (" << tp << " TP, " << fp << " FP, " << fn << " FN) | " << run.verdict
         << (run.reason.empty() ? "" : " (" + run.reason + ")") << " | "
         << (run.has_estimate ? Fixed(run.rotation_error_deg, 3) + " deg / " +
                                    Fixed(run.translation_error_m * 1000.0, 1) + " mm"

@@ -118,6 +118,9 @@ struct LidarDetectorConfig {
   int max_board_points = 4096;  ///< points kept per detected board
   /// Input points looked at per frame; 0: twice the model's nominal_points_per_frame.
   int max_points = 0;
+  /// Report every cluster of at least min_cluster_points with its figures and the gate that
+  /// rejected it (LidarDetections::clusters; --debug). Costs a rectangle fit per cluster.
+  bool report_clusters = false;
 
   /// False with `error` naming the bad field.
   bool IsValid(std::string* error) const;
@@ -133,6 +136,36 @@ struct LidarCandidate {
   Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();  ///< PCA variances, decreasing, m^2
   /// Long and short side of the smallest rectangle around the cluster in its plane, m.
   Eigen::Vector2d rectangle = Eigen::Vector2d::Zero();
+};
+
+/// The gate a cluster stopped at (or kBoard when it was detected as a board).
+enum class ClusterGate : uint8_t {
+  kBoard,
+  kTooLarge,    ///< more cells than any board can cover at its range
+  kOnGround,    ///< stands on the floor (min_board_clearance_m)
+  kNotPlanar,   ///< max_planarity
+  kTilted,      ///< max_board_tilt_deg
+  kRectangle,   ///< its in-plane rectangle fits no board (extent_tolerance, max_side_tolerance)
+  kSize,        ///< its RMS size fits no board (size_tolerance)
+  kDescriptor,  ///< scored below match_threshold
+  kCapacity,    ///< beyond max_clusters or max_boards
+};
+/// "board", "too_large", "on_ground", "not_planar", "tilted", "rectangle", "size", "descriptor",
+/// "capacity".
+const char* ClusterGateName(ClusterGate gate);
+
+/// One cluster and where it stopped (LidarDetectorConfig::report_clusters).
+struct LidarClusterReport {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();   ///< LiDAR frame, m
+  int num_points = 0;                                   ///< range-image cells
+  int first_cell = -1;                                  ///< a cell of the cluster (for pictures)
+  int segment = -1;                                     ///< segment index (labels in the image)
+  Eigen::Vector2d rectangle = Eigen::Vector2d::Zero();  ///< long, short side in its plane, m
+  double size_m = 0.0;                                  ///< RMS size sqrt(lambda1 + lambda2)
+  double planarity = 0.0;                               ///< sqrt(lambda3 / lambda2)
+  double tilt_deg = 0.0;                                ///< normal above the horizontal
+  double score = 0.0;  ///< descriptor correlation (0 when it stopped before the descriptor)
+  ClusterGate gate = ClusterGate::kBoard;
 };
 
 /// A detected board cluster.
@@ -160,8 +193,10 @@ struct LidarDetections {
                                         ///< s (0 when the cloud has no times)
   std::vector<LidarCandidate> candidates;  ///< every gated cluster with its score (capacity
                                            ///< max_clusters)
-  int invalid_points = 0;                  ///< NaN/inf or out of range, skipped
-  int outside_points = 0;                  ///< outside the model's field of view, skipped
+  /// With report_clusters: every cluster of at least min_cluster_points (capacity max_clusters).
+  std::vector<LidarClusterReport> clusters;
+  int invalid_points = 0;      ///< NaN/inf or out of range, skipped
+  int outside_points = 0;      ///< outside the model's field of view, skipped
   int dropped_points = 0;      ///< farther points of a shared range-image cell (paper §III-C-1)
   int chained_points = 0;      ///< further points of a cell kept with it (cell_range_tolerance_m)
   int overflow_points = 0;     ///< beyond max_points, not looked at
