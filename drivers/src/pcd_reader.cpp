@@ -313,11 +313,9 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
                              " bytes, expected " + std::to_string(data_bytes) + " (POINTS " +
                              std::to_string(points) + " x point size " +
                              std::to_string(h.point_step) + " bytes)");
-    if (available > data_bytes)
-      return Fail(error, name + ": binary data size mismatch: " + std::to_string(available) +
-                             " bytes, expected " + std::to_string(data_bytes) + " (POINTS " +
-                             std::to_string(points) + " x point size " +
-                             std::to_string(h.point_step) + " bytes)");
+    // Bytes after the last point (MATLAB's pcwrite pads the file): PCL reads the points and
+    // ignores the rest; so do we, and say so.
+    if (available > data_bytes) info->trailing_bytes = static_cast<int64_t>(available - data_bytes);
   } else if (info->data == "binary_compressed") {
     // PCL's layout: uint32 compressed size, uint32 uncompressed size, then the LZF stream of
     // the fields one after the other (all x, then all y, ...).
@@ -446,9 +444,11 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
     int16_t r = -1;
     if (ring) {
       const double v = value(*ring, i);
-      if (!(v >= 0.0 && v <= 32767.0) || v != std::floor(v))
+      // -1: no ring for this point, as lidar_frame_t says (some drivers write it for returns
+      // they cannot attribute).
+      if (!(v >= -1.0 && v <= 32767.0) || v != std::floor(v))
         return Fail(error, name + ": field 'ring': point " + std::to_string(i) + " has ring " +
-                               std::to_string(v) + " (an integer in [0, 32767] expected)");
+                               std::to_string(v) + " (an integer in [-1, 32767] expected)");
       r = static_cast<int16_t>(v);
     }
     cloud->ring.push_back(r);

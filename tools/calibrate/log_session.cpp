@@ -223,6 +223,9 @@ bool ReadSessionFolder(const std::string& folder_path, const CalibConfig& config
         continue;
       }
       stats->nan_points_dropped += info.nan_dropped;
+      if (info.trailing_bytes > 0 && stats->padded_clouds++ == 0)
+        stats->first_padded_cloud =
+            entry.path + " (" + std::to_string(info.trailing_bytes) + " bytes after its points)";
       builder.OnLidar(lidar_msg);
     }
   }

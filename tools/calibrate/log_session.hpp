@@ -43,6 +43,10 @@ struct LogReadStats {
   /// and files whose stem has no partner (no frames.csv).
   int64_t nan_points_dropped = 0;
   int unmatched_clouds = 0, unmatched_images = 0;
+  /// Folder only: binary PCDs with bytes after their last point (read as PCL reads them), and the
+  /// first of them.
+  int padded_clouds = 0;
+  std::string first_padded_cloud;
 };
 
 /// One frame pair's images and points, for pictures after the calibration.

@@ -246,6 +246,11 @@ int main(int argc, char** argv) {
     std::cerr << "calibd-calibrate: " << error << "\n";
     return 1;
   }
+  if (stats.padded_clouds > 0)
+    std::cerr << "calibd-calibrate: warning: " << stats.padded_clouds
+              << " binary PCD file(s) have bytes after their last point, ignored as PCL ignores "
+                 "them (first: "
+              << stats.first_padded_cloud << ")\n";
   const double read_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 
@@ -322,6 +327,7 @@ int main(int argc, char** argv) {
                       {"first_bad_message", stats.first_bad_message},
                       {"nan_points_dropped", stats.nan_points_dropped},
                       {"unmatched_clouds", stats.unmatched_clouds},
+                      {"padded_clouds", stats.padded_clouds},
                       {"unmatched_images", stats.unmatched_images},
                       {"over_capacity", stats.frames_over_capacity},
                       {"camera_boards", session.camera.size()},

@@ -45,6 +45,9 @@ struct PcdInfo {
   std::string time_field;    ///< the field the time offsets came from; empty when none
   int64_t time_base_us = 0;  ///< absolute times only: the earliest point's time, else 0
   int64_t nan_dropped = 0;   ///< points with a non-finite x, y or z, not in the output
+  /// Binary data: bytes after the last point, ignored as PCL ignores them (0 for none). Callers
+  /// warn about them.
+  int64_t trailing_bytes = 0;
 };
 
 /// Parses the bytes of a PCD file. `name` (the file's path) starts every error. Fills `cloud`'s
