@@ -454,10 +454,13 @@ def config_keys(source):
 
 
 def lidar_models(source):
-    """The LiDAR model names the config accepts (LidarKindFromName)."""
+    """The LiDAR model names the config accepts (the kLidarNames table LidarKindFromName reads)."""
     text = read(source, "core/src/lidar_model.cpp")
-    body = text.split("bool LidarKindFromName")[1].split("return false")[0]
-    return re.findall(r'name == "(\w+)"', body)
+    body = text.split("kLidarNames[] = {")[1].split("};")[0]
+    names = re.findall(r'\{"([\w-]+)", LidarKind::', body)
+    if not names:
+        raise SystemExit("doc_check: no LiDAR model names found in core/src/lidar_model.cpp")
+    return names
 
 
 def check_coverage(source, operator, integration):
