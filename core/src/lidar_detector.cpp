@@ -237,23 +237,30 @@ struct LidarDetector::Impl {
     return std::max(0.0, static_cast<double>(scores.maxCoeff()));
   }
 
-  // The cheap gates before the descriptor; `rectangle` is set once the planarity and tilt gates
-  // pass (zero before).
+  // The cheap gates before the descriptor. Fills `figures`' planarity, tilt and RMS size, and its
+  // in-plane rectangle once the planarity and tilt gates pass (zero before), or always with
+  // `all_figures`.
   ClusterGate Gates(const ClusterPca& pca, const Eigen::Vector3f* points, int n,
-                    double beam_spacing_rad, Eigen::Vector2d* rectangle) const {
-    *rectangle = Eigen::Vector2d::Zero();
-    if (pca.planarity() > config.max_planarity) return ClusterGate::kNotPlanar;
-    if (TiltDeg(pca) > config.max_board_tilt_deg) return ClusterGate::kTilted;
+                    double beam_spacing_rad, bool all_figures, LidarClusterReport* figures) const {
+    figures->planarity = pca.planarity();
+    // Upright: the normal's angle above the horizontal plane.
+    figures->tilt_deg = std::asin(std::min(1.0, std::fabs(pca.axes(2, 2)))) / kDegToRad;
+    figures->size_m = std::sqrt(std::max(0.0, pca.eigenvalues(0) + pca.eigenvalues(1)));
+    figures->rectangle =
+        all_figures ? InPlaneRectangle(pca, points, n) : Eigen::Vector2d(Eigen::Vector2d::Zero());
+    if (figures->planarity > config.max_planarity) return ClusterGate::kNotPlanar;
+    if (figures->tilt_deg > config.max_board_tilt_deg) return ClusterGate::kTilted;
     const double spacing = pca.centroid.norm() * beam_spacing_rad;
-    const double size = std::sqrt(std::max(0.0, pca.eigenvalues(0) + pca.eigenvalues(1)));
+    const double size = figures->size_m;
     const double size_tol = config.size_tolerance;
-    *rectangle = InPlaneRectangle(pca, points, n);
+    if (!all_figures) figures->rectangle = InPlaneRectangle(pca, points, n);
+    const Eigen::Vector2d& rectangle = figures->rectangle;
     ClusterGate gate = ClusterGate::kRectangle;
     for (const BoardGeometry& g : boards) {
       const double lo = (1.0 - config.extent_tolerance) * std::min(g.width_m, g.height_m) - spacing;
       const double hi =
           (1.0 + config.max_side_tolerance) * std::max(g.width_m, g.height_m) + 0.5 * spacing;
-      if ((*rectangle)(0) > hi || (*rectangle)(1) < lo) continue;
+      if (rectangle(0) > hi || rectangle(1) < lo) continue;
       gate = ClusterGate::kSize;
       // RMS size of a uniformly sampled w x h rectangle: sqrt((w^2 + h^2) / 12).
       const double full = std::sqrt((g.width_m * g.width_m + g.height_m * g.height_m) / 12.0);
@@ -261,11 +268,6 @@ struct LidarDetector::Impl {
         return ClusterGate::kBoard;
     }
     return gate;
-  }
-
-  // Upright: the normal's angle above the horizontal plane, degrees.
-  static double TiltDeg(const ClusterPca& pca) {
-    return std::asin(std::min(1.0, std::fabs(pca.axes(2, 2)))) / kDegToRad;
   }
 
   // One reference: the standardized mean of the descriptors of `view` of a width x height board
@@ -544,19 +546,9 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
     ClusterPca pca;
     ComputeClusterPca(d.cluster_points.data(), n, &pca, weights);
     report.centroid = pca.centroid;
-    report.planarity = pca.planarity();
-    report.tilt_deg = Impl::TiltDeg(pca);
-    report.size_m = std::sqrt(std::max(0.0, pca.eigenvalues(0) + pca.eigenvalues(1)));
-    if (on_ground) {
-      stop(ClusterGate::kOnGround);
-      continue;
-    }
-    Eigen::Vector2d rectangle;
-    const ClusterGate gate = d.Gates(pca, d.cluster_points.data(), n, beam_spacing, &rectangle);
-    report.rectangle = rectangle;
-    if (c.report_clusters && rectangle.isZero()) {
-      report.rectangle = InPlaneRectangle(pca, d.cluster_points.data(), n);
-    }
+    ClusterGate gate =
+        d.Gates(pca, d.cluster_points.data(), n, beam_spacing, c.report_clusters, &report);
+    if (on_ground) gate = ClusterGate::kOnGround;
     if (gate != ClusterGate::kBoard) {
       stop(gate);
       continue;
@@ -576,7 +568,7 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
     cand.extents = pca.extents;
     cand.planarity = pca.planarity();
     cand.eigenvalues = pca.eigenvalues;
-    cand.rectangle = rectangle;
+    cand.rectangle = report.rectangle;
     out->candidates.push_back(cand);
     if (score < c.match_threshold) {
       stop(ClusterGate::kDescriptor);

@@ -137,6 +137,13 @@ recordings
 Exit codes: 0 done, 1 failed, 2 bad option.
 )";
 
+// Says which option or value was refused; the exit code for it.
+int BadOption(const std::string& option, const std::string& value) {
+  std::cerr << "calibd-bench: bad option or value '" << option << " " << value
+            << "' (see --help)\n";
+  return 2;
+}
+
 // A model the simulator has a scan pattern for.
 bool IsSimulatedLidar(const std::string& name) {
   calibd::LidarKind kind;
@@ -212,9 +219,7 @@ int main(int argc, char** argv) {
       } else if (arg == "--json") {
         r.json_path = value;
       } else {
-        std::cerr << "calibd-bench: bad option or value '" << arg << " " << value
-                  << "' (see --help)\n";
-        return 2;
+        return BadOption(arg, value);
       }
       continue;
     }
@@ -246,9 +251,7 @@ int main(int argc, char** argv) {
       } else if (arg == "--json") {
         k.json_path = value;
       } else {
-        std::cerr << "calibd-bench: bad option or value '" << arg << " " << value
-                  << "' (see --help)\n";
-        return 2;
+        return BadOption(arg, value);
       }
       continue;
     }
@@ -278,9 +281,7 @@ int main(int argc, char** argv) {
           m.loops.push_back(static_cast<int>(n));
         }
       } else {
-        std::cerr << "calibd-bench: bad option or value '" << arg << " " << value
-                  << "' (see --help)\n";
-        return 2;
+        return BadOption(arg, value);
       }
       continue;
     }
@@ -321,9 +322,7 @@ int main(int argc, char** argv) {
     } else if (calib && arg == "--trials" && ParseInt(value, 0, 100000, &n)) {
       c.trials = static_cast<int>(n);
     } else {
-      std::cerr << "calibd-bench: bad option or value '" << arg << " " << value
-                << "' (see --help)\n";
-      return 2;
+      return BadOption(arg, value);
     }
   }
   if (soak && (k.drive_log.empty() || k.calib_yaml.empty())) {

@@ -7,6 +7,14 @@
 
 namespace calibd::sim {
 
+// Layout of a pattern, for PatternNeighbours().
+struct PatternShape {
+  LidarKind kind = LidarKind::kOt128;
+  int rings = 0, columns = 0;               // spinning
+  std::vector<int> ring_below, ring_above;  // spinning: next ring down/up in elevation, or -1
+  int lasers = 0;                           // avia, mid360
+};
+
 void LidarScan::Reserve(size_t n) {
   x.reserve(n);
   y.reserve(n);
@@ -39,6 +47,8 @@ constexpr double kDegToRad = M_PI / 180.0;
 // Channels of one column do not fire at once (the manuals' firing-time tables spread them over
 // the block); we spread them evenly over the first 80% of the column period.
 constexpr double kRingSpreadFraction = 0.8;
+constexpr int kAviaLasers = 6;
+constexpr int kMid360Lasers = 4;
 
 constexpr int kM1Zones = 5;
 constexpr int kM1Lines = 126;    // fast-axis sweeps per zone and frame
@@ -56,14 +66,6 @@ double Frac(double v) { return v - std::floor(v); }
 // Frame phase of the MEMS raster: successive frames shift the raster by a low-discrepancy
 // fraction of a sample/line so that they interleave, as real MEMS patterns drift frame to frame.
 int M1PhaseKey(int frame_index) { return ((frame_index % 16) + 16) % 16; }
-
-// Layout of a pattern for PatternNeighbours().
-struct PatternShape {
-  LidarKind kind = LidarKind::kOt128;
-  int rings = 0, columns = 0;               // spinning
-  std::vector<int> ring_below, ring_above;  // spinning: next ring down/up in elevation, or -1
-  int lasers = 0;                           // avia, mid360
-};
 
 bool IsSpinning(const LidarModel& m) { return m.has_rings && !m.ring_elevation_deg.empty(); }
 
@@ -84,8 +86,8 @@ PatternShape ShapeOf(const LidarModel& m) {
       if (k + 1 < s.rings) s.ring_above[order[k]] = order[k + 1];
     }
   }
-  if (m.kind == LidarKind::kAvia) s.lasers = 6;
-  if (m.kind == LidarKind::kMid360) s.lasers = 4;
+  if (m.kind == LidarKind::kAvia) s.lasers = kAviaLasers;
+  if (m.kind == LidarKind::kMid360) s.lasers = kMid360Lasers;
   return s;
 }
 
@@ -116,7 +118,6 @@ void MakeSpinningPattern(const LidarModel& model, double period_us, std::vector<
 // while it turns at (f1 - f2) / 2. The prism rates are incommensurate, so the pattern never
 // repeats and each frame fills other gaps. Laser l's pattern is turned by l * 180 / lasers deg.
 // Time runs on across frames: frame k continues where frame k - 1 ended.
-constexpr int kAviaLasers = 6;
 constexpr double kAviaPrism1Hz = 120.3, kAviaPrism2Hz = 78.9;
 
 void MakeAviaPattern(const LidarModel& model, int frame_index, double period_us,
@@ -145,7 +146,6 @@ void MakeAviaPattern(const LidarModel& model, int frame_index, double period_us,
 // Livox-Mid-360-like: the head turns once a frame while each of 4 lasers, 90 deg apart, sweeps the
 // vertical field up and down ~45 times a turn; the sweep's rate is incommensurate with the turn, so
 // successive frames cross the field at other azimuths.
-constexpr int kMid360Lasers = 4;
 constexpr double kMid360SweepHz = 447.3;
 
 void MakeMid360Pattern(const LidarModel& model, int frame_index, double period_us,
@@ -455,7 +455,8 @@ void LidarSimulator::CastMainRays(const Scene& scene, const Pose& T_world_lidar_
 // Pass 2: beams next to a depth edge cast sub-rays over their footprint; then range noise,
 // quantization and the point in the LiDAR frame at firing time.
 void LidarSimulator::FinishBeams(const Scene& scene, const Pose& T_world_lidar_start,
-                                 const Pose& T_world_lidar_end, uint64_t seed, size_t chunk) {
+                                 const Pose& T_world_lidar_end, const PatternShape& shape,
+                                 uint64_t seed, size_t chunk) {
   std::mt19937_64 rng = ChunkRng(seed, chunk, 1);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -463,7 +464,6 @@ void LidarSimulator::FinishBeams(const Scene& scene, const Pose& T_world_lidar_s
   const double footprint_rad = 0.5e-3 * noise_.beam_divergence_mrad;  // half-angle
   const double gap = noise_.mixed_point_min_gap_m;
   const int n = static_cast<int>(beams_.size());
-  const PatternShape shape = ShapeOf(model_);
   const size_t begin = chunk * kChunkBeams, end = std::min(beams_.size(), begin + kChunkBeams);
   Eigen::Vector3d origin, e_az, e_el;
   Eigen::Matrix3d R;
@@ -572,8 +572,9 @@ void LidarSimulator::Scan(const Scene& scene, const Pose& T_world_lidar_start,
   ForEachChunk(num_chunks, [&](size_t c) {
     CastMainRays(scene, T_world_lidar_start, T_world_lidar_end, seed, c);
   });
+  const PatternShape shape = ShapeOf(model_);
   ForEachChunk(num_chunks, [&](size_t c) {
-    FinishBeams(scene, T_world_lidar_start, T_world_lidar_end, seed, c);
+    FinishBeams(scene, T_world_lidar_start, T_world_lidar_end, shape, seed, c);
   });
   for (size_t i = 0; i < beams_.size(); ++i) {
     const BeamOut& o = out_[i];

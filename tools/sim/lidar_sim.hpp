@@ -23,6 +23,8 @@ struct LidarNoise {
   double mixed_point_min_gap_m = 0.3;  ///< depth gap within a footprint that can give a mixed point
 };
 
+struct PatternShape;  // lidar_sim.cpp: which beams neighbour which in a scan pattern
+
 /// One beam of a scan pattern.
 struct Beam {
   float azimuth_rad = 0.0f;    ///< atan2(y, x) in the LiDAR frame
@@ -82,7 +84,8 @@ class LidarSimulator {
   void CastMainRays(const Scene& scene, const Pose& T_world_lidar_start,
                     const Pose& T_world_lidar_end, uint64_t seed, size_t chunk);
   void FinishBeams(const Scene& scene, const Pose& T_world_lidar_start,
-                   const Pose& T_world_lidar_end, uint64_t seed, size_t chunk);
+                   const Pose& T_world_lidar_end, const PatternShape& shape, uint64_t seed,
+                   size_t chunk);
 
   LidarModel model_;
   LidarNoise noise_;

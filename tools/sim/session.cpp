@@ -30,6 +30,18 @@ uint64_t Mix(uint64_t seed, uint64_t k, uint64_t stream) {
   return z ^ (z >> 31);
 }
 
+// True when `points_board` (board frame) lie `margin_px` inside the image and the printed side
+// faces the camera.
+template <typename Points>
+bool FacesCameraInImage(const CameraModel& camera, const Pose& T_camera_board,
+                        const Points& points_board, double margin_px) {
+  if (T_camera_board.linear().col(2).dot(-T_camera_board.translation()) <= 0.0) return false;
+  Eigen::Vector2d uv;
+  for (const Eigen::Vector3d& p : points_board)
+    if (!camera.Project(T_camera_board * p, &uv, margin_px)) return false;
+  return true;
+}
+
 }  // namespace
 
 bool SessionOptions::IsValid(std::string* error) const {
@@ -68,7 +80,8 @@ bool SessionOptions::IsValid(std::string* error) const {
 bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
   if (!options.IsValid(error)) return false;
   options_ = options;
-  if (!BuildWorkshop(options.workshop, options.seed, &workshop_, error)) return false;
+  const bool stills = options.trajectory.mode == "stills";
+  if (!stills && !BuildWorkshop(options.workshop, options.seed, &workshop_, error)) return false;
   LidarKind kind;
   LidarKindFromName(options.lidar_model, &kind, nullptr);
   lidar_.emplace(MakeLidarModel(kind), options.lidar_noise);
@@ -78,11 +91,10 @@ bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
   T_vehicle_camera_ = MountPose(options.camera_mount);
   T_vehicle_camera_.linear() = T_vehicle_camera_.linear() * R_body_optical();
   T_camera_lidar_ = T_vehicle_camera_.inverse() * T_vehicle_lidar_;
-  if (options.trajectory.mode == "stills") {
-    // Every pose is placed now, so that SimulateFrame cannot fail later.
-    for (int k = num_frames() - 1; k >= 0; --k)
-      if (!BuildPose(k, error)) return false;
-  }
+  // Every still pose is placed now, so that SimulateFrame cannot fail later.
+  still_poses_.clear();
+  last_frame_ = 0;
+  if (stills && !BuildStillPoses(error)) return false;
 
   std::mt19937_64 rng(Mix(options.seed, 0, 3));
   std::normal_distribution<double> n01(0.0, 1.0);
@@ -114,37 +126,28 @@ bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
   return true;
 }
 
-bool SessionSimulator::BuildPose(int k, std::string* error) {
-  if (pose_ == k) return true;
+bool SessionSimulator::BuildStillPoses(std::string* error) {
   const Pose T_world_vehicle =
       VehiclePoseAt(options_.trajectory, T_vehicle_lidar_.translation().x(), 0.0);
   const Pose T_world_camera = T_world_vehicle * T_vehicle_camera_;
-  // Usable by the camera: printed side towards it and every board corner 20 px inside the image.
+  // Usable by the camera: printed side towards it and every board vertex 20 px inside the image.
   auto visible = [&](const Pose& T_world_board, const BoardGeometry& g) {
-    const Pose T_camera_board = T_world_camera.inverse() * T_world_board;
-    if (T_camera_board.linear().col(2).dot(-T_camera_board.translation()) <= 0.0) return false;
-    for (double sx : {-0.5, 0.5})
-      for (double sy : {-0.5, 0.5}) {
-        Eigen::Vector2d uv;
-        if (!camera_->model().Project(
-                T_camera_board * Eigen::Vector3d(sx * g.width_m, sy * g.height_m, 0.0), &uv, 20.0))
-          return false;
-      }
-    return true;
+    return FacesCameraInImage(camera_->model(), T_world_camera.inverse() * T_world_board,
+                              g.BoardVerticesInBoard(), 20.0);
   };
-  if (!BuildStillPose(options_.workshop, options_.stills, lidar_->model(),
-                      T_world_vehicle * T_vehicle_lidar_, visible, options_.seed, k, &workshop_,
-                      error))
-    return false;
-  pose_ = k;
+  still_poses_.resize(static_cast<size_t>(num_frames()));
+  for (int k = 0; k < num_frames(); ++k)
+    if (!BuildStillPose(options_.workshop, options_.stills, lidar_->model(),
+                        T_world_vehicle * T_vehicle_lidar_, visible, options_.seed, k,
+                        &still_poses_[static_cast<size_t>(k)], error))
+      return false;
   return true;
 }
 
 void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, FrameTruth* truth) {
   const auto& traj = options_.trajectory;
-  if (traj.mode == "stills") {
-    BuildPose(k, nullptr);  // Init() placed every pose: the same draws place it again
-  }
+  last_frame_ = still_poses_.empty() ? 0 : k;
+  const Workshop& workshop = WorkshopOf(last_frame_);
   const double lidar_x = T_vehicle_lidar_.translation().x();
   const int64_t frame_period_us = static_cast<int64_t>(std::llround(1e6 / traj.rate_hz));
   const int64_t camera_utime = options_.start_utime + k * frame_period_us;
@@ -162,31 +165,26 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
       VehiclePoseAt(traj, lidar_x, seconds(lidar_utime) + sweep_s) * T_vehicle_lidar_;
 
   if (image) {
-    camera_->Render(workshop_.scene, workshop_.faces, T_world_camera, Mix(options_.seed, k, 1),
+    camera_->Render(workshop.scene, workshop.faces, T_world_camera, Mix(options_.seed, k, 1),
                     image);
   }
-  lidar_->Scan(workshop_.scene, T_world_lidar_start, T_world_lidar_end, k, Mix(options_.seed, k, 2),
+  lidar_->Scan(workshop.scene, T_world_lidar_start, T_world_lidar_end, k, Mix(options_.seed, k, 2),
                scan);
 
   truth->index = k;
   truth->camera_utime = camera_utime;
   truth->lidar_utime = lidar_utime;
   truth->T_world_vehicle = T_world_vehicle_cam;
-  truth->boards.resize(workshop_.scene.boards.size());
-  for (size_t b = 0; b < workshop_.scene.boards.size(); ++b) {
+  truth->boards.resize(workshop.scene.boards.size());
+  for (size_t b = 0; b < workshop.scene.boards.size(); ++b) {
     BoardTruth& bt = truth->boards[b];
-    const Pose& T_world_board = workshop_.scene.boards[b].T_world_board;
-    bt.board_id = workshop_.geometries[b].board_id;
+    const Pose& T_world_board = workshop.scene.boards[b].T_world_board;
+    bt.board_id = workshop.geometries[b].board_id;
     bt.T_camera_board = T_world_camera.inverse() * T_world_board;
     bt.T_lidar_board = T_world_lidar_start.inverse() * T_world_board;
     // The tag is usable when it faces the camera and all corners land 2 px inside the image.
-    const Eigen::Vector3d to_camera = -bt.T_camera_board.translation();
-    bool in_image = bt.T_camera_board.linear().col(2).dot(to_camera) > 0.0;
-    for (const auto& c : workshop_.geometries[b].TagCornersInBoard()) {
-      Eigen::Vector2d uv;
-      in_image = in_image && camera_->model().Project(bt.T_camera_board * c, &uv, -2.0);
-    }
-    bt.tag_in_image = in_image;
+    bt.tag_in_image = FacesCameraInImage(camera_->model(), bt.T_camera_board,
+                                         workshop.geometries[b].TagCornersInBoard(), -2.0);
     bt.lidar_point_indices.clear();
   }
   for (size_t i = 0; i < scan->size(); ++i) {
@@ -201,7 +199,7 @@ CalibConfig SessionSimulator::UserConfig() const {
   c.camera = options_.camera;
   c.lidar_id = options_.lidar_id;
   c.lidar_model = options_.lidar_model;
-  c.boards = workshop_.geometries;
+  c.boards = workshop().geometries;
   c.prior_T_camera_lidar = prior_T_camera_lidar_;
   return c;
 }

@@ -78,7 +78,9 @@ class SessionSimulator {
 
   int num_frames() const { return options_.trajectory.num_frames(); }
   const SessionOptions& options() const { return options_; }
-  const Workshop& workshop() const { return workshop_; }
+  /// The scene: the workshop of a drive; in a still-pose session, the pose of the last simulated
+  /// frame (pose 0 before any).
+  const Workshop& workshop() const { return WorkshopOf(last_frame_); }
   const LidarModel& lidar_model() const { return lidar_->model(); }
   const CameraModel& camera_model() const { return camera_->model(); }
   Pose T_camera_lidar() const { return T_camera_lidar_; }
@@ -93,9 +95,6 @@ class SessionSimulator {
   /// k).
   void SimulateFrame(int k, cv::Mat* image, LidarScan* scan, FrameTruth* truth);
 
-  /// Still-pose sessions: builds the scene of pose k (SimulateFrame does it for its frame).
-  bool BuildPose(int k, std::string* error);
-
   /// The calibration config a user would write for this vehicle: intrinsics, boards, LiDAR model
   /// and the perturbed prior. Nothing from the truth beyond what a real vehicle would know.
   CalibConfig UserConfig() const;
@@ -107,7 +106,13 @@ class SessionSimulator {
   std::optional<CameraRenderer> camera_;  // built once: its ray table is large
   Pose T_vehicle_lidar_, T_vehicle_camera_, T_camera_lidar_, prior_T_camera_lidar_;
   int64_t camera_phase_us_ = 0;
-  int pose_ = -1;  // the still pose workshop_ holds, -1 for the workshop of a drive
+  std::vector<Workshop> still_poses_;  // one scene per frame of a still-pose session, else empty
+  int last_frame_ = 0;
+
+  const Workshop& WorkshopOf(int k) const {
+    return still_poses_.empty() ? workshop_ : still_poses_[static_cast<size_t>(k)];
+  }
+  bool BuildStillPoses(std::string* error);
 };
 
 }  // namespace calibd::sim

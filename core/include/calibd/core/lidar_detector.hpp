@@ -156,7 +156,8 @@ const char* ClusterGateName(ClusterGate gate);
 
 /// One cluster and where it stopped (LidarDetectorConfig::report_clusters).
 struct LidarClusterReport {
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();   ///< LiDAR frame, m
+  /// LiDAR frame, m (too_large: one of its points; its figures below are not computed)
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   int num_points = 0;                                   ///< range-image cells
   int first_cell = -1;                                  ///< a cell of the cluster (for pictures)
   int segment = -1;                                     ///< segment index (labels in the image)
