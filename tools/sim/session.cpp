@@ -30,8 +30,8 @@ uint64_t Mix(uint64_t seed, uint64_t k, uint64_t stream) {
   return z ^ (z >> 31);
 }
 
-// True when `points_board` (board frame) lie `margin_px` inside the image and the printed side
-// faces the camera.
+// True when the printed side faces the camera and `points_board` (board frame) project into the
+// image grown by `margin_px` (CameraModel::Project: negative keeps them that far inside).
 template <typename Points>
 bool FacesCameraInImage(const CameraModel& camera, const Pose& T_camera_board,
                         const Points& points_board, double margin_px) {
@@ -133,7 +133,7 @@ bool SessionSimulator::BuildStillPoses(std::string* error) {
   // Usable by the camera: printed side towards it and every board vertex 20 px inside the image.
   auto visible = [&](const Pose& T_world_board, const BoardGeometry& g) {
     return FacesCameraInImage(camera_->model(), T_world_camera.inverse() * T_world_board,
-                              g.BoardVerticesInBoard(), 20.0);
+                              g.BoardVerticesInBoard(), -20.0);
   };
   still_poses_.resize(static_cast<size_t>(num_frames()));
   for (int k = 0; k < num_frames(); ++k)
