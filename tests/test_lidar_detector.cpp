@@ -496,6 +496,98 @@ TEST(LidarDetectorTest, ABoxStandingOnTheFloorIsNoBoardButABoardOnAStandIs) {
   EXPECT_STREQ(ClusterGateName(ClusterGate::kOnGround), "on_ground");
 }
 
+// A 0.9 m board on a post 0.5 m in front of a wall, 3.5 m ahead of a LiDAR 1.2 m up: with rings
+// 1-2 deg apart the ring above the board's top edge hits the wall close enough (in angle) for the
+// segmentation's angle criterion, so board and wall come out as one cluster, refused as too large
+// or not a rectangle. extract_planes finds the board as a plane inside it; the wall stays out.
+struct JoinedBoardCase {
+  const char* name;
+  LidarKind kind;
+  double range_sigma_m;
+};
+
+class JoinedBoardTest : public ::testing::TestWithParam<JoinedBoardCase> {};
+
+TEST_P(JoinedBoardTest, ABoardJoinedToTheWallBehindItIsFoundAsAPlaneOfItsCluster) {
+  sim::Scene scene;
+  sim::Primitive ground;
+  ground.shape = sim::Primitive::Shape::kPlaneZ0;
+  ground.kind = sim::SurfaceKind::kGround;
+  scene.Add(ground);
+  auto box = [&](sim::SurfaceKind kind, const Eigen::Vector3d& centre,
+                 const Eigen::Vector3d& half) {
+    sim::Primitive p;
+    p.kind = kind;
+    p.T_world_local.translation() = centre;
+    p.half_extents = half;
+    return scene.Add(p);
+  };
+  box(sim::SurfaceKind::kWall, {4.05, 0.0, 1.5}, {0.05, 4.0, 1.5});
+  const Eigen::Vector3d board_centre(3.5, 0.3, 1.5);
+  sim::PlacedBoard placed;
+  placed.T_world_board.translation() = board_centre;
+  placed.primitive_index = box(sim::SurfaceKind::kBoard,
+                               board_centre + Eigen::Vector3d(0.005, 0, 0), {0.005, 0.45, 0.45});
+  scene.primitives[placed.primitive_index].board_index = 0;
+  scene.boards.push_back(placed);
+  sim::Primitive post;
+  post.shape = sim::Primitive::Shape::kCylinder;
+  post.kind = sim::SurfaceKind::kStand;
+  post.T_world_local.translation() = Eigen::Vector3d(3.54, 0.3, 0.0);
+  post.radius = 0.02;
+  post.height = 1.05;
+  scene.Add(post);
+  scene.Finalize();
+
+  const LidarModel model = MakeLidarModel(GetParam().kind);
+  sim::LidarNoise noise;
+  noise.range_sigma_m = GetParam().range_sigma_m;
+  sim::LidarSimulator lidar(model, noise);
+  const Pose T_world_lidar = PoseFromXyzRpy({0.0, 0.0, 1.2}, Eigen::Vector3d::Zero());
+  sim::LidarScan scan;
+  lidar.Scan(scene, T_world_lidar, T_world_lidar, 0, 7, &scan);
+  const Eigen::Vector3d board_lidar = T_world_lidar.inverse() * board_centre;
+
+  BoardGeometry board;
+  board.width_m = board.height_m = 0.9;
+  board.tag_size_m = 0.7;
+  LidarDetectorConfig whole;
+  whole.report_clusters = true;
+  LidarDetector paper(whole, model, {board});
+  LidarDetections out;
+  paper.Detect(ViewOf(scan), &out);
+  // Whole clusters only: the board is lost in the wall's cluster.
+  EXPECT_TRUE(out.boards.empty());
+  bool joined = false;
+  for (const LidarClusterReport& r : out.clusters)
+    joined = joined || (r.gate != ClusterGate::kBoard && r.num_points > 500);
+  EXPECT_TRUE(joined) << "the board was not joined to the wall: the test shows nothing";
+
+  LidarDetectorConfig planes = whole;
+  planes.extract_planes = true;
+  LidarDetector extracting(planes, model, {board});
+  extracting.Detect(ViewOf(scan), &out);
+  ASSERT_EQ(out.boards.size(), 1u);
+  EXPECT_LT((out.boards[0].centroid - board_lidar).norm(), 0.05);
+  EXPECT_NEAR(out.boards[0].normal.norm(), 1.0, 1e-6);
+  EXPECT_GT(std::fabs(out.boards[0].normal.x()), 0.99);  // facing the sensor, as the board
+  const LidarClusterReport* found = nullptr;
+  for (const LidarClusterReport& r : out.clusters)
+    if (r.gate == ClusterGate::kBoard) found = &r;
+  ASSERT_NE(found, nullptr);
+  EXPECT_GE(found->plane, 0);  // a plane of a larger segment, not a segment of its own
+  EXPECT_LE(found->attached_fraction, planes.max_attached_fraction);
+  EXPECT_NEAR(found->rectangle(0), 0.9, 0.15);
+}
+
+// Only the 1 cm case passes yet: at 3 cm the post joins the board's plane (its rectangle grows
+// to 1.7 m) and a VLP-32C's board is cut into patches; extract_planes stays off until they do.
+INSTANTIATE_TEST_SUITE_P(SparseRings, JoinedBoardTest,
+                         ::testing::Values(JoinedBoardCase{"vlp16_1cm", LidarKind::kVlp16, 0.01}),
+                         [](const ::testing::TestParamInfo<JoinedBoardCase>& param) {
+                           return std::string(param.param.name);
+                         });
+
 TEST(LidarDetectorTest, SampleAreaWeightsCentreBoardsAcrossTheFalconsDenseBand) {
   // Parked 10 m away: boards 0 and 2 straddle the edge of the Falcon's dense band at -3 deg.
   Fixture f("falcon");

@@ -9,6 +9,7 @@
 #include "calibd/core/board_references.hpp"
 #include "calibd/core/cluster_pca.hpp"
 #include "calibd/core/m2dp.hpp"
+#include "calibd/core/plane_regions.hpp"
 #include "calibd/core/range_image.hpp"
 #include "calibd/core/segmentation.hpp"
 
@@ -40,6 +41,12 @@ bool Standardize(float* d, int n) {
 
 double Fraction(double v) { return v - std::floor(v); }
 
+// A cluster refused as a whole is searched for a board-sized plane inside it, unless it was
+// refused for capacity (nothing more can be kept).
+bool ExtractsPlanes(ClusterGate gate) {
+  return gate != ClusterGate::kBoard && gate != ClusterGate::kCapacity;
+}
+
 }  // namespace
 
 bool LidarDetectorConfig::IsValid(std::string* error) const {
@@ -59,6 +66,10 @@ bool LidarDetectorConfig::IsValid(std::string* error) const {
     return fail("neighbor_search_cells: must be in 0..16");
   if (!(min_row_width_fraction >= 0.0 && min_row_width_fraction < 1.0))
     return fail("min_row_width_fraction: must be in [0, 1)");
+  if (!(plane_distance_sigmas > 0.0 && plane_distance_sigmas <= 10.0))
+    return fail("plane_distance_sigmas: must be in (0, 10]");
+  if (!(max_attached_fraction >= 0.0 && max_attached_fraction <= 1.0))
+    return fail("max_attached_fraction: must be in [0, 1]");
   if (min_cluster_points < 3) return fail("min_cluster_points: must be >= 3");
   if (!(min_board_clearance_m >= 0.0)) return fail("min_board_clearance_m: must be >= 0");
   if (!(extent_tolerance >= 0.0 && extent_tolerance < 1.0))
@@ -136,6 +147,10 @@ struct LidarDetector::Impl {
   // points) and the input indices of all its points.
   std::vector<Eigen::Vector3f> cluster_points;
   std::vector<int32_t> cluster_cells, cluster_indices;
+  // Planes inside clusters that fail as a whole, and the scratch of one plane.
+  PlaneRegions planes;
+  std::vector<Eigen::Vector3f> region_points;
+  std::vector<int32_t> region_cells;
   std::vector<float> cluster_weights;
   std::vector<double> row_gap_sum;  // per range-image row, for RowWeights()
   std::vector<int> row_cells;
@@ -158,14 +173,15 @@ struct LidarDetector::Impl {
   // the image within min_board_clearance_m of their height: a box standing on the floor (whose
   // bottom strip the ground walk may even have taken), not a board on a stand, whose lower edge
   // has the floor far behind it or its post below.
-  bool RestsOnGround(int n, const Segment& seg) const {
+  // `cells` and `points` (n of them) are the cluster's; a cell belongs to it when mark[cell] == id.
+  bool RestsOnGround(const int32_t* cells, const Eigen::Vector3f* points, int n,
+                     const int32_t* mark, int32_t id) const {
     static constexpr int kSearchRows = 3;
     const std::vector<int32_t>& labels = segmenter.labels();
     const float clearance = static_cast<float>(config.min_board_clearance_m);
     int edge = 0, contact = 0;
     for (int k = 0; k < n; ++k) {
-      const int32_t id = cluster_cells[k];
-      const int row = image.RowOf(id), col = image.ColOf(id);
+      const int row = image.RowOf(cells[k]), col = image.ColOf(cells[k]);
       int below = -1;
       for (int r = row - 1; r >= std::max(0, row - kSearchRows); --r) {
         if (image.cell(r, col).index >= 0) {
@@ -173,10 +189,10 @@ struct LidarDetector::Impl {
           break;
         }
       }
-      if (below >= 0 && labels[below] == seg.label) continue;  // inside the cluster
+      if (below >= 0 && mark[below] == id) continue;  // inside the cluster
       ++edge;
       if (below >= 0 && labels[below] == kLabelGround &&
-          cluster_points[k].z() - image.cell(below).z < clearance)
+          points[k].z() - image.cell(below).z < clearance)
         ++contact;
     }
     return 2 * contact >= edge && contact > 0;
@@ -213,19 +229,19 @@ struct LidarDetector::Impl {
   // weights make both halves count alike. Averaged over the row because an M1's slanted lines
   // leave cell gaps of 1 and 2 rows at random, which per cell only add noise (its recall at 0.94
   // drops from 0.94 to 0.89 per cell, 0.94 per row: measured).
-  void RowWeights(int n) {
+  void RowWeights(const int32_t* cells, int n) {
     for (int k = 0; k < n; ++k) {
-      const int row = image.RowOf(cluster_cells[k]);
+      const int row = image.RowOf(cells[k]);
       row_gap_sum[row] = 0.0;
       row_cells[row] = 0;
     }
     for (int k = 0; k < n; ++k) {
-      const int row = image.RowOf(cluster_cells[k]);
-      row_gap_sum[row] += VerticalGap(cluster_cells[k]);
+      const int row = image.RowOf(cells[k]);
+      row_gap_sum[row] += VerticalGap(cells[k]);
       ++row_cells[row];
     }
     for (int k = 0; k < n; ++k) {
-      const int row = image.RowOf(cluster_cells[k]);
+      const int row = image.RowOf(cells[k]);
       cluster_weights[k] = static_cast<float>(row_gap_sum[row] / row_cells[row]);
     }
   }
@@ -268,6 +284,133 @@ struct LidarDetector::Impl {
         return ClusterGate::kBoard;
     }
     return gate;
+  }
+
+  // Fast pre-check: a board whose sides pass the rectangle gate covers at most
+  // max_board_area_m2 / r^2 steradians at range r, so at most that many cells of the finest grid
+  // step (twice that, for safety): walls and large objects stop here before the per-cell work.
+  bool TooLarge(const int32_t* cells, int n) const {
+    double min_range = 1e300;
+    for (int k = 0; k < n; ++k) min_range = std::min(min_range, double{image.cell(cells[k]).range});
+    return n > 2.0 * max_board_area_m2 / (min_range * min_range * min_cell_sr);
+  }
+
+  // With report_clusters, where a cluster stopped and its figures.
+  void Report(ClusterGate gate, LidarClusterReport* report, LidarDetections* out) const {
+    if (!config.report_clusters || static_cast<int>(out->clusters.size()) >= config.max_clusters)
+      return;
+    report->gate = gate;
+    out->clusters.push_back(*report);
+  }
+
+  // Gates, descriptor and output of one cluster: n range-image cells `cells`, the cells c with
+  // mark[c] == id (the segmenter's labels, or a plane's). Fills points[k] and scratch_cells[k]
+  // (which may be `cells` itself) with each cell's point and index, even for a cluster too large
+  // to be a board when `fill_all` (its planes are extracted next).
+  ClusterGate Evaluate(const PointCloudView& cloud, const int32_t* cells, int n,
+                       const int32_t* mark, int32_t id, bool fill_all, Eigen::Vector3f* points,
+                       int32_t* scratch_cells, LidarClusterReport* report, LidarDetections* out) {
+    const LidarDetectorConfig& c = config;
+    report->num_points = n;
+    report->first_cell = cells[0];
+    const bool too_large = TooLarge(cells, n);
+    if (too_large && !fill_all) {
+      if (c.report_clusters) {
+        const RangeImageCell& first = image.cell(cells[0]);
+        report->centroid = Eigen::Vector3d(first.x, first.y, first.z);
+      }
+      Report(ClusterGate::kTooLarge, report, out);
+      return ClusterGate::kTooLarge;
+    }
+    // One point per cell, the mean of the cell's points (paper §III-C-1: the average of a pixel
+    // once far points are removed): the cluster is sampled on the range-image grid like the
+    // references, whatever the scan pattern's density. An M1 board at 7 m near a zone edge has
+    // three times the points on one side (the sinusoidal sweep turns there): it scores 0.86 with
+    // all points, 0.97 with one per cell (measured with M2DP l = 4, t = 16). All the cells'
+    // points go to the output.
+    const int32_t* next_point = image.next_point().data();
+    double spacing_sum = 0.0;
+    for (int k = 0; k < n; ++k) {
+      const int32_t cell_id = cells[k];
+      const RangeImageCell& cell = image.cell(cell_id);
+      Eigen::Vector3f sum(cell.x, cell.y, cell.z);
+      for (int32_t i = cell.next_point; i >= 0; i = next_point[i])
+        sum += Eigen::Vector3f(cloud.x[i], cloud.y[i], cloud.z[i]);
+      points[k] = sum / static_cast<float>(cell.num_points);
+      scratch_cells[k] = cell_id;
+      spacing_sum += image.row_spacing_rad(image.RowOf(cell_id));
+    }
+    if (too_large) {
+      report->centroid = points[0].cast<double>();
+      Report(ClusterGate::kTooLarge, report, out);
+      return ClusterGate::kTooLarge;
+    }
+    const double beam_spacing = std::max(image.azimuth_step_rad(), spacing_sum / n);
+    const bool on_ground =
+        c.min_board_clearance_m > 0.0 && RestsOnGround(scratch_cells, points, n, mark, id);
+    if (on_ground && !c.report_clusters) return ClusterGate::kOnGround;
+    if (c.weight_by_sample_area) RowWeights(scratch_cells, n);
+    const float* weights = c.weight_by_sample_area ? cluster_weights.data() : nullptr;
+    ClusterPca pca;
+    ComputeClusterPca(points, n, &pca, weights);
+    report->centroid = pca.centroid;
+    ClusterGate gate = Gates(pca, points, n, beam_spacing, c.report_clusters, report);
+    if (on_ground) gate = ClusterGate::kOnGround;
+    if (gate != ClusterGate::kBoard) {
+      Report(gate, report, out);
+      return gate;
+    }
+    if (static_cast<int>(out->candidates.size()) >= c.max_clusters) {
+      ++out->dropped_candidates;
+      Report(ClusterGate::kCapacity, report, out);
+      return ClusterGate::kCapacity;
+    }
+    const double score = describer.Describe(points, n, pca, weights) ? BestScore() : 0.0;
+    report->score = score;
+    LidarCandidate cand;
+    cand.centroid = pca.centroid;
+    cand.score = score;
+    cand.num_points = n;
+    cand.extents = pca.extents;
+    cand.planarity = pca.planarity();
+    cand.eigenvalues = pca.eigenvalues;
+    cand.rectangle = report->rectangle;
+    out->candidates.push_back(cand);
+    if (score < c.match_threshold) {
+      Report(ClusterGate::kDescriptor, report, out);
+      return ClusterGate::kDescriptor;
+    }
+    if (static_cast<int>(out->boards.size()) >= c.max_boards) {
+      ++out->dropped_boards;
+      Report(ClusterGate::kCapacity, report, out);
+      return ClusterGate::kCapacity;
+    }
+    Report(ClusterGate::kBoard, report, out);
+    BoardCluster board;
+    board.centroid = pca.centroid;
+    board.normal = pca.axes.col(2);
+    if (board.normal.dot(pca.centroid) > 0.0) board.normal = -board.normal;  // towards the sensor
+    board.score = score;
+    int num_indices = 0;
+    for (int k = 0; k < n; ++k) {
+      const RangeImageCell& cell = image.cell(scratch_cells[k]);
+      cluster_indices[num_indices++] = cell.index;
+      for (int32_t i = cell.next_point; i >= 0; i = next_point[i])
+        cluster_indices[num_indices++] = i;
+    }
+    board.cluster_points = num_indices;
+    board.first_point = static_cast<int>(out->points.size());
+    const int m = std::min(num_indices, c.max_board_points);
+    for (int k = 0; k < m; ++k) {
+      const int32_t i = cluster_indices[(static_cast<long long>(k) * num_indices) / m];
+      out->points.emplace_back(cloud.x[i], cloud.y[i], cloud.z[i]);
+      out->point_indices.push_back(i);
+      out->point_time_s.push_back(
+          cloud.time_offset_us ? static_cast<float>(cloud.time_offset_us[i]) * 1e-6f : 0.0f);
+    }
+    board.num_points = m;
+    out->boards.push_back(board);
+    return ClusterGate::kBoard;
   }
 
   // One reference: the standardized mean of the descriptors of `view` of a width x height board
@@ -379,6 +522,11 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   sc.min_cluster_points = config.min_cluster_points;
   sc.min_row_width_m = config.min_row_width_fraction * d.min_side_m;
   d.segmenter.Configure(d.image, sc);
+  PlaneRegionConfig pc;
+  pc.distance_sigmas = config.plane_distance_sigmas;
+  pc.neighbor_search_cells = config.neighbor_search_cells;
+  pc.min_region_cells = config.min_cluster_points;
+  d.planes.Configure(d.image, pc);
   for (const BoardGeometry& g : boards) {
     const double side = (1.0 + config.max_side_tolerance) * std::max(g.width_m, g.height_m);
     d.max_board_area_m2 = std::max(d.max_board_area_m2, side * side);
@@ -391,6 +539,8 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   d.min_cell_sr = d.image.azimuth_step_rad() * std::max(min_gap, 1e-6);
   d.cluster_points.resize(static_cast<size_t>(d.image.rows()) * d.image.cols());
   d.cluster_cells.resize(d.cluster_points.size());
+  d.region_points.resize(d.cluster_points.size());
+  d.region_cells.resize(d.cluster_points.size());
   d.row_gap_sum.resize(d.image.rows());
   d.row_cells.resize(d.image.rows());
   // Every input point is a cell's nearest or in one chain: a cluster has at most max_points.
@@ -426,6 +576,8 @@ const char* ClusterGateName(ClusterGate gate) {
       return "board";
     case ClusterGate::kTooLarge:
       return "too_large";
+    case ClusterGate::kAttached:
+      return "attached";
     case ClusterGate::kOnGround:
       return "on_ground";
     case ClusterGate::kNotPlanar:
@@ -491,119 +643,44 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
   const Clock::time_point t3 = Clock::now();
 
   const int32_t* members = d.segmenter.members();
-  const int32_t* next_point = d.image.next_point().data();
-  // With report_clusters, where each cluster stopped and its figures.
-  LidarClusterReport report;
-  auto stop = [&](ClusterGate gate) {
-    if (!c.report_clusters || static_cast<int>(out->clusters.size()) >= c.max_clusters) return;
-    report.gate = gate;
-    out->clusters.push_back(report);
-  };
   for (int s = 0; s < d.segmenter.num_segments(); ++s) {
     const Segment& seg = d.segmenter.segment(s);
-    // One point per cell, the mean of the cell's points (paper §III-C-1: the average of a pixel
-    // once far points are removed): the cluster is sampled on the range-image grid like the
-    // references, whatever the scan pattern's density. An M1 board at 7 m near a zone edge has
-    // three times the points on one side (the sinusoidal sweep turns there): it scores 0.86 with
-    // all points, 0.97 with one per cell (measured with M2DP l = 4, t = 16). All the cells'
-    // points go to the output.
     const int n = seg.size();
     if (n < c.min_cluster_points) continue;
-    report = LidarClusterReport{};
-    report.num_points = n;
-    report.first_cell = members[seg.begin];
+    LidarClusterReport report;
     report.segment = s;
-    // Fast pre-check: a board whose sides pass the rectangle gate covers at most max_board_area_m2
-    // / r^2 steradians at range r, so at most that many cells of the finest grid step (twice that,
-    // for safety): walls and large objects stop here before the per-cell work below.
-    double min_range = 1e300;
-    for (int k = 0; k < n; ++k)
-      min_range = std::min(min_range, double{d.image.cell(members[seg.begin + k]).range});
-    if (n > 2.0 * d.max_board_area_m2 / (min_range * min_range * d.min_cell_sr)) {
-      if (c.report_clusters) {
-        const RangeImageCell& first = d.image.cell(members[seg.begin]);
-        report.centroid = Eigen::Vector3d(first.x, first.y, first.z);
+    const ClusterGate gate =
+        d.Evaluate(cloud, members + seg.begin, n, d.segmenter.labels().data(), seg.label,
+                   c.extract_planes, d.cluster_points.data(), d.cluster_cells.data(), &report, out);
+    if (!c.extract_planes || !ExtractsPlanes(gate)) continue;
+    // The cluster is not a board as a whole: the board may be one of its planes
+    // (plane_regions.hpp). Its cells' points were filled by Evaluate.
+    const int num_planes =
+        d.planes.Extract(d.image, d.cluster_cells.data(), d.cluster_points.data(), n);
+    for (int p = 0; p < num_planes; ++p) {
+      const PlaneRegion& region = d.planes.region(p);
+      if (region.size() == n) break;  // the whole cluster again
+      for (int m = 0; m < region.size(); ++m)
+        d.region_cells[m] = d.cluster_cells[d.planes.members()[region.begin + m]];
+      LidarClusterReport plane_report;
+      plane_report.segment = s;
+      plane_report.plane = p;
+      plane_report.num_points = region.size();
+      plane_report.first_cell = d.region_cells[0];
+      plane_report.centroid = region.center.cast<double>();
+      if (d.TooLarge(d.region_cells.data(), region.size())) {
+        d.Report(ClusterGate::kTooLarge, &plane_report, out);
+        continue;
       }
-      stop(ClusterGate::kTooLarge);
-      continue;
+      plane_report.attached_fraction =
+          d.planes.AttachedFraction(d.image, d.cluster_points.data(), p);
+      if (plane_report.attached_fraction > c.max_attached_fraction) {
+        d.Report(ClusterGate::kAttached, &plane_report, out);
+        continue;
+      }
+      d.Evaluate(cloud, d.region_cells.data(), region.size(), d.planes.cell_region().data(), p + 1,
+                 false, d.region_points.data(), d.region_cells.data(), &plane_report, out);
     }
-    double spacing_sum = 0.0;
-    for (int k = 0; k < n; ++k) {
-      const int32_t id = members[seg.begin + k];
-      const RangeImageCell& cell = d.image.cell(id);
-      Eigen::Vector3f sum(cell.x, cell.y, cell.z);
-      for (int32_t i = cell.next_point; i >= 0; i = next_point[i])
-        sum += Eigen::Vector3f(cloud.x[i], cloud.y[i], cloud.z[i]);
-      d.cluster_points[k] = sum / static_cast<float>(cell.num_points);
-      d.cluster_cells[k] = id;
-      spacing_sum += d.image.row_spacing_rad(d.image.RowOf(id));
-    }
-    const double beam_spacing = std::max(d.image.azimuth_step_rad(), spacing_sum / n);
-    const bool on_ground = c.min_board_clearance_m > 0.0 && d.RestsOnGround(n, seg);
-    if (on_ground && !c.report_clusters) continue;
-    if (c.weight_by_sample_area) d.RowWeights(n);
-    const float* weights = c.weight_by_sample_area ? d.cluster_weights.data() : nullptr;
-    ClusterPca pca;
-    ComputeClusterPca(d.cluster_points.data(), n, &pca, weights);
-    report.centroid = pca.centroid;
-    ClusterGate gate =
-        d.Gates(pca, d.cluster_points.data(), n, beam_spacing, c.report_clusters, &report);
-    if (on_ground) gate = ClusterGate::kOnGround;
-    if (gate != ClusterGate::kBoard) {
-      stop(gate);
-      continue;
-    }
-    if (static_cast<int>(out->candidates.size()) >= c.max_clusters) {
-      ++out->dropped_candidates;
-      stop(ClusterGate::kCapacity);
-      continue;
-    }
-    const double score =
-        d.describer.Describe(d.cluster_points.data(), n, pca, weights) ? d.BestScore() : 0.0;
-    report.score = score;
-    LidarCandidate cand;
-    cand.centroid = pca.centroid;
-    cand.score = score;
-    cand.num_points = n;
-    cand.extents = pca.extents;
-    cand.planarity = pca.planarity();
-    cand.eigenvalues = pca.eigenvalues;
-    cand.rectangle = report.rectangle;
-    out->candidates.push_back(cand);
-    if (score < c.match_threshold) {
-      stop(ClusterGate::kDescriptor);
-      continue;
-    }
-    if (static_cast<int>(out->boards.size()) >= c.max_boards) {
-      ++out->dropped_boards;
-      stop(ClusterGate::kCapacity);
-      continue;
-    }
-    stop(ClusterGate::kBoard);
-    BoardCluster board;
-    board.centroid = pca.centroid;
-    board.normal = pca.axes.col(2);
-    if (board.normal.dot(pca.centroid) > 0.0) board.normal = -board.normal;  // towards the sensor
-    board.score = score;
-    int num_indices = 0;
-    for (int k = 0; k < n; ++k) {
-      const RangeImageCell& cell = d.image.cell(d.cluster_cells[k]);
-      d.cluster_indices[num_indices++] = cell.index;
-      for (int32_t i = cell.next_point; i >= 0; i = next_point[i])
-        d.cluster_indices[num_indices++] = i;
-    }
-    board.cluster_points = num_indices;
-    board.first_point = static_cast<int>(out->points.size());
-    const int m = std::min(num_indices, c.max_board_points);
-    for (int k = 0; k < m; ++k) {
-      const int32_t i = d.cluster_indices[(static_cast<long long>(k) * num_indices) / m];
-      out->points.emplace_back(cloud.x[i], cloud.y[i], cloud.z[i]);
-      out->point_indices.push_back(i);
-      out->point_time_s.push_back(
-          cloud.time_offset_us ? static_cast<float>(cloud.time_offset_us[i]) * 1e-6f : 0.0f);
-    }
-    board.num_points = m;
-    out->boards.push_back(board);
   }
   const Clock::time_point t4 = Clock::now();
   out->times.range_image_ms = Ms(t0, t1);

@@ -183,4 +183,22 @@ void RangeImage::Build(const PointCloudView& cloud, RangeImageStats* stats) {
   }
 }
 
+int RangeImage::CellAt(int row, int col) const {
+  if (row < 0 || row >= rows_) return -1;
+  if (col < 0 || col >= cols_) {
+    if (!wraps_) return -1;
+    col = (col % cols_ + cols_) % cols_;
+  }
+  return CellIndex(row, col);
+}
+
+int RangeImage::NearestCell(int row, int col, int dr, int dc, int max_empty) const {
+  for (int step = 1; step <= max_empty + 1; ++step) {
+    const int idx = CellAt(row + dr * step, col + dc * step);
+    if (idx < 0) return -1;
+    if (cells_[idx].index >= 0) return idx;
+  }
+  return -1;
+}
+
 }  // namespace calibd

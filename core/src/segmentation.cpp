@@ -79,22 +79,6 @@ void RangeSegmenter::LabelGround(const RangeImage& image) {
   }
 }
 
-int RangeSegmenter::Neighbour(const RangeImage& image, int row, int col, int dr, int dc) const {
-  const int rows = image.rows(), cols = image.cols();
-  for (int step = 1; step <= config_.neighbor_search_cells + 1; ++step) {
-    const int r = row + dr * step;
-    int c = col + dc * step;
-    if (r < 0 || r >= rows) return -1;
-    if (c < 0 || c >= cols) {
-      if (!image.wraps()) return -1;
-      c = (c + cols) % cols;
-    }
-    const int idx = image.CellIndex(r, c);
-    if (image.cell(idx).index >= 0) return idx;
-  }
-  return -1;
-}
-
 bool RangeSegmenter::SameObject(const RangeImageCell& a, const RangeImageCell& b) const {
   // beta > threshold <=> cos(beta) < cos(threshold), with cos(beta) = (d1^2 - p1.p2) /
   // (d1 |p1 - p2|) at the farther point p1 (Bogoslavskyi Eq. 1 without trigonometry).
@@ -123,7 +107,7 @@ int RangeSegmenter::Grow(const RangeImage& image, int seed, int32_t from, int32_
     const int cur = queue_[head++];
     const int row = image.RowOf(cur), col = image.ColOf(cur);
     for (int k = 0; k < 4; ++k) {
-      const int n = Neighbour(image, row, col, kDr[k], kDc[k]);
+      const int n = image.NearestCell(row, col, kDr[k], kDc[k], config_.neighbor_search_cells);
       if (n < 0 || labels_[n] != from) continue;
       if (!SameObject(image.cell(cur), image.cell(n))) continue;
       labels_[n] = to;

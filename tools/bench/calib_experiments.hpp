@@ -45,7 +45,8 @@ inline constexpr int kVisibleBoardPoints = 30;
 
 /// Simulates every frame pair of a drive and runs the real detectors on it into
 /// `drive->observations`, the way tests/recorded_session.hpp does.
-bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error);
+bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
+                 const LidarDetectorConfig& lidar = LidarDetectorConfig{});
 
 /// A copy of `s` holding the frame pairs with keep_frame[f] (renumbered in order) and in them only
 /// the camera boards with keep_camera[i] and the LiDAR clusters with keep_lidar[j] (indices into

@@ -132,6 +132,9 @@ recordings
   --scenario LIST     comma-separated scenarios (default: all)
   --seed N            simulation seed (default 1)
   --trials N          grid-search trials per scenario (default 20; 0 skips)
+  --extract-planes on|off
+                      search clusters refused as a whole for board planes (LiDAR detector's
+                      extract_planes; default off)
   --json FILE         also write the figures as JSON
 
 Exit codes: 0 done, 1 failed, 2 bad option.
@@ -216,6 +219,8 @@ int main(int argc, char** argv) {
         r.seed = static_cast<unsigned long long>(n);
       } else if (arg == "--trials" && ParseInt(value, 0, 100000, &n)) {
         r.grid_trials = static_cast<int>(n);
+      } else if (arg == "--extract-planes" && (value == "on" || value == "off")) {
+        r.extract_planes = value == "on";
       } else if (arg == "--json") {
         r.json_path = value;
       } else {

@@ -127,7 +127,10 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
   }
   nlohmann::json doc;
   doc["seed"] = o.seed;
+  doc["extract_planes"] = o.extract_planes;
   bool all_met = true;
+  out << "LiDAR detector: planes inside refused clusters "
+      << (o.extract_planes ? "extracted" : "not extracted (the default)") << "\n\n";
   out << "| scenario | camera boards found / in view | LiDAR boards: recall / precision | verdict "
          "| rotation / translation error | grid search from +-10 deg | targets met |\n"
          "|---|---|---|---|---|---|---|\n";
@@ -137,7 +140,9 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
       continue;
     const auto t0 = std::chrono::steady_clock::now();
     RecordedDrive drive;
-    if (!RecordDrive(ScenarioSession(s, o.seed), &drive, error)) {
+    LidarDetectorConfig lidar;
+    lidar.extract_planes = o.extract_planes;
+    if (!RecordDrive(ScenarioSession(s, o.seed), &drive, error, lidar)) {
       if (error) *error = std::string(s.name) + ": " + *error;
       return false;
     }

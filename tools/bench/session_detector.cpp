@@ -31,8 +31,10 @@ sim::SessionOptions BenchSessionOptions(const std::string& lidar, unsigned long 
   return so;
 }
 
-bool DetectedSession::Init(const sim::SessionOptions& options, std::string* error) {
+bool DetectedSession::Init(const sim::SessionOptions& options, std::string* error,
+                           const LidarDetectorConfig& lidar) {
   if (!session_.Init(options, error)) return false;
+  lidar_config_ = lidar;
   const auto& geometries = session_.workshop().geometries;
   lidar_detector_.emplace(lidar_config_, session_.lidar_model(), geometries);
   if (!lidar_detector_->ok()) {

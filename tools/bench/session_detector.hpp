@@ -35,9 +35,10 @@ double ProcessCpuMs();
 
 class DetectedSession {
  public:
-  /// Builds the session and both detectors (default configs, the workshop's boards); false with
-  /// `error` saying what failed.
-  bool Init(const sim::SessionOptions& options, std::string* error);
+  /// Builds the session and both detectors (the camera's default config, `lidar` for the LiDAR,
+  /// the workshop's boards); false with `error` saying what failed.
+  bool Init(const sim::SessionOptions& options, std::string* error,
+            const LidarDetectorConfig& lidar = LidarDetectorConfig{});
 
   const sim::SessionSimulator& session() const { return session_; }
   const LidarDetectorConfig& lidar_config() const { return lidar_config_; }

@@ -45,6 +45,18 @@ struct LidarDetectorConfig {
   /// Rows of a cluster narrower than this fraction of the smallest board side are pruned (the
   /// board's stand, cables) before the cluster is segmented again. 0 disables.
   double min_row_width_fraction = 0.35;
+  /// A cluster refused as a whole (a board joined to the wall behind it, its tripod, the person
+  /// holding it, a chair) is split into planar regions, each gated and described like a cluster
+  /// (plane_regions.hpp). False describes whole clusters only, as the paper does.
+  bool extract_planes = false;
+  /// A cell joins a region's plane within this many range-noise sigmas of it; the noise is
+  /// estimated from each cluster. Lower splits noisy boards; higher joins what stands close
+  /// behind the board.
+  double plane_distance_sigmas = 3.0;
+  /// An extracted plane is a board only when at most this share of its edge is attached to the
+  /// rest of its segment near its plane (PlaneRegion::attached_fraction): hands and stands touch
+  /// a board's edge in places; a patch of a wall or of a curved surface is attached all round.
+  double max_attached_fraction = 0.5;
   // Cheap gates before the descriptor.
   /// Boards stand on stands: a cluster whose lower edge has the ground right below it, within
   /// this height, for at least half its length is an object standing on the floor (crates,
@@ -142,6 +154,7 @@ struct LidarCandidate {
 enum class ClusterGate : uint8_t {
   kBoard,
   kTooLarge,    ///< more cells than any board can cover at its range
+  kAttached,    ///< a plane whose segment goes on near it along its edge (max_attached_fraction)
   kOnGround,    ///< stands on the floor (min_board_clearance_m)
   kNotPlanar,   ///< max_planarity
   kTilted,      ///< max_board_tilt_deg
@@ -150,17 +163,21 @@ enum class ClusterGate : uint8_t {
   kDescriptor,  ///< scored below match_threshold
   kCapacity,    ///< beyond max_clusters or max_boards
 };
-/// "board", "too_large", "on_ground", "not_planar", "tilted", "rectangle", "size", "descriptor",
-/// "capacity".
+/// "board", "too_large", "attached", "on_ground", "not_planar", "tilted", "rectangle", "size",
+/// "descriptor", "capacity".
 const char* ClusterGateName(ClusterGate gate);
 
 /// One cluster and where it stopped (LidarDetectorConfig::report_clusters).
 struct LidarClusterReport {
   /// LiDAR frame, m (too_large: one of its points; its figures below are not computed)
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  int num_points = 0;                                   ///< range-image cells
-  int first_cell = -1;                                  ///< a cell of the cluster (for pictures)
-  int segment = -1;                                     ///< segment index (labels in the image)
+  int num_points = 0;   ///< range-image cells
+  int first_cell = -1;  ///< a cell of the cluster (for pictures)
+  int segment = -1;     ///< segment index (labels in the image)
+  /// -1: the whole segment; k >= 0: the k-th plane extracted from it (extract_planes)
+  int plane = -1;
+  /// A plane's share of edge where the segment goes on near it (PlaneRegion); 0 for a segment
+  double attached_fraction = 0.0;
   Eigen::Vector2d rectangle = Eigen::Vector2d::Zero();  ///< long, short side in its plane, m
   double size_m = 0.0;                                  ///< RMS size sqrt(lambda1 + lambda2)
   double planarity = 0.0;                               ///< sqrt(lambda3 / lambda2)

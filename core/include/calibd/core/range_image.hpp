@@ -67,6 +67,11 @@ class RangeImage {
   int ColOf(int index) const { return index / rows_; }
   const RangeImageCell& cell(int row, int col) const { return cells_[CellIndex(row, col)]; }
   const RangeImageCell& cell(int index) const { return cells_[index]; }
+  /// The index of cell (row, col), -1 outside the image; columns wrap for 360-degree sensors.
+  int CellAt(int row, int col) const;
+  /// The first non-empty cell from (row, col) in direction (dr, dc), stepping over at most
+  /// `max_empty` empty cells; -1 past the image's edge (columns wrap for 360-degree sensors).
+  int NearestCell(int row, int col, int dr, int dc, int max_empty) const;
   /// Cell index of each input point of the last Build(), -1 when it was skipped. The point is the
   /// cell's kept (nearest) one when cell(point_cell()[i]).index == i.
   const std::vector<int32_t>& point_cell() const { return point_cell_; }

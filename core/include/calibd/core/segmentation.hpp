@@ -74,7 +74,6 @@ class RangeSegmenter {
   int num_clusters() const { return next_label_ - 1; }  ///< all clusters, small ones included
 
  private:
-  int Neighbour(const RangeImage& image, int row, int col, int dr, int dc) const;
   bool SameObject(const RangeImageCell& a, const RangeImageCell& b) const;
   /// Grows the cluster of `seed` over cells labelled `from`, labelling them `to`; appends the
   /// cells to the queue and returns the end of the appended range.

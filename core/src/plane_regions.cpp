@@ -1,0 +1,220 @@
+#include "calibd/core/plane_regions.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+namespace calibd {
+
+namespace {
+
+// A local plane needs this many cells of the cluster in its window.
+constexpr int kMinWindowCells = 6;
+// A region's plane is refitted from its cells once the second principal variance exceeds the
+// third by this factor: before that (a single scan line, a thin strip) the fit cannot tell the
+// plane's tilt about the strip's axis, and the seed's plane is kept.
+constexpr double kWellPosedRatio = 9.0;
+// Local planes are fitted on every cell of smaller clusters, on every kSeedStride-th of larger.
+constexpr int kAllSeedsBelow = 256;
+constexpr int kSeedStride = 3;
+// A cell of the cluster beyond a region's edge is attached to it within this many growing
+// tolerances of its plane (the surface goes on, bent or broken by noise); farther, the edge is a
+// step to another surface.
+constexpr float kJumpTolerances = 3.0f;
+
+// Sums of points for a plane fit.
+struct PlaneSums {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+  int count = 0;
+
+  void Add(const Eigen::Vector3f& p) {
+    const Eigen::Vector3d q = p.cast<double>();
+    sum += q;
+    outer.noalias() += q * q.transpose();
+    ++count;
+  }
+
+  // Centroid, unit normal (smallest principal axis) and the three variances, ascending.
+  void Fit(Eigen::Vector3d* centroid, Eigen::Vector3d* normal, Eigen::Vector3d* variances) const {
+    *centroid = sum / count;
+    const Eigen::Matrix3d cov = outer / count - *centroid * centroid->transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+    eig.computeDirect(cov);
+    *normal = eig.eigenvectors().col(0);
+    *variances = eig.eigenvalues().cwiseMax(0.0);
+  }
+};
+
+}  // namespace
+
+void PlaneRegions::Configure(const RangeImage& image, const PlaneRegionConfig& config) {
+  config_ = config;
+  const size_t cells = static_cast<size_t>(image.rows()) * image.cols();
+  local_.assign(cells, -1);
+  cell_region_.assign(cells, 0);
+  cells_.resize(cells);
+  normals_.resize(cells);
+  flatness_.resize(cells);
+  sorted_.resize(cells);
+  seeds_.resize(cells);
+  region_of_.resize(cells);
+  members_.resize(cells);
+  regions_.resize(cells / std::max(1, config.min_region_cells) + 1);
+  num_cells_ = num_regions_ = 0;
+}
+
+bool PlaneRegions::LocalPlane(const RangeImage& image, const Eigen::Vector3f* points, int32_t cell,
+                              Eigen::Vector3f* normal, float* flatness) const {
+  const int row = image.RowOf(cell), col = image.ColOf(cell);
+  // About one beam spacing each way: rows one step, columns as many steps as make the same
+  // angle (a VLP-16's 2 deg rings and 0.2 deg columns), sampled at most 7 columns wide.
+  const double h = std::max(image.row_spacing_rad(row), image.azimuth_step_rad());
+  const int half_cols = std::max(1, static_cast<int>(std::lround(h / image.azimuth_step_rad())));
+  const int col_step = std::max(1, half_cols / 3);
+  for (int scale = 1; scale <= 2; ++scale) {  // wider where the pattern leaves cells empty
+    const int rows = scale, steps = (half_cols / col_step) * scale;
+    PlaneSums sums;
+    int row_lo = rows, row_hi = -rows, col_lo = steps, col_hi = -steps;
+    for (int dr = -rows; dr <= rows; ++dr) {
+      for (int j = -steps; j <= steps; ++j) {
+        const int idx = image.CellAt(row + dr, col + j * col_step);
+        if (idx < 0) continue;
+        const int32_t l = local_[idx];
+        if (l < 0) continue;
+        sums.Add(points[l]);
+        row_lo = std::min(row_lo, dr);
+        row_hi = std::max(row_hi, dr);
+        col_lo = std::min(col_lo, j);
+        col_hi = std::max(col_hi, j);
+      }
+    }
+    if (sums.count < kMinWindowCells || row_lo == row_hi || col_lo == col_hi) continue;
+    Eigen::Vector3d centroid, n, variances;
+    sums.Fit(&centroid, &n, &variances);
+    *normal = n.cast<float>();
+    // The residual variance of a plane fitted to N points underestimates the noise's by
+    // (N - 3) / N (three parameters fitted).
+    *flatness = static_cast<float>(std::sqrt(variances(0) * sums.count / (sums.count - 3)));
+    return true;
+  }
+  return false;
+}
+
+int PlaneRegions::Grow(const RangeImage& image, const Eigen::Vector3f* points, int k, int32_t label,
+                       int tail, float tolerance, PlaneRegion* region) {
+  static constexpr int kDr[4] = {0, 0, -1, 1}, kDc[4] = {-1, 1, 0, 0};
+  Eigen::Vector3f normal = normals_[k], center = points[k];
+  PlaneSums sums;
+  int next_fit = kMinWindowCells;
+  int head = tail;
+  region_of_[k] = label;
+  members_[tail++] = k;
+  sums.Add(points[k]);
+  while (head < tail) {
+    const int32_t cell = cells_[members_[head++]];
+    const int row = image.RowOf(cell), col = image.ColOf(cell);
+    for (int d = 0; d < 4; ++d) {
+      const int idx = image.NearestCell(row, col, kDr[d], kDc[d], config_.neighbor_search_cells);
+      if (idx < 0) continue;
+      const int32_t j = local_[idx];
+      if (j < 0 || region_of_[j] != 0) continue;
+      if (std::fabs(normal.dot(points[j] - center)) > tolerance) continue;
+      region_of_[j] = label;
+      members_[tail++] = j;
+      sums.Add(points[j]);
+    }
+    if (sums.count >= next_fit) {
+      next_fit = 2 * sums.count;
+      Eigen::Vector3d c, n, variances;
+      sums.Fit(&c, &n, &variances);
+      if (variances(1) > kWellPosedRatio * variances(0)) {
+        normal = n.cast<float>();
+        center = c.cast<float>();
+      }
+    }
+  }
+  region->end = tail;
+  region->normal = normal;
+  region->center = center;
+  return tail;
+}
+
+double PlaneRegions::AttachedFraction(const RangeImage& image, const Eigen::Vector3f* points,
+                                      int i) const {
+  static constexpr int kDr[4] = {0, 0, -1, 1}, kDc[4] = {-1, 1, 0, 0};
+  const PlaneRegion& region = regions_[i];
+  const int32_t label = region.label;
+  const float jump = kJumpTolerances * tolerance_;
+  int attached = 0, edges = 0;
+  for (int m = region.begin; m < region.end; ++m) {
+    const int32_t cell = cells_[members_[m]];
+    const int row = image.RowOf(cell), col = image.ColOf(cell);
+    for (int d = 0; d < 4; ++d) {
+      const int idx = image.NearestCell(row, col, kDr[d], kDc[d], config_.neighbor_search_cells);
+      const int32_t j = idx < 0 ? -1 : local_[idx];
+      if (j >= 0 && region_of_[j] == label) continue;  // inside
+      ++edges;
+      if (j >= 0 && std::fabs(region.normal.dot(points[j] - region.center)) < jump) ++attached;
+    }
+  }
+  return edges == 0 ? 0.0 : static_cast<double>(attached) / edges;
+}
+
+int PlaneRegions::Extract(const RangeImage& image, const int32_t* cells,
+                          const Eigen::Vector3f* points, int n) {
+  for (int k = 0; k < num_cells_; ++k) {
+    local_[cells_[k]] = -1;
+    cell_region_[cells_[k]] = 0;
+  }
+  num_cells_ = n;
+  num_regions_ = 0;
+  noise_m_ = 0.0;
+  for (int k = 0; k < n; ++k) {
+    cells_[k] = cells[k];
+    local_[cells[k]] = k;
+    region_of_[k] = 0;
+  }
+  // Local planes on every kSeedStride-th cell of the cluster (cells come in breadth-first
+  // order, so these spread over it): enough seeds and noise samples for every board-sized
+  // plane, at a third of the cost on the large clusters of walls and buildings.
+  const int stride = n < kAllSeedsBelow ? 1 : kSeedStride;
+  int num_seeds = 0;
+  for (int k = 0; k < n; ++k) flatness_[k] = -1.0f;
+  for (int k = 0; k < n; k += stride) {
+    if (LocalPlane(image, points, cells[k], &normals_[k], &flatness_[k])) {
+      sorted_[num_seeds] = flatness_[k];
+      seeds_[num_seeds++] = k;
+    }
+  }
+  if (num_seeds == 0) return 0;
+  const int median = num_seeds / 2;
+  std::nth_element(sorted_.begin(), sorted_.begin() + median, sorted_.begin() + num_seeds);
+  noise_m_ = sorted_[median];
+  tolerance_ =
+      static_cast<float>(std::max(config_.distance_sigmas * noise_m_, config_.min_distance_m));
+  const float tolerance = tolerance_;
+  // Seeds: flattest first, and only cells whose window is about as flat as the noise (a window
+  // across an edge fits two surfaces badly and would seed a plane that is neither).
+  const float max_seed_flatness = static_cast<float>(config_.distance_sigmas * noise_m_);
+  std::sort(seeds_.begin(), seeds_.begin() + num_seeds,
+            [&](int32_t a, int32_t b) { return flatness_[a] < flatness_[b]; });
+  int tail = 0;
+  int32_t label = 0;
+  for (int s = 0; s < num_seeds; ++s) {
+    const int32_t k = seeds_[s];
+    if (region_of_[k] != 0) continue;
+    if (flatness_[k] > max_seed_flatness) break;
+    PlaneRegion region;
+    region.begin = tail;
+    tail = Grow(image, points, k, ++label, tail, tolerance, &region);
+    if (region.size() < config_.min_region_cells) continue;
+    region.label = label;
+    regions_[num_regions_] = region;
+    ++num_regions_;
+    for (int m = region.begin; m < tail; ++m) cell_region_[cells_[members_[m]]] = num_regions_;
+  }
+  return num_regions_;
+}
+
+}  // namespace calibd
