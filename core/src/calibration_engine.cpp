@@ -161,7 +161,7 @@ const char* VerdictName(CalibrationOutcome::Verdict v) {
   return "rejected";
 }
 
-CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& session,
+CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& observed,
                              const RangeImage& projection, const EngineConfig& engine,
                              ObservationSet* correspondences,
                              std::vector<double>* reprojection_px) {
@@ -171,12 +171,31 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   out.T_camera_lidar = config.prior_T_camera_lidar;
   const VerdictConfig& v = engine.verdict;
   std::string why;
-  if (!engine.grid.IsValid(&why) || !engine.motion.IsValid(&why) || !engine.direct.IsValid(&why))
+  if (!engine.grid.IsValid(&why) || !engine.motion.IsValid(&why) || !engine.direct.IsValid(&why) ||
+      !engine.scenery.IsValid(&why))
     return Reject(out, "invalid_config", "engine config: " + why);
-  if (session.camera.empty())
+  if (observed.camera.empty())
     return Reject(out, "no_camera_boards", "the camera saw no configured board in any frame pair");
-  if (session.lidar.empty())
+  if (observed.lidar.empty())
     return Reject(out, "no_lidar_boards", "the LiDAR found no board cluster in any frame pair");
+
+  // Clusters that stood still while the camera's boards moved are furniture (static_scenery.hpp).
+  const StaticScenery scenery = FindStaticScenery(observed, config.boards, engine.scenery);
+  out.static_scenery_clusters = scenery.num_scenery;
+  SessionObservations moving;
+  if (scenery.num_scenery > 0) {
+    std::vector<char> keep(observed.lidar.size());
+    for (size_t j = 0; j < keep.size(); ++j) keep[j] = !scenery.scenery[j];
+    moving = Subset(observed, std::vector<char>(static_cast<size_t>(observed.num_frames), 1),
+                    std::vector<char>(observed.camera.size(), 1), keep);
+  }
+  const SessionObservations& session = scenery.num_scenery > 0 ? moving : observed;
+  if (session.lidar.empty())
+    return Reject(out, "no_lidar_boards",
+                  "every one of the " + std::to_string(scenery.num_scenery) +
+                      " LiDAR board clusters stood still while the camera's boards moved "
+                      "(furniture or walls, not boards): are the configured board sizes right, "
+                      "and do the boards stand free, 0.3 m or more in front of anything?");
 
   GridSearch grid(engine.grid, projection, config.boards);
   ObservationSet local;

@@ -526,6 +526,8 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   pc.distance_sigmas = config.plane_distance_sigmas;
   pc.neighbor_search_cells = config.neighbor_search_cells;
   pc.min_region_cells = config.min_cluster_points;
+  pc.window_half_m = 0.25 * d.min_side_m;
+  pc.min_row_width_m = sc.min_row_width_m;
   d.planes.Configure(d.image, pc);
   for (const BoardGeometry& g : boards) {
     const double side = (1.0 + config.max_side_tolerance) * std::max(g.width_m, g.height_m);

@@ -8,6 +8,8 @@ namespace calibd {
 
 namespace {
 
+// A local plane's window is sampled at most this many rows and columns each way.
+constexpr int kHalfSamples = 3;
 // A local plane needs this many cells of the cluster in its window.
 constexpr int kMinWindowCells = 6;
 // A region's plane is refitted from its cells once the second principal variance exceeds the
@@ -54,7 +56,13 @@ void PlaneRegions::Configure(const RangeImage& image, const PlaneRegionConfig& c
   local_.assign(cells, -1);
   cell_region_.assign(cells, 0);
   cells_.resize(cells);
+  row_min_.assign(image.rows(), 0);
+  row_max_.assign(image.rows(), 0);
+  row_cols_.assign(image.rows(), 0);
+  touched_rows_.assign(image.rows(), 0);
+  released_.resize(cells);
   normals_.resize(cells);
+  centers_.resize(cells);
   flatness_.resize(cells);
   sorted_.resize(cells);
   seeds_.resize(cells);
@@ -65,26 +73,32 @@ void PlaneRegions::Configure(const RangeImage& image, const PlaneRegionConfig& c
 }
 
 bool PlaneRegions::LocalPlane(const RangeImage& image, const Eigen::Vector3f* points, int32_t cell,
-                              Eigen::Vector3f* normal, float* flatness) const {
+                              Eigen::Vector3f* normal, Eigen::Vector3f* center,
+                              float* flatness) const {
   const int row = image.RowOf(cell), col = image.ColOf(cell);
-  // About one beam spacing each way: rows one step, columns as many steps as make the same
-  // angle (a VLP-16's 2 deg rings and 0.2 deg columns), sampled at most 7 columns wide.
-  const double h = std::max(image.row_spacing_rad(row), image.azimuth_step_rad());
-  const int half_cols = std::max(1, static_cast<int>(std::lround(h / image.azimuth_step_rad())));
-  const int col_step = std::max(1, half_cols / 3);
+  // window_half_m each way at the cell's range, at least one beam spacing: the plane's normal
+  // needs an extent well above the range noise (a VLP-32C's 0.33 deg rings are 2 cm apart at
+  // 3.5 m, its noise as much). Sampled at most 2 kHalfSamples + 1 rows and columns wide.
+  const double row_spacing = image.row_spacing_rad(row), az_step = image.azimuth_step_rad();
+  const double h = std::max(
+      {row_spacing, az_step, config_.window_half_m / std::max(1e-3f, image.cell(cell).range)});
+  const int half_rows = std::max(1, static_cast<int>(std::lround(h / row_spacing)));
+  const int half_cols = std::max(1, static_cast<int>(std::lround(h / az_step)));
+  const int row_step = std::max(1, half_rows / kHalfSamples);
+  const int col_step = std::max(1, half_cols / kHalfSamples);
   for (int scale = 1; scale <= 2; ++scale) {  // wider where the pattern leaves cells empty
-    const int rows = scale, steps = (half_cols / col_step) * scale;
+    const int rows = (half_rows / row_step) * scale, cols = (half_cols / col_step) * scale;
     PlaneSums sums;
-    int row_lo = rows, row_hi = -rows, col_lo = steps, col_hi = -steps;
-    for (int dr = -rows; dr <= rows; ++dr) {
-      for (int j = -steps; j <= steps; ++j) {
-        const int idx = image.CellAt(row + dr, col + j * col_step);
+    int row_lo = rows, row_hi = -rows, col_lo = cols, col_hi = -cols;
+    for (int i = -rows; i <= rows; ++i) {
+      for (int j = -cols; j <= cols; ++j) {
+        const int idx = image.CellAt(row + i * row_step, col + j * col_step);
         if (idx < 0) continue;
         const int32_t l = local_[idx];
         if (l < 0) continue;
         sums.Add(points[l]);
-        row_lo = std::min(row_lo, dr);
-        row_hi = std::max(row_hi, dr);
+        row_lo = std::min(row_lo, i);
+        row_hi = std::max(row_hi, i);
         col_lo = std::min(col_lo, j);
         col_hi = std::max(col_hi, j);
       }
@@ -93,6 +107,7 @@ bool PlaneRegions::LocalPlane(const RangeImage& image, const Eigen::Vector3f* po
     Eigen::Vector3d centroid, n, variances;
     sums.Fit(&centroid, &n, &variances);
     *normal = n.cast<float>();
+    *center = centroid.cast<float>();
     // The residual variance of a plane fitted to N points underestimates the noise's by
     // (N - 3) / N (three parameters fitted).
     *flatness = static_cast<float>(std::sqrt(variances(0) * sums.count / (sums.count - 3)));
@@ -104,7 +119,9 @@ bool PlaneRegions::LocalPlane(const RangeImage& image, const Eigen::Vector3f* po
 int PlaneRegions::Grow(const RangeImage& image, const Eigen::Vector3f* points, int k, int32_t label,
                        int tail, float tolerance, PlaneRegion* region) {
   static constexpr int kDr[4] = {0, 0, -1, 1}, kDc[4] = {-1, 1, 0, 0};
-  Eigen::Vector3f normal = normals_[k], center = points[k];
+  // The seed's window plane (through the window's centroid: the seed's own point is off the
+  // plane by its noise).
+  Eigen::Vector3f normal = normals_[k], center = centers_[k];
   PlaneSums sums;
   int next_fit = kMinWindowCells;
   int head = tail;
@@ -174,6 +191,7 @@ int PlaneRegions::Extract(const RangeImage& image, const int32_t* cells,
     cells_[k] = cells[k];
     local_[cells[k]] = k;
     region_of_[k] = 0;
+    released_[k] = 0;
   }
   // Local planes on every kSeedStride-th cell of the cluster (cells come in breadth-first
   // order, so these spread over it): enough seeds and noise samples for every board-sized
@@ -182,7 +200,7 @@ int PlaneRegions::Extract(const RangeImage& image, const int32_t* cells,
   int num_seeds = 0;
   for (int k = 0; k < n; ++k) flatness_[k] = -1.0f;
   for (int k = 0; k < n; k += stride) {
-    if (LocalPlane(image, points, cells[k], &normals_[k], &flatness_[k])) {
+    if (LocalPlane(image, points, cells[k], &normals_[k], &centers_[k], &flatness_[k])) {
       sorted_[num_seeds] = flatness_[k];
       seeds_[num_seeds++] = k;
     }
@@ -203,18 +221,53 @@ int PlaneRegions::Extract(const RangeImage& image, const int32_t* cells,
   int32_t label = 0;
   for (int s = 0; s < num_seeds; ++s) {
     const int32_t k = seeds_[s];
-    if (region_of_[k] != 0) continue;
+    if (region_of_[k] != 0 || released_[k]) continue;
     if (flatness_[k] > max_seed_flatness) break;
     PlaneRegion region;
     region.begin = tail;
     tail = Grow(image, points, k, ++label, tail, tolerance, &region);
-    if (region.size() < config_.min_region_cells) continue;
+    tail = region.end = PruneThinRows(image, region);
+    if (region.size() < config_.min_region_cells) {
+      for (int m = region.begin; m < region.end; ++m) Release(members_[m]);
+      tail = region.begin;
+      continue;
+    }
     region.label = label;
     regions_[num_regions_] = region;
     ++num_regions_;
     for (int m = region.begin; m < tail; ++m) cell_region_[cells_[members_[m]]] = num_regions_;
   }
   return num_regions_;
+}
+
+int PlaneRegions::PruneThinRows(const RangeImage& image, const PlaneRegion& region) {
+  if (region.size() == 0) return region.end;
+  int touched = 0;
+  for (int m = region.begin; m < region.end; ++m) {
+    const int32_t cell = cells_[members_[m]];
+    const int row = image.RowOf(cell), col = image.ColOf(cell);
+    if (row_cols_[row] == 0) {
+      touched_rows_[touched++] = row;
+      row_min_[row] = row_max_[row] = col;
+    }
+    ++row_cols_[row];
+    row_min_[row] = std::min(row_min_[row], col);
+    row_max_[row] = std::max(row_max_[row], col);
+  }
+  // Widths at the region's range (a wrapped row looks wide and stays).
+  const double m_per_col = image.azimuth_step_rad() * region.center.norm();
+  int end = region.begin;
+  for (int m = region.begin; m < region.end; ++m) {
+    const int32_t k = members_[m];
+    const int row = image.RowOf(cells_[k]);
+    if ((row_max_[row] - row_min_[row] + 1) * m_per_col < config_.min_row_width_m) {
+      Release(k);
+      continue;
+    }
+    members_[end++] = k;
+  }
+  for (int t = 0; t < touched; ++t) row_cols_[touched_rows_[t]] = 0;
+  return end;
 }
 
 }  // namespace calibd

@@ -93,54 +93,6 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
   return true;
 }
 
-SessionObservations Subset(const SessionObservations& s, const std::vector<char>& keep_frame,
-                           const std::vector<char>& keep_camera,
-                           const std::vector<char>& keep_lidar) {
-  // Capacities: kept frames, the most kept entries of one frame, the largest kept cluster.
-  std::vector<int> camera_per_frame(static_cast<size_t>(s.num_frames), 0);
-  std::vector<int> lidar_per_frame(camera_per_frame.size(), 0);
-  int max_points = 1;
-  for (size_t i = 0; i < s.camera.size(); ++i)
-    if (keep_camera[i]) ++camera_per_frame[static_cast<size_t>(s.camera[i].frame)];
-  for (size_t j = 0; j < s.lidar.size(); ++j) {
-    if (!keep_lidar[j]) continue;
-    ++lidar_per_frame[static_cast<size_t>(s.lidar[j].frame)];
-    max_points = std::max(max_points, s.lidar[j].num_points);
-  }
-  int frames = 0, max_entries = 1;
-  for (size_t f = 0; f < camera_per_frame.size(); ++f) {
-    if (!keep_frame[f]) continue;
-    ++frames;
-    max_entries = std::max({max_entries, camera_per_frame[f], lidar_per_frame[f]});
-  }
-
-  SessionObservations out;
-  out.Reserve(frames, max_entries, max_points);
-  std::vector<float> time_s;
-  size_t i = 0, j = 0;  // camera and lidar entries are in frame order
-  for (int f = 0; f < s.num_frames; ++f) {
-    const bool keep = keep_frame[static_cast<size_t>(f)] != 0;
-    const FrameTimes& t = s.frame_times[static_cast<size_t>(f)];
-    [[maybe_unused]] bool ok = !keep || out.BeginFrame(t);
-    // AddLidarCluster takes firing times after the sweep start; the store keeps them relative to
-    // the camera time (point_dt = sweep start - camera time + firing time).
-    const float sweep_dt =
-        static_cast<float>(static_cast<double>(t.lidar_utime - t.camera_utime) * 1e-6);
-    for (; i < s.camera.size() && s.camera[i].frame == f; ++i)
-      if (keep && keep_camera[i]) ok = out.AddCameraBoard(s.camera[i]) && ok;
-    for (; j < s.lidar.size() && s.lidar[j].frame == f; ++j) {
-      if (!keep || !keep_lidar[j]) continue;
-      const auto& c = s.lidar[j];
-      const auto first = static_cast<size_t>(c.first_point);
-      time_s.resize(static_cast<size_t>(c.num_points));
-      for (size_t p = 0; p < time_s.size(); ++p) time_s[p] = s.point_dt[first + p] - sweep_dt;
-      ok = out.AddLidarCluster(s.points.data() + first, time_s.data(), c.num_points) && ok;
-    }
-    assert(ok && "capacities are sized to fit");
-  }
-  return out;
-}
-
 SessionObservations DistanceBand(const SessionObservations& s, double min_m, double max_m,
                                  double baseline_m) {
   std::vector<char> keep_frame(static_cast<size_t>(s.num_frames), 0);
@@ -206,6 +158,8 @@ ScoredRun RunEngine(const CalibConfig& config, const SessionObservations& s,
   ScoredRun r;
   r.verdict = VerdictName(outcome.verdict);
   r.reason = outcome.reason;
+  r.detail = outcome.detail;
+  r.static_scenery_clusters = outcome.static_scenery_clusters;
   r.has_estimate = outcome.solved;
   r.grid_ms = outcome.grid.search_ms;
   r.optimise_ms = outcome.optimise_ms;

@@ -48,13 +48,6 @@ inline constexpr int kVisibleBoardPoints = 30;
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
                  const LidarDetectorConfig& lidar = LidarDetectorConfig{});
 
-/// A copy of `s` holding the frame pairs with keep_frame[f] (renumbered in order) and in them only
-/// the camera boards with keep_camera[i] and the LiDAR clusters with keep_lidar[j] (indices into
-/// s.camera and s.lidar). Built through the store's public API, capacities sized to fit.
-SessionObservations Subset(const SessionObservations& s, const std::vector<char>& keep_frame,
-                           const std::vector<char>& keep_camera,
-                           const std::vector<char>& keep_lidar);
-
 /// Board observations at camera-to-board distances in (min_m, max_m) only (paper Table II: close
 /// < 8.5 m, far > 25 m). Camera boards are kept by their PnP distance. A LiDAR cluster's board is
 /// unknown before the grid search, so clusters are kept by their centroid's range from the LiDAR
@@ -81,8 +74,10 @@ EngineConfig BenchEngine(Method method);
 
 /// One engine run scored against the truth.
 struct ScoredRun {
-  std::string verdict;  ///< VerdictName()
-  std::string reason;   ///< reason code when rejected
+  std::string verdict;              ///< VerdictName()
+  std::string reason;               ///< reason code when rejected
+  std::string detail;               ///< the outcome's explanation
+  int static_scenery_clusters = 0;  ///< LiDAR clusters the engine dropped as static scenery
   /// The optimiser produced the estimate: accepted, or rejected by a quality gate that is checked
   /// only after the solve (the outcome then still carries the solution). False when the engine
   /// stopped before it (no correspondences, too few boards, solver failure...).

@@ -187,6 +187,8 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
     j["camera_boards_in_view"] = drive.camera_boards_in_view;
     j["verdict"] = run.verdict;
     j["reason"] = run.reason;
+    j["detail"] = run.detail;
+    j["static_scenery_clusters"] = run.static_scenery_clusters;
     if (run.has_estimate) {
       j["rotation_error_deg"] = run.rotation_error_deg;
       j["translation_error_m"] = run.translation_error_m;
@@ -202,7 +204,9 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
                 << drive.camera_boards_in_view << " in view, "
                 << std::lround(
                        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
-                << " s\n"
+                << " s; " << run.static_scenery_clusters
+                << " LiDAR clusters dropped as static scenery; "
+                << (run.detail.empty() ? run.verdict : run.detail) << "\n"
                 << std::flush;
   }
   out << "\nTargets: a scenario meets them with LiDAR recall and precision at or above its "

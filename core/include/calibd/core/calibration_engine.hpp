@@ -30,6 +30,7 @@
 #include "calibd/core/indirect_optimizer.hpp"
 #include "calibd/core/range_image.hpp"
 #include "calibd/core/session_observations.hpp"
+#include "calibd/core/static_scenery.hpp"
 
 namespace calibd {
 
@@ -59,6 +60,7 @@ struct VerdictConfig {
 struct EngineConfig {
   enum class Method { kDirect, kIndirect } method = Method::kDirect;
   GridSearchConfig grid;
+  StaticSceneryConfig scenery;      ///< LiDAR clusters dropped before the grid search
   MotionCompensationConfig motion;  ///< applied to the correspondences after the grid search
   DirectOptimizerConfig direct;
   IndirectOptimizerConfig indirect;
@@ -96,6 +98,7 @@ struct CalibrationOutcome {
   bool solved = false;
   double delta_rotation_deg = 0.0, delta_translation_m = 0.0;
   QualityFigures quality;
+  int static_scenery_clusters = 0;  ///< LiDAR clusters dropped as static scenery
   GridSearchResult grid;
   MotionCompensationStats motion;
   /// Board-pose refinement (DirectOptimizerConfig::refine_board_poses): boards refined and the

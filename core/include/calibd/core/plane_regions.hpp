@@ -8,7 +8,7 @@
 /// as one object, and a tripod, a person holding the board or a chair joins the board to the
 /// room. Inside such a cluster the board is still a plane, apart from its surroundings:
 /// 1. Cells get a local plane (every cell of small clusters, every third of large ones): the PCA of
-///    the cluster's cells in a window around it, about
+///    the cluster's cells in a window around it, `window_half_m` or
 ///    one beam spacing each way (wider where the pattern leaves cells empty). Its RMS residual
 ///    is the cell's flatness.
 /// 2. The range noise is estimated from the data: the median flatness over the cluster (most of
@@ -16,7 +16,9 @@
 /// 3. Regions grow from the flattest unassigned cell: a 4-neighbour (range_image.hpp
 ///    NearestCell) joins when it lies within `distance_sigmas` noise sigmas of the region's plane,
 ///    refitted as the region doubles. A surface behind the board, a post or a body is off the
-///    plane; edge cells, whose windows mix surfaces, join by their distance alone.
+///    plane; edge cells, whose windows mix surfaces, join by their distance alone. Rows narrower
+///    than `min_row_width_m` are then cut off, as the segmentation does (a post close behind
+///    the board's plane, an arm).
 /// 4. Each region's edge is classified: free (nothing beyond it, or a step to another surface) or
 ///    attached (the cluster goes on near the plane). Patches of larger surfaces are attached.
 ///
@@ -31,6 +33,11 @@
 namespace calibd {
 
 struct PlaneRegionConfig {
+  /// Half extent of the window of a local plane (m, at least one beam spacing): a quarter of the
+  /// smallest board side fits inside the board and spans several noise sigmas.
+  double window_half_m = 0.15;
+  /// Rows of a region narrower than this are cut off (a post or an arm on the board's plane).
+  double min_row_width_m = 0.2;
   double distance_sigmas = 3.0;   ///< a cell joins a plane within this many noise sigmas of it
   double min_distance_m = 0.01;   ///< floor of that tolerance (noise-free data)
   int neighbor_search_cells = 3;  ///< empty cells stepped over to find a neighbour
@@ -75,23 +82,35 @@ class PlaneRegions {
   /// Local plane at range-image cell `cell` of the cluster; false when its window has too few
   /// cells of the cluster.
   bool LocalPlane(const RangeImage& image, const Eigen::Vector3f* points, int32_t cell,
-                  Eigen::Vector3f* normal, float* flatness) const;
+                  Eigen::Vector3f* normal, Eigen::Vector3f* center, float* flatness) const;
   /// Grows the region of seed `k` into members_ from `tail`, labelling its cells `label`; fills
   /// `region`'s end and plane and returns the end.
   int Grow(const RangeImage& image, const Eigen::Vector3f* points, int k, int32_t label, int tail,
            float tolerance, PlaneRegion* region);
 
+  /// Gives cluster position k back to later regions (a thin row, a region too small), but never
+  /// as a seed: a fragment does not cut the plane it lies on.
+  void Release(int32_t k) {
+    region_of_[k] = 0;
+    released_[k] = 1;
+  }
+  /// Cuts the rows narrower than min_row_width_m off `region` (compacting members_); returns its
+  /// new end.
+  int PruneThinRows(const RangeImage& image, const PlaneRegion& region);
+
   PlaneRegionConfig config_;
+  std::vector<int> row_min_, row_max_, row_cols_, touched_rows_;  // per image row
   std::vector<int32_t> local_;        // per image cell: its position in the cluster, or -1
   std::vector<int32_t> cell_region_;  // per image cell, see cell_region()
   std::vector<int32_t> cells_;        // the last cluster's cells (to clear the two above)
   int num_cells_ = 0;
   // Per cluster position.
-  std::vector<Eigen::Vector3f> normals_;
+  std::vector<Eigen::Vector3f> normals_, centers_;  // local planes
   std::vector<float> flatness_;     // RMS residual of the local plane, < 0 without one
   std::vector<float> sorted_;       // scratch for the noise quantile
   std::vector<int32_t> seeds_;      // positions with a local plane, flattest first
   std::vector<int32_t> region_of_;  // 0 unassigned, else the region's label
+  std::vector<char> released_;      // see Release()
   std::vector<int32_t> members_;
   std::vector<PlaneRegion> regions_;
   int num_regions_ = 0;

@@ -67,4 +67,11 @@ struct SessionObservations {
   int max_frames_ = 0;
 };
 
+/// A copy of `s` holding the frame pairs with keep_frame[f] (renumbered in order) and in them only
+/// the camera boards with keep_camera[i] and the LiDAR clusters with keep_lidar[j] (indices into
+/// s.camera and s.lidar). Built through the store's public API, capacities sized to fit.
+SessionObservations Subset(const SessionObservations& s, const std::vector<char>& keep_frame,
+                           const std::vector<char>& keep_camera,
+                           const std::vector<char>& keep_lidar);
+
 }  // namespace calibd
