@@ -527,6 +527,40 @@ TEST(CameraDetector, CheckerboardGivesItsPose) {
   }
 }
 
+TEST(CameraDetector, ASmallCheckerboardInAStillFrameIsSearchedAtFullResolution) {
+  // Squares of 7 px: gone in the half-size image the search runs on, found at full resolution,
+  // which a still frame (no stream) can afford; a frame of a 10 Hz stream does not pay for it.
+  CameraIntrinsics k;
+  k.width = 1920;
+  k.height = 960;
+  k.fx = k.fy = 1662.5;
+  k.cx = 959.5;
+  k.cy = 479.5;
+  const CameraModel model(k);
+  BoardGeometry g;
+  g.board_id = 7;
+  g.pattern = BoardGeometry::PatternKind::kCheckerboard;
+  g.checker_inner_rows = 5;
+  g.checker_inner_cols = 7;
+  g.checker_square_size_m = 0.06;
+  const double distance = 14.0;
+  Pose T_true = KnownPose(distance);
+  T_true.translation().x() = 0.3;
+  const cv::Mat image = RenderCheckerboard(model, g, T_true);
+
+  CameraDetector still(CameraDetectorConfig{}, k, {g});
+  CameraDetections dets;
+  still.Detect(View(image), &dets);  // no capture time: a still
+  ASSERT_EQ(dets.boards.size(), 1u);
+  EXPECT_LT((dets.boards[0].T_camera_board.translation() - T_true.translation()).norm(),
+            0.01 * distance);
+
+  CameraDetector stream(CameraDetectorConfig{}, k, {g});
+  stream.Detect(View(image), &dets, 1000000);
+  stream.Detect(View(image), &dets, 1100000);  // 0.1 s later: a stream
+  EXPECT_TRUE(dets.boards.empty());
+}
+
 TEST(CameraDetector, CheckerboardGeometryIsValidated) {
   BoardGeometry g;
   g.pattern = BoardGeometry::PatternKind::kCheckerboard;

@@ -339,18 +339,22 @@ struct CameraDetector::Impl {
 
   // ---- Checkerboard ----
 
-  void DetectCheckerboard(const ImageView& im, CameraDetections* out) {
+  // `still`: a frame outside a stream, whose time allows a full-resolution search when the
+  // downscaled one finds nothing (a small board: squares under about 8 px).
+  void DetectCheckerboard(const ImageView& im, bool still, CameraDetections* out) {
     const BoardGeometry& g = boards[static_cast<size_t>(checker_board)];
     const cv::Mat full(im.height, im.width, CV_8UC1, const_cast<uint8_t*>(im.data),
                        static_cast<size_t>(im.stride));
-    const int f = config.checker_downscale;
+    int f = config.checker_downscale;
     const cv::Size pattern(g.checker_inner_cols, g.checker_inner_rows);
     bool found = false;
     if (f > 1) {
       cv::resize(full, checker_small, cv::Size(im.width / f, im.height / f), 0, 0, cv::INTER_AREA);
       found = cv::findChessboardCornersSB(checker_small, pattern, checker_corners,
                                           cv::CALIB_CB_NORMALIZE_IMAGE);
-    } else {
+    }
+    if (!found && (f == 1 || still)) {
+      f = 1;
       found =
           cv::findChessboardCornersSB(full, pattern, checker_corners, cv::CALIB_CB_NORMALIZE_IMAGE);
     }
@@ -432,7 +436,7 @@ struct CameraDetector::Impl {
         // Nothing tracked and searched recently: skip this frame rather than pay a full search.
         ++frames_since_full;
         for (auto& t : tracks) t.active = false;
-        if (checker_board >= 0) DetectCheckerboard(im, out);
+        if (checker_board >= 0) DetectCheckerboard(im, !stream, out);
         return;
       }
       if (!full && !SearchTracked(im, out)) full = true;  // a tracked board was lost
@@ -452,7 +456,7 @@ struct CameraDetector::Impl {
         }
       }
     }
-    if (checker_board >= 0) DetectCheckerboard(im, out);
+    if (checker_board >= 0) DetectCheckerboard(im, !stream, out);
   }
 };
 

@@ -98,11 +98,24 @@ void AddChair(const Eigen::Vector3d& at, double yaw, Scene* scene) {
     }
 }
 
-// A tripod under the board: a column from behind the board's centre to a hub, three legs to the
-// floor.
-void AddTripod(const Pose& T_world_board, double thickness, Scene* scene) {
-  const Eigen::Vector3d head = T_world_board * Eigen::Vector3d(0.0, 0.0, -thickness - 0.03);
+// A tripod under the board: a bracket from the back of the board's centre to the tilting head, a
+// vertical column from there to a hub, three legs to the floor. The bracket reaches back far
+// enough that the column stays behind a board tilted towards the viewer (as a real tilting head
+// does), at least kColumnClearance behind its back.
+void AddTripod(const Pose& T_world_board, const BoardGeometry& g, double thickness,
+               Scene* scene) {
+  static constexpr double kColumnClearance = 0.03;
+  const Eigen::Vector3d back = T_world_board * Eigen::Vector3d(0.0, 0.0, -thickness);
+  const Eigen::Vector3d n = T_world_board.linear().col(2);  // out of the printed face
+  Eigen::Vector3d n_flat(n.x(), n.y(), 0.0);
+  const double flat = std::max(0.2, n_flat.norm());
+  n_flat /= std::max(1e-9, n_flat.norm());
+  // The column's distance behind the back face shrinks by -n.z per metre it runs down the board.
+  const double reach =
+      (kColumnClearance + std::max(0.0, -n.z()) * 0.5 * std::max(g.width_m, g.height_m)) / flat;
+  const Eigen::Vector3d head = back - reach * n_flat;
   const Eigen::Vector3d hub(head.x(), head.y(), std::max(0.2, std::min(0.9, 0.7 * head.z())));
+  scene->Add(Segment(SurfaceKind::kStand, back, head, 0.015, 0.3f));
   scene->Add(Segment(SurfaceKind::kStand, hub, head, 0.015, 0.3f));
   for (int k = 0; k < 3; ++k) {
     const double a = 2.0 * M_PI * k / 3.0 + 0.4;
@@ -191,7 +204,7 @@ bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& o,
           Eigen::Vector3d(edge * 0.5 * g.width_m, 0.0, -workshop.board_thickness_m - 0.02);
       out->scene.Add(Segment(SurfaceKind::kClutter, shoulder, grip, 0.04, 0.45f));
     } else {
-      AddTripod(T_world_board, workshop.board_thickness_m, &out->scene);
+      AddTripod(T_world_board, g, workshop.board_thickness_m, &out->scene);
     }
     if (!o.clutter) continue;
     if (u01(rng) < 0.5) {

@@ -70,7 +70,9 @@ struct CameraDetectorConfig {
   double min_decision_margin = 30.0;
 
   /// Checkerboards: cv::findChessboardCornersSB runs on the image downscaled by this integer factor
-  /// (its cost grows with the pixel count), then cv::cornerSubPix refines at full resolution.
+  /// (its cost grows with the pixel count), then cv::cornerSubPix refines at full resolution. A
+  /// frame outside a stream (max_stream_gap_s) that shows no board downscaled is searched again
+  /// at full resolution: a small or far board's squares vanish when downscaled.
   int checker_downscale = 2;
 
   /// True when usable; otherwise `error` names the bad field.
