@@ -102,8 +102,7 @@ void AddChair(const Eigen::Vector3d& at, double yaw, Scene* scene) {
 // vertical column from there to a hub, three legs to the floor. The bracket reaches back far
 // enough that the column stays behind a board tilted towards the viewer (as a real tilting head
 // does), at least kColumnClearance behind its back.
-void AddTripod(const Pose& T_world_board, const BoardGeometry& g, double thickness,
-               Scene* scene) {
+void AddTripod(const Pose& T_world_board, const BoardGeometry& g, double thickness, Scene* scene) {
   static constexpr double kColumnClearance = 0.03;
   const Eigen::Vector3d back = T_world_board * Eigen::Vector3d(0.0, 0.0, -thickness);
   const Eigen::Vector3d n = T_world_board.linear().col(2);  // out of the printed face
