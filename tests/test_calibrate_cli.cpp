@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/config_file.hpp"
 #include "json_file.hpp"
 #include "run_command.hpp"
 #include "temp_dir.hpp"
@@ -115,17 +116,73 @@ TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {
   EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log /nonexistent.lcmlog --config " +
                        dir.file("calib.yaml")),
             1);
-  // One frame pair is far too little: rejected (exit 3) with the reason in the report.
+  // One frame pair of three boards is far too little: rejected (exit 3) with the reason in the
+  // report.
   EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log " + dir.file("one.lcmlog") +
                        " --config " + dir.file("calib.yaml") + " --report " + dir.file("r.json") +
                        " --html " + dir.file("r.html")),
             3);
-  EXPECT_EQ(ReadJson(dir.file("r.json"))["reason"], "too_few_frames");
+  EXPECT_EQ(ReadJson(dir.file("r.json"))["reason"], "too_few_boards");
   // The HTML report is written for a rejected result too, saying so.
   std::string html, error;
   ASSERT_TRUE(ReadWholeFile(dir.file("r.html"), &html, &error)) << error;
   EXPECT_NE(html.find("<p class=\"word\">REJECTED</p>"), std::string::npos);
-  EXPECT_NE(html.find("<b>too_few_frames</b>"), std::string::npos);
+  EXPECT_NE(html.find("<b>too_few_boards</b>"), std::string::npos);
+}
+
+TEST(CalibrateCliTest, TheConfigsEngineSectionAndIntrinsicsFromAFileAreRead) {
+  testing::TempDir dir;
+  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --frames 1 --out " +
+                       dir.file("one.lcmlog") + " --config-out " + dir.file("calib.yaml")),
+            0);
+  CalibConfig config;
+  std::string error, text;
+  ASSERT_TRUE(LoadConfigFile(dir.file("calib.yaml"), &config, &error)) << error;
+  ASSERT_TRUE(ReadWholeFile(dir.file("calib.yaml"), &text, &error)) << error;
+  const std::string calibrate = std::string(CALIBD_CALIBRATE_EXE) + " --log " +
+                                dir.file("one.lcmlog") + " --report " + dir.file("r.json") +
+                                " --config ";
+
+  // The agent's engine section: its verdict gates apply (and an agent section is no error).
+  ASSERT_TRUE(WriteFileAtomic(dir.file("engine.yaml"),
+                              text + "agent:\n  min_frames: 30\nengine:\n  verdict:\n"
+                                     "    min_boards: 2\n    min_frames: 2\n",
+                              &error))
+      << error;
+  EXPECT_EQ(RunCommand(calibrate + dir.file("engine.yaml")), 3);
+  const auto report = ReadJson(dir.file("r.json"));
+  EXPECT_EQ(report["reason"], "too_few_frames");  // 1 frame pair, 2 needed: the config's gate
+  EXPECT_NE(report["detail"].get<std::string>().find("2 needed"), std::string::npos);
+  // A wrong key in it is refused, named.
+  ASSERT_TRUE(WriteFileAtomic(dir.file("typo.yaml"),
+                              text + "engine:\n  verdict:\n    min_bords: 2\n", &error))
+      << error;
+  EXPECT_EQ(testing::RunCommand(calibrate + dir.file("typo.yaml") + " >/dev/null 2>" +
+                                dir.file("err.txt")),
+            2);
+  std::string err;
+  ASSERT_TRUE(ReadWholeFile(dir.file("err.txt"), &err, &error)) << error;
+  EXPECT_NE(err.find("engine.verdict.min_bords: unknown key (did you mean min_boards?)"),
+            std::string::npos)
+      << err;
+
+  // With --intrinsics the camera section may hold only the camera's id.
+  const CameraIntrinsics& k = config.camera;
+  nlohmann::json intrinsics = {{"K", {k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0}},
+                               {"D", {k.k1, k.k2, k.p1, k.p2, k.k3}},
+                               {"width", k.width},
+                               {"height", k.height}};
+  ASSERT_TRUE(WriteFileAtomic(dir.file("k.json"), intrinsics.dump(), &error)) << error;
+  const size_t camera = text.find("camera:"), lidar = text.find("\nlidar:");
+  ASSERT_NE(camera, std::string::npos);
+  ASSERT_NE(lidar, std::string::npos);
+  const std::string no_intrinsics =
+      text.substr(0, camera) + "camera:\n  id: " + config.camera_id + text.substr(lidar);
+  ASSERT_TRUE(WriteFileAtomic(dir.file("bare.yaml"), no_intrinsics, &error)) << error;
+  EXPECT_EQ(RunCommand(calibrate + dir.file("bare.yaml")), 2);  // no intrinsics at all
+  EXPECT_EQ(RunCommand(calibrate + dir.file("bare.yaml") + " --intrinsics " + dir.file("k.json")),
+            3);  // read, calibrated, too little data
+  EXPECT_EQ(ReadJson(dir.file("r.json"))["reason"], "too_few_boards");
 }
 
 }  // namespace

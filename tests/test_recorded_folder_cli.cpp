@@ -187,7 +187,7 @@ TEST(RecordedFolderCliTest, StemPairsBadFilesAndExitCodes) {
   ASSERT_EQ(ExportFolder(dir.file("one.lcmlog"), rec), 1);
   std::filesystem::remove(rec + "/frames.csv");  // pair by stem: 0.pcd + 0.png
   // A malformed cloud with its own image: counted as a bad message, the good pair calibrates
-  // (and is rejected as too few frames: exit 3).
+  // (and is rejected as too few boards: exit 3).
   std::ofstream(rec + "/1.pcd") << "VERSION 0.7\nFIELDS x y\nSIZE 4 4\nTYPE F F\nWIDTH 1\n"
                                    "HEIGHT 1\nPOINTS 1\nDATA ascii\n1 2\n";
   std::filesystem::copy_file(rec + "/0.png", rec + "/1.png");
@@ -196,7 +196,7 @@ TEST(RecordedFolderCliTest, StemPairsBadFilesAndExitCodes) {
                                 dir.file("calib.yaml") + " --report " + dir.file("r.json");
   EXPECT_EQ(RunCommand(calibrate + " --folder " + rec), 3);
   const auto report = ReadJson(dir.file("r.json"));
-  EXPECT_EQ(report["reason"], "too_few_frames");
+  EXPECT_EQ(report["reason"], "too_few_boards");
   EXPECT_EQ(report["frames"]["pairs"].get<int>(), 1);
   EXPECT_EQ(report["frames"]["bad_messages"].get<int>(), 1);
   EXPECT_EQ(report["frames"]["unmatched_clouds"].get<int>(), 1);

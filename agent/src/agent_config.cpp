@@ -477,17 +477,33 @@ bool AgentConfig::IsValid(std::string* error) const {
   return calib.IsValid(error) && AgentKeysValid(*this, error) && EngineKeysValid(engine, error);
 }
 
+bool ParseEngineConfigYaml(const std::string& text, EngineConfig* engine, std::string* error) {
+  EngineConfig e = *engine;
+  try {
+    const YAML::Node root = YAML::Load(text);
+    if (!root.IsMap()) return Fail(error, "<root>", "must be a mapping");
+    ParseEngineSection(root["engine"], &e);
+  } catch (const KeyError& k) {
+    return Fail(error, k.key, k.what);
+  } catch (const YAML::Exception& x) {
+    if (error) *error = std::string("YAML syntax: ") + x.what();
+    return false;
+  }
+  if (!EngineKeysValid(e, error)) return false;
+  *engine = e;
+  return true;
+}
+
 bool ParseAgentConfigYaml(const std::string& text, AgentConfig* config, std::string* error) {
   AgentConfig c;
   try {
     const YAML::Node root = YAML::Load(text);
     if (!root.IsMap()) return Fail(error, "<root>", "must be a mapping");
-    // The calibration keys go through the calibration config's own parser, which knows nothing
-    // of the agent's sections.
-    YAML::Node calib_root = YAML::Clone(root);
-    calib_root.remove("agent");
-    calib_root.remove("engine");
-    if (!ParseConfigYaml(YAML::Dump(calib_root), &c.calib, error)) return false;
+    // The calibration keys go through the calibration config's own parser, told of the agent's
+    // sections.
+    ConfigParseOptions options;
+    options.other_sections = {"agent", "engine"};
+    if (!ParseConfigYaml(text, &c.calib, error, options)) return false;
     ParseAgentSection(root["agent"], &c);
     ParseEngineSection(root["engine"], &c.engine);
   } catch (const KeyError& e) {

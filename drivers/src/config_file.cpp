@@ -39,12 +39,13 @@ T GetOr(const YAML::Node& parent, const std::string& name, const std::string& ke
 }
 
 void CheckKnown(const YAML::Node& map, std::initializer_list<const char*> known,
-                const std::string& prefix) {
+                const std::string& prefix, const std::vector<std::string>& also_known = {}) {
   if (!map.IsMap()) throw KeyError{prefix.empty() ? "<root>" : prefix, "must be a mapping"};
   for (const auto& kv : map) {
     const std::string k = kv.first.as<std::string>();
     bool ok = false;
     for (const char* n : known) ok = ok || k == n;
+    for (const std::string& n : also_known) ok = ok || k == n;
     if (!ok) throw KeyError{prefix.empty() ? k : prefix + "." + k, "unknown key"};
   }
 }
@@ -59,9 +60,19 @@ std::string Name(const std::string& value, const std::string& key) {
   return value;
 }
 
-void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
-  CheckKnown(root, {"camera", "lidar", "boards", "prior"}, "");
-  const YAML::Node cam = Child(root, "camera", "camera");
+// The `camera:` section: its ids, and its intrinsics unless given elsewhere.
+void ParseCamera(const YAML::Node& root, const CameraIntrinsics* intrinsics, CalibConfig* c) {
+  const YAML::Node cam = intrinsics ? root["camera"] : Child(root, "camera", "camera");
+  if (intrinsics && (!cam || !cam.IsMap() || !cam["width"])) {
+    // Intrinsics given elsewhere and none here: the section is optional, its ids are.
+    c->camera = *intrinsics;
+    if (!cam) return;
+    CheckKnown(cam, {"id", "frame_id"}, "camera");
+    c->camera_id = Name(GetOr<std::string>(cam, "id", "camera.id", c->camera_id), "camera.id");
+    c->camera_frame = Name(GetOr<std::string>(cam, "frame_id", "camera.frame_id", c->camera_frame),
+                           "camera.frame_id");
+    return;
+  }
   CheckKnown(cam,
              {"id", "frame_id", "width", "height", "fx", "fy", "cx", "cy", "model", "distortion"},
              "camera");
@@ -96,6 +107,12 @@ void ParseOrThrow(const YAML::Node& root, CalibConfig* c) {
   } else {
     throw KeyError{"camera.model", "must be radtan or kannala_brandt (got '" + model + "')"};
   }
+  if (intrinsics) c->camera = *intrinsics;  // a full section, replaced
+}
+
+void ParseOrThrow(const YAML::Node& root, const ConfigParseOptions& options, CalibConfig* c) {
+  CheckKnown(root, {"camera", "lidar", "boards", "prior"}, "", options.other_sections);
+  ParseCamera(root, options.intrinsics, c);
 
   const YAML::Node lidar = Child(root, "lidar", "lidar");
   CheckKnown(lidar, {"id", "frame_id", "model", "generic"}, "lidar");
@@ -197,10 +214,11 @@ std::string ShortestDecimal(double v) {
   return std::to_string(v);
 }
 
-bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* error) {
+bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* error,
+                     const ConfigParseOptions& options) {
   CalibConfig c;
   try {
-    ParseOrThrow(YAML::Load(text), &c);
+    ParseOrThrow(YAML::Load(text), options, &c);
   } catch (const KeyError& e) {
     if (error) *error = e.key + ": " + e.what;
     return false;
@@ -214,7 +232,10 @@ bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* 
 }
 
 bool LoadConfigFile(const std::string& path, CalibConfig* config, std::string* error) {
-  return LoadTextFile(path, &ParseConfigYaml, config, error);
+  const auto parse = [](const std::string& text, CalibConfig* c, std::string* e) {
+    return ParseConfigYaml(text, c, e);
+  };
+  return LoadTextFile<CalibConfig>(path, parse, config, error);
 }
 
 std::string ConfigToYaml(const CalibConfig& c) {

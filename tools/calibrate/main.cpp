@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
+#include "calibd/agent/agent_config.hpp"
 #include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/stats.hpp"
 #include "calibd/drivers/atomic_file.hpp"
@@ -54,7 +55,8 @@ Options:
                        so motion compensation leaves boards as they are).
                        Unreadable or malformed files are counted (report frames.bad_messages,
                        the first one's error in frames.first_bad_message) and skipped
-  --intrinsics FILE    camera intrinsics replacing the config's: OpenCV FileStorage YAML
+  --intrinsics FILE    camera intrinsics replacing the config's (whose camera section may then
+                       be left out, or hold only id and frame_id): OpenCV FileStorage YAML
                        (camera_matrix or K, distortion_coefficients or D, image_width,
                        image_height), ROS camera_info YAML (camera_matrix.data,
                        distortion_coefficients.data, distortion_model plumb_bob,
@@ -66,7 +68,9 @@ Options:
                        points; its resolution and field of view are estimated from the first
                        lidar.generic.estimation_frames (3) LiDAR frames of the log or folder
                        unless lidar.generic.* gives them, printed and written to the report's
-                       lidar_model block
+                       lidar_model block. An engine section (method, grid, verdict gates:
+                       deploy/config/calibd.yaml) is read as calibd-agent reads it; the
+                       options below override it; an agent section is the agent's and ignored
   --report FILE        JSON report: verdict, reason, T_camera_lidar and T_lidar_camera (4x4,
                        xyz, quaternion xyzw, rpy), frame names, quality, timings
   --export DIR         the result in other stacks' formats, one file each (DIR is created):
@@ -130,6 +134,8 @@ int main(int argc, char** argv) {
   std::string method = "direct";
   bool motion_compensation = true;
   bool board_pose_refinement = true;
+  // Given on the command line: then over the config's engine section.
+  bool method_given = false, motion_compensation_given = false, board_pose_refinement_given = false;
   tools::LogReadOptions read_options;
   bool quiet = false;
   for (int i = 1; i < argc; ++i) {
@@ -168,15 +174,18 @@ int main(int argc, char** argv) {
       export_dir = value;
     else if (arg == "--truth")
       truth_path = value;
-    else if (arg == "--method")
+    else if (arg == "--method") {
       method = value;
-    else if (arg == "--motion-compensation" || arg == "--board-pose-refinement") {
+      method_given = true;
+    } else if (arg == "--motion-compensation" || arg == "--board-pose-refinement") {
       if (value != "on" && value != "off") {
         std::cerr << "calibd-calibrate: " << arg << " must be on or off (got '" << value << "')\n";
         return 2;
       }
       (arg == "--motion-compensation" ? motion_compensation : board_pose_refinement) =
           value == "on";
+      (arg == "--motion-compensation" ? motion_compensation_given : board_pose_refinement_given) =
+          true;
     } else if (arg == "--max-frames") {
       const long n = std::strtol(value.c_str(), &end, 10);
       if (*end != '\0' || n < 1 || n > 100000) {
@@ -207,13 +216,24 @@ int main(int argc, char** argv) {
   }
 
   std::string error;
-  CalibConfig config;
-  if (!LoadConfigFile(config_path, &config, &error)) {
-    std::cerr << "calibd-calibrate: " << error << "\n";
+  // --intrinsics first: with them the config's camera section is optional. The config may hold
+  // the agent's sections: `engine:` is read as the agent reads it, `agent:` is the agent's own.
+  CameraIntrinsics intrinsics;
+  if (!intrinsics_path.empty() && !LoadIntrinsicsFile(intrinsics_path, &intrinsics, &error)) {
+    std::cerr << "calibd-calibrate: --intrinsics: " << error << "\n";
     return 2;
   }
-  if (!intrinsics_path.empty() && !LoadIntrinsicsFile(intrinsics_path, &config.camera, &error)) {
-    std::cerr << "calibd-calibrate: --intrinsics: " << error << "\n";
+  ConfigParseOptions parse_options;
+  parse_options.intrinsics = intrinsics_path.empty() ? nullptr : &intrinsics;
+  parse_options.other_sections = {"engine", "agent"};
+  CalibConfig config;
+  EngineConfig engine;
+  std::string config_text;
+  if (!ReadWholeFile(config_path, &config_text, &error) ||
+      !ParseConfigYaml(config_text, &config, &error, parse_options) ||
+      !ParseEngineConfigYaml(config_text, &engine, &error)) {
+    std::cerr << "calibd-calibrate: " << (config_text.empty() ? "" : config_path + ": ") << error
+              << "\n";
     return 2;
   }
   // The log or the folder, read the same way (pairing, detection, counters).
@@ -256,11 +276,13 @@ int main(int argc, char** argv) {
 
   RangeImage projection;
   projection.Configure(lidar_model, 0.5, 200.0, 1);
-  EngineConfig engine;
-  engine.method =
-      method == "indirect" ? EngineConfig::Method::kIndirect : EngineConfig::Method::kDirect;
-  engine.motion.enabled = motion_compensation;
-  engine.direct.refine_board_poses = board_pose_refinement;
+  // The command line's choices over the config's engine section.
+  if (method_given)
+    engine.method =
+        method == "indirect" ? EngineConfig::Method::kIndirect : EngineConfig::Method::kDirect;
+  if (motion_compensation_given) engine.motion.enabled = motion_compensation;
+  if (board_pose_refinement_given) engine.direct.refine_board_poses = board_pose_refinement;
+  method = engine.method == EngineConfig::Method::kIndirect ? "indirect" : "direct";
   ObservationSet corr;
   std::vector<double> reprojection_px;  // per correspondence, for --html
   const CalibrationOutcome out =

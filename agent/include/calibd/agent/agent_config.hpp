@@ -137,6 +137,11 @@ struct AgentConfig {
 /// is untouched and `error` reads "<key>: <what is wrong>".
 bool ParseAgentConfigYaml(const std::string& text, AgentConfig* config, std::string* error);
 
+/// The `engine:` section of a config's YAML text over `engine` (absent keys keep its values), as
+/// the agent reads it; calibd-calibrate reads the same section. False with `error` naming the
+/// key ("engine.verdict.min_boards: ...").
+bool ParseEngineConfigYaml(const std::string& text, EngineConfig* engine, std::string* error);
+
 /// Loads, parses and validates `path`. On failure `error` starts with the path, then names the
 /// key: "/etc/calibd/calibd.yaml: agent.max_frames: must be in [10, 100000] (got 3)".
 bool LoadAgentConfig(const std::string& path, AgentConfig* config, std::string* error);

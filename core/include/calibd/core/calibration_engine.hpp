@@ -39,8 +39,14 @@ struct VerdictConfig {
   double verify_translation_m = 0.015;
   double max_rotation_deg = 10.0;  ///< mechanical tolerance: beyond it, `rejected`
   double max_translation_m = 0.15;
-  int min_frames = 10;                   ///< frame pairs with at least one correspondence
-  int min_boards = 20;                   ///< board correspondences
+  /// The least data the engine solves with. The verdict rests on the evidence (the formal
+  /// sigmas, the plane conditioning, the half-data spread, the residuals), not on counts: a dozen
+  /// well-spread still poses of one board can pass, two hundred frames of one board far away
+  /// cannot. A board correspondence fixes a plane; six leave each half of the half-data
+  /// re-solves about three, the fewest non-parallel planes that fix all six degrees of freedom.
+  /// Frames add nothing by themselves: one shot of a wall of boards counts like six shots of one.
+  int min_frames = 1;                    ///< frame pairs with at least one correspondence
+  int min_boards = 6;                    ///< board correspondences
   double max_rotation_sigma_deg = 0.05;  ///< formal standard deviation gates (precision)
   double max_translation_sigma_m = 0.01;
   /// Degeneracy gate: smallest / largest eigenvalue of the board-plane information, rotations

@@ -4,14 +4,26 @@
 /// Loading validates every key once; errors name the key and the file.
 
 #include <string>
+#include <vector>
 
 #include "calibd/core/config.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 
 namespace calibd {
 
+/// What a caller adds to the calibration config's own keys.
+struct ConfigParseOptions {
+  /// Intrinsics from elsewhere (calibd-calibrate --intrinsics): they replace the `camera:`
+  /// section's, which may then be left out (or hold only `id` and `frame_id`).
+  const CameraIntrinsics* intrinsics = nullptr;
+  /// Top-level sections the caller parses itself (the agent's `agent:` and `engine:`); any other
+  /// unknown key is an error.
+  std::vector<std::string> other_sections;
+};
+
 /// Parses YAML text. On failure `error` reads "<key>: <what is wrong>".
-bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* error);
+bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* error,
+                     const ConfigParseOptions& options = {});
 
 /// Loads and validates `path`. On failure `error` starts with the path.
 bool LoadConfigFile(const std::string& path, CalibConfig* config, std::string* error);
