@@ -527,6 +527,7 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   pc.neighbor_search_cells = config.neighbor_search_cells;
   pc.min_region_cells = config.min_cluster_points;
   pc.window_half_m = 0.25 * d.min_side_m;
+  pc.min_board_area_m2 = d.min_side_m * d.min_side_m;
   pc.min_row_width_m = sc.min_row_width_m;
   d.planes.Configure(d.image, pc);
   for (const BoardGeometry& g : boards) {

@@ -16,9 +16,6 @@ constexpr int kMinWindowCells = 6;
 // third by this factor: before that (a single scan line, a thin strip) the fit cannot tell the
 // plane's tilt about the strip's axis, and the seed's plane is kept.
 constexpr double kWellPosedRatio = 9.0;
-// Local planes are fitted on every cell of smaller clusters, on every kSeedStride-th of larger.
-constexpr int kAllSeedsBelow = 256;
-constexpr int kSeedStride = 3;
 // A cell of the cluster beyond a region's edge is attached to it within this many growing
 // tolerances of its plane (the surface goes on, bent or broken by noise); farther, the edge is a
 // step to another surface.
@@ -70,6 +67,14 @@ void PlaneRegions::Configure(const RangeImage& image, const PlaneRegionConfig& c
   members_.resize(cells);
   regions_.resize(cells / std::max(1, config.min_region_cells) + 1);
   num_cells_ = num_regions_ = 0;
+}
+
+int PlaneRegions::SeedStride(const RangeImage& image, int32_t cell) const {
+  if (config_.min_board_area_m2 <= 0.0) return 1;
+  const double range = std::max(0.1f, image.cell(cell).range);
+  const double cell_sr = image.azimuth_step_rad() * image.row_spacing_rad(image.RowOf(cell));
+  const double board_cells = config_.min_board_area_m2 / (range * range * cell_sr);
+  return std::max(1, static_cast<int>(board_cells / config_.seeds_per_board));
 }
 
 bool PlaneRegions::LocalPlane(const RangeImage& image, const Eigen::Vector3f* points, int32_t cell,
@@ -193,13 +198,14 @@ int PlaneRegions::Extract(const RangeImage& image, const int32_t* cells,
     region_of_[k] = 0;
     released_[k] = 0;
   }
-  // Local planes on every kSeedStride-th cell of the cluster (cells come in breadth-first
-  // order, so these spread over it): enough seeds and noise samples for every board-sized
-  // plane, at a third of the cost on the large clusters of walls and buildings.
-  const int stride = n < kAllSeedsBelow ? 1 : kSeedStride;
+  // Local planes on about seeds_per_board cells of any board-sized area: every cell of a board
+  // far away, one in a hundred of a dense LiDAR's near walls (cells come in breadth-first order,
+  // so every stride-th cell spreads over the cluster). The cost then follows the scene's
+  // objects, not its cells.
   int num_seeds = 0;
   for (int k = 0; k < n; ++k) flatness_[k] = -1.0f;
-  for (int k = 0; k < n; k += stride) {
+  for (int k = 0; k < n; ++k) {
+    if (k % SeedStride(image, cells[k]) != 0) continue;
     if (LocalPlane(image, points, cells[k], &normals_[k], &centers_[k], &flatness_[k])) {
       sorted_[num_seeds] = flatness_[k];
       seeds_[num_seeds++] = k;

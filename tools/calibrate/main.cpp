@@ -98,6 +98,12 @@ Options:
                        refine every board's pose from its tag corners and its LiDAR points
                        together with the extrinsic, instead of taking the camera's PnP pose as
                        exact (default on; off gives the paper's Eq. 4 as published)
+  --extract-planes on|off
+                       search LiDAR clusters refused as a whole (a board joined to the wall
+                       behind it, its tripod, the person holding it) for board planes: finds
+                       boards in cluttered indoor still poses, at some cost in time and in
+                       board-like furniture (dropped when it stands still while the board
+                       moves) (default off)
   --max-frames N       frame pairs kept (default 2000)
   --pair-tolerance-ms  camera time allowed outside the LiDAR sweep (default 20)
   --quiet              no progress or summary
@@ -177,6 +183,12 @@ int main(int argc, char** argv) {
     else if (arg == "--method") {
       method = value;
       method_given = true;
+    } else if (arg == "--extract-planes") {
+      if (value != "on" && value != "off") {
+        std::cerr << "calibd-calibrate: " << arg << " must be on or off (got '" << value << "')\n";
+        return 2;
+      }
+      read_options.lidar.extract_planes = value == "on";
     } else if (arg == "--motion-compensation" || arg == "--board-pose-refinement") {
       if (value != "on" && value != "off") {
         std::cerr << "calibd-calibrate: " << arg << " must be on or off (got '" << value << "')\n";
@@ -294,6 +306,7 @@ int main(int argc, char** argv) {
   report["reason"] = out.reason;
   report["detail"] = out.detail;
   report["method"] = method;
+  report["extract_planes"] = read_options.lidar.extract_planes;
   report["solved"] = out.solved;  // false: T_camera_lidar is only the prior or grid candidate
   report["camera_frame"] = config.camera_frame;
   report["lidar_frame"] = config.lidar_frame;

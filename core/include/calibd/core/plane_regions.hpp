@@ -7,7 +7,7 @@
 /// 16-ring LiDAR's 2 deg between rings, a board's top ring and a wall half a metre behind it pass
 /// as one object, and a tripod, a person holding the board or a chair joins the board to the
 /// room. Inside such a cluster the board is still a plane, apart from its surroundings:
-/// 1. Cells get a local plane (every cell of small clusters, every third of large ones): the PCA of
+/// 1. Cells get a local plane (about `seeds_per_board` on any board-sized area): the PCA of
 ///    the cluster's cells in a window around it, `window_half_m` or
 ///    one beam spacing each way (wider where the pattern leaves cells empty). Its RMS residual
 ///    is the cell's flatness.
@@ -42,6 +42,10 @@ struct PlaneRegionConfig {
   double min_distance_m = 0.01;   ///< floor of that tolerance (noise-free data)
   int neighbor_search_cells = 3;  ///< empty cells stepped over to find a neighbour
   int min_region_cells = 8;       ///< smaller regions are not reported
+  /// Local planes (seeds and noise samples) on about `seeds_per_board` cells of an area of
+  /// `min_board_area_m2` at each cell's range; 0: on every cell.
+  double min_board_area_m2 = 0.0;
+  int seeds_per_board = 16;
 };
 
 /// A region: entries members()[begin, end) of the cluster's cell list.
@@ -79,6 +83,8 @@ class PlaneRegions {
   double noise_m() const { return noise_m_; }
 
  private:
+  /// Every how many cells of the cluster a local plane is fitted around `cell`.
+  int SeedStride(const RangeImage& image, int32_t cell) const;
   /// Local plane at range-image cell `cell` of the cluster; false when its window has too few
   /// cells of the cluster.
   bool LocalPlane(const RangeImage& image, const Eigen::Vector3f* points, int32_t cell,
