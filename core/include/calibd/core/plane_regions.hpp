@@ -45,7 +45,7 @@ struct PlaneRegionConfig {
   /// Local planes (seeds and noise samples) on about `seeds_per_board` cells of an area of
   /// `min_board_area_m2` at each cell's range; 0: on every cell.
   double min_board_area_m2 = 0.0;
-  int seeds_per_board = 16;
+  int seeds_per_board = 64;
 };
 
 /// A region: entries members()[begin, end) of the cluster's cell list.
