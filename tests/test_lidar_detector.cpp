@@ -553,6 +553,7 @@ TEST_P(JoinedBoardTest, ABoardJoinedToTheWallBehindItIsFoundAsAPlaneOfItsCluster
   board.tag_size_m = 0.7;
   LidarDetectorConfig whole;
   whole.report_clusters = true;
+  whole.extract_planes = false;
   LidarDetector paper(whole, model, {board});
   LidarDetections out;
   paper.Detect(ViewOf(scan), &out);
