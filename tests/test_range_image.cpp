@@ -144,6 +144,42 @@ TEST(RangeImageTest, SkipsNanInfAndOutOfRangePointsAndHandlesAnEmptyCloud) {
   EXPECT_EQ(stats.overflow_points, 0);
 }
 
+TEST(RangeImageTest, ABoxReachingPastTheFieldOfViewIsClippedToIt) {
+  // A VLP-16 (+-15 deg, 360 deg) and an Avia-like rosette (70.4 x 77.2 deg, not wrapping).
+  for (const LidarKind kind : {LidarKind::kVlp16, LidarKind::kAvia}) {
+    const LidarModel model = MakeLidarModel(kind);
+    RangeImage image;
+    image.Configure(model, 0.5, 200.0, 10);
+    const double top = model.elevation_max_deg * kDeg;
+    int r0 = 0, r1 = 0, c0 = 0, c1 = 0;
+    // Inside: the same cells as CellOf gives for its corners.
+    ASSERT_TRUE(image.CellBoxOf(-2 * kDeg, 2 * kDeg, -3 * kDeg, 3 * kDeg, &r0, &r1, &c0, &c1));
+    int row = 0, col = 0;
+    ASSERT_TRUE(image.CellOf(-2 * kDeg, -3 * kDeg, &row, &col));
+    EXPECT_EQ(r0, row);
+    EXPECT_EQ(c0, col);
+    ASSERT_TRUE(image.CellOf(2 * kDeg, 3 * kDeg, &row, &col));
+    EXPECT_EQ(r1, row);
+    EXPECT_EQ(c1, col);
+    // A near board's box past the top edge: its rows up to the top row, none lost.
+    ASSERT_TRUE(
+        image.CellBoxOf(-2 * kDeg, 2 * kDeg, top - 5 * kDeg, top + 10 * kDeg, &r0, &r1, &c0, &c1));
+    EXPECT_EQ(r1, image.rows() - 1);
+    EXPECT_LT(r0, r1);
+    // Wholly above the field of view: no cells.
+    EXPECT_FALSE(
+        image.CellBoxOf(-2 * kDeg, 2 * kDeg, top + 5 * kDeg, top + 9 * kDeg, &r0, &r1, &c0, &c1));
+    if (!image.wraps()) {
+      // Past the side of a limited field of view: clipped to the last column.
+      const double side = model.azimuth_max_deg * kDeg;
+      ASSERT_TRUE(image.CellBoxOf(side - 3 * kDeg, side + 8 * kDeg, 0.0, kDeg, &r0, &r1, &c0, &c1));
+      EXPECT_EQ(c1, image.cols() - 1);
+      EXPECT_FALSE(
+          image.CellBoxOf(side + 2 * kDeg, side + 8 * kDeg, 0.0, kDeg, &r0, &r1, &c0, &c1));
+    }
+  }
+}
+
 TEST(RangeImageTest, FastAtan2IsWithinTwoMicroradiansOfStdAtan2) {
   double worst = 0.0;
   for (int i = 0; i < 3600; ++i) {

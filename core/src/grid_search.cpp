@@ -66,17 +66,15 @@ bool GridSearch::RegionOf(const Eigen::Vector3d& c, double side, Roi* roi) const
   const double el = FastAtan2(static_cast<float>(c.z()), static_cast<float>(horizontal));
   const double half_az = std::atan(w / (horizontal - w));
   const double half_el = std::atan(h / (range - w));
-  int row_a = 0, col_a = 0, row_b = 0, col_b = 0;
-  if (!projection_.CellOf(az - half_az, el + half_el, &row_a, &col_a) ||
-      !projection_.CellOf(az + half_az, el - half_el, &row_b, &col_b))
+  // Clipped to the field of view: a near board's box reaches past it (a 1.5 m board spans
+  // +-17 deg) and must still count with the part the LiDAR sees, or the search prefers
+  // rotations that push boards inwards.
+  if (!projection_.CellBoxOf(az - half_az, az + half_az, el - half_el, el + half_el, &roi->row_lo,
+                             &roi->row_hi, &roi->col_lo, &roi->col_hi))
     return false;
-  roi->row_lo = std::min(row_a, row_b);
-  roi->row_hi = std::max(row_a, row_b);
-  roi->col_lo = std::min(col_a, col_b);
-  roi->col_hi = std::max(col_a, col_b);
   // A region straddling the azimuth seam of a 360-degree image would look inverted: boards sit in
   // front of the camera, never behind the LiDAR, so such a region is treated as empty.
-  return col_b >= col_a && roi->col_hi - roi->col_lo < projection_.cols() / 2;
+  return roi->col_hi >= roi->col_lo && roi->col_hi - roi->col_lo < projection_.cols() / 2;
 }
 
 bool GridSearch::BoardRegion(const SessionObservations::CameraBoard& cam,

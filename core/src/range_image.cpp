@@ -119,6 +119,34 @@ bool RangeImage::CellOf(double azimuth_rad, double elevation_rad, int* row, int*
   return true;
 }
 
+bool RangeImage::CellBoxOf(double azimuth_lo, double azimuth_hi, double elevation_lo,
+                           double elevation_hi, int* row_lo, int* row_hi, int* col_lo,
+                           int* col_hi) const {
+  // Rows' elevations grow with the row; the image spans half a gap beyond its outer rows.
+  const double el_min = row_elevation_rad_[0] - 0.5 * row_spacing_rad_[0];
+  const double el_max = row_elevation_rad_[rows_ - 1] + 0.5 * row_spacing_rad_[rows_ - 1];
+  if (elevation_hi < el_min || elevation_lo > el_max) return false;
+  const double el_lo = std::max(elevation_lo, double{row_elevation_rad_[0]});
+  const double el_hi = std::min(elevation_hi, double{row_elevation_rad_[rows_ - 1]});
+  double az_lo = azimuth_lo, az_hi = azimuth_hi;
+  if (!wraps_) {
+    const double az_max = az_min_rad_ + cols_ * az_step_rad_;
+    if (azimuth_hi < az_min_rad_ || azimuth_lo > az_max) return false;
+    // Inside the outer columns by a tenth of a step, so that the floor lands in them.
+    az_lo = std::max(az_lo, az_min_rad_ + 0.1 * az_step_rad_);
+    az_hi = std::min(az_hi, az_max - 0.1 * az_step_rad_);
+  }
+  int r = 0, c = 0;
+  if (!CellOf(az_lo, el_lo, &r, &c)) return false;
+  *row_lo = r;
+  *col_lo = c;
+  if (!CellOf(az_hi, el_hi, &r, &c)) return false;
+  *row_hi = r;
+  *col_hi = c;
+  if (*row_lo > *row_hi) std::swap(*row_lo, *row_hi);
+  return true;
+}
+
 void RangeImage::Build(const PointCloudView& cloud, RangeImageStats* stats) {
   *stats = RangeImageStats{};
   std::fill(cells_.begin(), cells_.end(), RangeImageCell{});

@@ -81,6 +81,11 @@ class RangeImage {
   /// Row and column of a direction (radians), or false outside the image. For ring LiDARs the row
   /// is that of the ring with the nearest elevation.
   bool CellOf(double azimuth_rad, double elevation_rad, int* row, int* col) const;
+  /// The cells that the directions in [azimuth_lo, azimuth_hi] x [elevation_lo, elevation_hi]
+  /// (radians) fall in, clipped to the image: false when none does. Columns are not unwrapped:
+  /// for a 360-degree image a box across the seam gives col_lo > col_hi.
+  bool CellBoxOf(double azimuth_lo, double azimuth_hi, double elevation_lo, double elevation_hi,
+                 int* row_lo, int* row_hi, int* col_lo, int* col_hi) const;
   /// Angular size of a column, radians.
   double azimuth_step_rad() const { return az_step_rad_; }
   /// Elevation of a row (ring elevation or bin centre), radians.
