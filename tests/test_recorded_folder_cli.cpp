@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -230,6 +231,42 @@ TEST(RecordedFolderCliTest, StemPairsBadFilesAndExitCodes) {
                                 dir.file("generic.yaml") + " --folder " + rec +
                                 " 2>&1 | grep -q 'generic LiDAR: azimuth'"),
             0);
+  // Every cloud malformed: the verdict says the LiDAR's frames are the cause, with the first
+  // error, not that the camera saw no board.
+  const std::string bad = dir.file("bad");
+  std::filesystem::create_directories(bad);
+  for (const char* stem : {"0", "1"}) {
+    std::ofstream(bad + "/" + stem + ".pcd") << "VERSION 0.7\nFIELDS x y\nSIZE 4 4\nTYPE F F\n"
+                                                "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2\n";
+    std::filesystem::copy_file(rec + "/0.png", bad + "/" + stem + ".png");
+  }
+  EXPECT_EQ(RunCommand(calibrate + " --folder " + bad), 3);
+  const auto all_bad = ReadJson(dir.file("r.json"));
+  EXPECT_EQ(all_bad["reason"], "no_lidar_boards");
+  EXPECT_NE(all_bad["detail"].get<std::string>().find(
+                "every one of the 2 LiDAR frames of this folder is malformed; the first: "),
+            std::string::npos)
+      << all_bad["detail"];
+  EXPECT_NE(all_bad["detail"].get<std::string>().find("0.pcd: field 'z' is missing"),
+            std::string::npos)
+      << all_bad["detail"];
+  // A log of random bytes holds no frames, and says so.
+  {
+    std::ofstream noise(dir.file("noise.lcmlog"), std::ios::binary);
+    uint32_t x = 12345;
+    for (int i = 0; i < 65536; ++i) {
+      x = x * 1664525u + 1013904223u;  // any bytes will do: a linear congruential sequence
+      noise.put(static_cast<char>(x >> 24));
+    }
+  }
+  EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --config " + dir.file("calib.yaml") +
+                       " --report " + dir.file("r.json") + " --log " + dir.file("noise.lcmlog")),
+            3);
+  const auto noise = ReadJson(dir.file("r.json"));
+  EXPECT_EQ(noise["reason"], "no_camera_boards");
+  EXPECT_EQ(noise["detail"].get<std::string>().rfind("no frames in this log: ", 0), 0u)
+      << noise["detail"];
+
   // A frames.csv names its bad line.
   std::ofstream(rec + "/frames.csv") << "time_us,sensor,file\n100,radar,0.pcd\n";
   EXPECT_EQ(RunCommand(calibrate + " --folder " + rec), 1);

@@ -12,9 +12,19 @@ namespace calibd::tools {
 
 namespace {
 
-// The first `count` frames of `lidar_id` in an LCM log; `bad` counts the undecodable ones.
+// Malformed frames met while looking for the first ones: how many, and what was wrong with the
+// first (named by its file, or its place in the log).
+struct BadFrames {
+  int count = 0;
+  std::string first;
+  void Add(const std::string& what) {
+    if (count++ == 0) first = what;
+  }
+};
+
+// The first `count` frames of `lidar_id` in an LCM log.
 bool FramesFromLog(const std::string& path, const std::string& lidar_id, int count,
-                   std::vector<lidar_frame_t>* frames, int* bad, std::string* error) {
+                   std::vector<lidar_frame_t>* frames, BadFrames* bad, std::string* error) {
   lcm::LogFile log(path, "r");
   if (!log.good()) {
     if (error) *error = "cannot open LCM log '" + path + "'";
@@ -28,14 +38,14 @@ bool FramesFromLog(const std::string& path, const std::string& lidar_id, int cou
     if (ev->channel != channel) continue;
     lidar_frame_t msg;
     if (msg.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
-      ++*bad;
+      bad->Add("event " + std::to_string(ev->eventnum) + ": not a lidar_frame_t");
       continue;
     }
     if (msg.lidar_id != lidar_id) continue;
     PointCloudView view;
     std::string why;
     if (!LidarFrameToView(msg, limits, &view, &why)) {
-      ++*bad;
+      bad->Add("event " + std::to_string(ev->eventnum) + ": " + why);
       continue;
     }
     frames->push_back(std::move(msg));
@@ -45,7 +55,7 @@ bool FramesFromLog(const std::string& path, const std::string& lidar_id, int cou
 
 // The first `count` readable point clouds of a recorded folder, in delivery order.
 bool FramesFromFolder(const std::string& dir, const std::string& lidar_id, int count,
-                      std::vector<lidar_frame_t>* frames, int* bad, std::string* error) {
+                      std::vector<lidar_frame_t>* frames, BadFrames* bad, std::string* error) {
   RecordedFolder folder;
   if (!ScanRecordedFolder(dir, RecordedFolderOptions{}, &folder, error)) return false;
   for (const RecordedEntry& entry : folder.entries) {
@@ -54,7 +64,7 @@ bool FramesFromFolder(const std::string& dir, const std::string& lidar_id, int c
     lidar_frame_t msg;
     std::string why;
     if (!LoadRecordedCloud(entry, lidar_id, &msg, nullptr, &why)) {
-      ++*bad;
+      bad->Add(why);
       continue;
     }
     frames->push_back(std::move(msg));
@@ -78,7 +88,7 @@ bool LidarModelForSession(const SessionSource& source, const CalibConfig& config
     return MakeGenericLidarModel(generic, nullptr, model, error);
   // The first frames of the session's LiDAR, copied (the views point into the messages).
   std::vector<lidar_frame_t> frames;
-  int bad = 0;
+  BadFrames bad;
   const bool read = source.folder_path.empty()
                         ? FramesFromLog(source.log_path, config.lidar_id, generic.estimation_frames,
                                         &frames, &bad, error)
@@ -95,7 +105,9 @@ bool LidarModelForSession(const SessionSource& source, const CalibConfig& config
   if (frames.empty())
     estimate->error = "the " + std::string(source.folder_path.empty() ? "log" : "folder") +
                       " has no usable LiDAR frame of '" + config.lidar_id + "'" +
-                      (bad > 0 ? " (" + std::to_string(bad) + " malformed)" : "");
+                      (bad.count > 0 ? " (" + std::to_string(bad.count) +
+                                           " malformed; the first: " + bad.first + ")"
+                                     : "");
   return MakeGenericLidarModel(generic, estimate, model, error);
 }
 

@@ -72,8 +72,12 @@ class SessionBuilder {
                         options_.lidar.max_board_points);
   }
 
-  void Bad(const std::string& what) {
+  enum class Sensor { kCamera, kLidar };
+  void Bad(Sensor sensor, const std::string& what) {
     if (stats_->bad_messages++ == 0) stats_->first_bad_message = what;
+    const bool lidar = sensor == Sensor::kLidar;
+    if ((lidar ? stats_->bad_lidar++ : stats_->bad_camera++) == 0)
+      (lidar ? stats_->first_bad_lidar : stats_->first_bad_camera) = what;
   }
 
   void OnCamera(camera_frame_t&& msg) {
@@ -89,9 +93,13 @@ class SessionBuilder {
     ImageView view;
     PointCloudView cloud;
     std::string why;
-    if (!CameraFrameToView(*pending_, limits_, &decoded_, &view, &why) ||
-        !LidarFrameToView(lidar_msg, limits_, &cloud, &why)) {
-      Bad(why);
+    if (!CameraFrameToView(*pending_, limits_, &decoded_, &view, &why)) {
+      Bad(Sensor::kCamera, why);
+      pending_.reset();
+      return;
+    }
+    if (!LidarFrameToView(lidar_msg, limits_, &cloud, &why)) {
+      Bad(Sensor::kLidar, why);
       pending_.reset();
       return;
     }
@@ -173,14 +181,14 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
       ++stats->camera_frames;
       camera_frame_t msg;
       if (msg.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
-        builder.Bad("camera_frame_t does not decode");
+        builder.Bad(SessionBuilder::Sensor::kCamera, "camera_frame_t does not decode");
         continue;
       }
       builder.OnCamera(std::move(msg));
     } else if (ev->channel == lidar_channel) {
       ++stats->lidar_frames;
       if (lidar_msg.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
-        builder.Bad("lidar_frame_t does not decode");
+        builder.Bad(SessionBuilder::Sensor::kLidar, "lidar_frame_t does not decode");
         continue;
       }
       builder.OnLidar(lidar_msg);
@@ -188,6 +196,34 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
   }
   builder.Finish();
   return true;
+}
+
+std::string NoPairsCause(const LogReadStats& stats, const CalibConfig& config, bool folder,
+                         bool* lidar) {
+  *lidar = false;
+  if (stats.pairs > 0) return "";
+  const std::string where = folder ? "this folder" : "this log";
+  const std::string camera_source =
+      folder ? "image (*.png, *.jpg)" : "message on " + std::string(channels::kCamera.name);
+  const std::string lidar_source =
+      folder ? "point cloud (*.pcd)" : "message on " + std::string(channels::kLidar.name);
+  if (stats.camera_frames == 0 && stats.lidar_frames == 0)
+    return "no frames in " + where + ": no " + camera_source + " and no " + lidar_source;
+  if (stats.lidar_frames == 0 || stats.bad_lidar == stats.lidar_frames) {
+    *lidar = true;
+    if (stats.lidar_frames == 0) return "no LiDAR frames in " + where + ": no " + lidar_source;
+    return "every one of the " + std::to_string(stats.lidar_frames) + " LiDAR frames of " + where +
+           " is malformed; the first: " + stats.first_bad_lidar;
+  }
+  if (stats.camera_frames == 0) return "no camera frames in " + where + ": no " + camera_source;
+  if (stats.bad_camera == stats.camera_frames)
+    return "every one of the " + std::to_string(stats.camera_frames) + " camera frames of " +
+           where + " is malformed; the first: " + stats.first_bad_camera;
+  return "no camera frame paired with a LiDAR frame: " + std::to_string(stats.camera_frames) +
+         " camera and " + std::to_string(stats.lidar_frames) + " LiDAR frames read, " +
+         std::to_string(stats.unpaired_camera) + " and " + std::to_string(stats.unpaired_lidar) +
+         " left unpaired; check camera.id '" + config.camera_id + "' and lidar.id '" +
+         config.lidar_id + "' against the recording, and that the frames' times overlap";
 }
 
 bool ReadSessionFolder(const std::string& folder_path, const CalibConfig& config,
@@ -212,14 +248,14 @@ bool ReadSessionFolder(const std::string& folder_path, const CalibConfig& config
       ++stats->camera_frames;
       camera_frame_t msg;
       if (!LoadRecordedImage(entry, config.camera_id, false, &msg, &why)) {
-        builder.Bad(why);
+        builder.Bad(SessionBuilder::Sensor::kCamera, why);
         continue;
       }
       builder.OnCamera(std::move(msg));
     } else {
       ++stats->lidar_frames;
       if (!LoadRecordedCloud(entry, config.lidar_id, &lidar_msg, &info, &why)) {
-        builder.Bad(why);
+        builder.Bad(SessionBuilder::Sensor::kLidar, why);
         continue;
       }
       stats->nan_points_dropped += info.nan_dropped;

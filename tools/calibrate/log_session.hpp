@@ -35,6 +35,8 @@ struct LogReadStats {
   int unpaired_camera = 0, unpaired_lidar = 0;  ///< dropped: no partner within the tolerance
   int bad_messages = 0;                         ///< undecodable or malformed, skipped
   std::string first_bad_message;                ///< what was wrong with the first one
+  int bad_camera = 0, bad_lidar = 0;            ///< of them, per sensor
+  std::string first_bad_camera, first_bad_lidar;
   int frames_over_capacity = 0;
   /// Dropped: time not after the previous frame of the same sensor (duplicates included).
   int out_of_order = 0;
@@ -64,6 +66,13 @@ bool ReadSessionLog(const std::string& log_path, const CalibConfig& config,
                     LogReadStats* stats, std::string* error,
                     const std::function<void(int)>& progress = {},
                     const std::vector<int>& keep = {}, std::vector<FramePairData>* kept = nullptr);
+
+/// Why a session read from a log (`folder` false) or a folder gave no frame pair, in words a user
+/// can act on (no frames at all, none of one sensor, all of one sensor malformed with the first
+/// error, or frames that never paired); empty when it gave some. `lidar` is set when the LiDAR's
+/// frames are the cause.
+std::string NoPairsCause(const LogReadStats& stats, const CalibConfig& config, bool folder,
+                         bool* lidar);
 
 /// As ReadSessionLog, from a folder of recorded frames (ScanRecordedFolder): its frames go
 /// through the same pairing and detection as a log's, messages given the config's camera and

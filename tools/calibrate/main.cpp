@@ -297,8 +297,15 @@ int main(int argc, char** argv) {
   method = engine.method == EngineConfig::Method::kIndirect ? "indirect" : "direct";
   ObservationSet corr;
   std::vector<double> reprojection_px;  // per correspondence, for --html
-  const CalibrationOutcome out =
-      Calibrate(config, session, projection, engine, &corr, &reprojection_px);
+  CalibrationOutcome out = Calibrate(config, session, projection, engine, &corr, &reprojection_px);
+  // Without a single frame pair the input is the cause, not the boards: say what it lacked.
+  bool lidar_cause = false;
+  const std::string no_pairs =
+      tools::NoPairsCause(stats, config, !folder_path.empty(), &lidar_cause);
+  if (!no_pairs.empty() && !out.solved) {
+    out.reason = lidar_cause ? "no_lidar_boards" : "no_camera_boards";
+    out.detail = no_pairs;
+  }
   const auto& q = out.quality;
 
   nlohmann::json report;
