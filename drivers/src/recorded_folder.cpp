@@ -1,16 +1,16 @@
 #include "calibd/drivers/recorded_folder.hpp"
 
+#include <png.h>
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "calibd/drivers/atomic_file.hpp"
+#include "jpeg_decoder.hpp"
 
 namespace calibd {
 
@@ -166,12 +166,24 @@ namespace {
 // found by fuzz_recorded_image, the header is read first.
 constexpr int64_t kMaxImagePixels = 100'000'000;
 
+// The PNG signature (ISO/IEC 15948 §5.2).
+bool IsPng(const std::string& bytes) {
+  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  return bytes.size() >= 8 &&
+         std::equal(kPng, kPng + 8, reinterpret_cast<const uint8_t*>(bytes.data()));
+}
+
+// JPEG's SOI marker and the first marker after it (ITU T.81 §B.1.1.3).
+bool IsJpeg(const std::string& bytes) {
+  const auto* b = reinterpret_cast<const uint8_t*>(bytes.data());
+  return bytes.size() >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF;
+}
+
 // The size a PNG (IHDR, ISO/IEC 15948 §11.2.2) or JPEG (its SOF marker) header declares; false
-// when the bytes are neither or no size is found (imdecode then decides).
+// when the bytes are neither or no size is found (the decoder then decides).
 bool DeclaredSize(const std::string& bytes, int64_t* width, int64_t* height) {
   const auto* b = reinterpret_cast<const uint8_t*>(bytes.data());
-  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  if (bytes.size() >= 24 && std::equal(kPng, kPng + 8, b)) {
+  if (bytes.size() >= 24 && IsPng(bytes)) {
     auto be32 = [&](size_t at) {
       return (int64_t{b[at]} << 24) | (int64_t{b[at + 1]} << 16) | (int64_t{b[at + 2]} << 8) |
              int64_t{b[at + 3]};
@@ -183,7 +195,7 @@ bool DeclaredSize(const std::string& bytes, int64_t* width, int64_t* height) {
   if (bytes.size() >= 2 && b[0] == 0xFF && b[1] == 0xD8) {
     // The markers up to the first SOFn (ITU T.81 §B.2.2: length, precision, Y, X), resyncing
     // on stray bytes as libjpeg does (it warns and goes on to the next 0xFF). Walked by hand:
-    // this only bounds the size, OpenCV decodes.
+    // this only bounds the size before libjpeg allocates.
     size_t at = 2;
     while (at + 1 < bytes.size()) {
       if (b[at] != 0xFF || b[at + 1] == 0x00 || b[at + 1] == 0xFF) {
@@ -209,6 +221,42 @@ bool DeclaredSize(const std::string& bytes, int64_t* width, int64_t* height) {
   return false;
 }
 
+// 8-bit grey pixels (rows `width` bytes apart) of a PNG (libpng's simplified API) or a JPEG
+// (libjpeg-turbo through JpegDecoder), told apart by their signatures; anything else is refused
+// by name. No other codec ever sees the bytes: OpenCV's imdecode tried every codec it was built
+// with, and GDCM's DICOM reader asserted on a 133-byte file named .png (fuzz_recorded_image).
+bool DecodeGrey(const std::string& bytes, std::vector<uint8_t>* pixels, int* width, int* height,
+                std::string* error) {
+  if (IsPng(bytes)) {
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_memory(&image, bytes.data(), bytes.size()))
+      return Fail(error, std::string("cannot decode the PNG: ") + image.message);
+    image.format = PNG_FORMAT_GRAY;
+    pixels->resize(PNG_IMAGE_SIZE(image));
+    // Without a background, libpng composites any alpha onto black.
+    if (!png_image_finish_read(&image, nullptr, pixels->data(), 0, nullptr)) {
+      const std::string why = image.message;
+      png_image_free(&image);
+      return Fail(error, "cannot decode the PNG: " + why);
+    }
+    *width = static_cast<int>(image.width);
+    *height = static_cast<int>(image.height);
+    return true;
+  }
+  if (IsJpeg(bytes)) {
+    JpegDecoder jpeg;
+    const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
+    if (!jpeg.ReadHeader(data, bytes.size(), width, height))
+      return Fail(error, std::string("cannot decode the JPEG: ") + jpeg.message());
+    pixels->resize(static_cast<size_t>(*width) * static_cast<size_t>(*height));
+    if (!jpeg.Decode(pixels->data(), static_cast<size_t>(*width)))
+      return Fail(error, std::string("cannot decode the JPEG: ") + jpeg.message());
+    return true;
+  }
+  return Fail(error, "not a PNG or a JPEG image (by its first bytes): only those are read");
+}
+
 }  // namespace
 
 bool LoadRecordedImage(const RecordedEntry& entry, const std::string& camera_id, bool keep_jpeg,
@@ -222,19 +270,16 @@ bool LoadRecordedImage(const RecordedEntry& entry, const std::string& camera_id,
     return Fail(error, entry.path + ": the image declares " + std::to_string(width) + "x" +
                            std::to_string(height) + " px, more than a camera frame's " +
                            std::to_string(kMaxImagePixels / 1'000'000) + " MP");
-  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data());
-  cv::Mat image;
-  try {
-    image = cv::imdecode(raw, cv::IMREAD_GRAYSCALE);
-  } catch (const cv::Exception& e) {
-    return Fail(error, entry.path + ": cannot decode the image: " + e.what());
+  int image_width = 0, image_height = 0;
+  std::vector<uint8_t> grey;
+  if (!DecodeGrey(bytes, &grey, &image_width, &image_height, error)) {
+    if (error) *error = entry.path + ": " + *error;
+    return false;
   }
-  if (image.empty() || image.type() != CV_8UC1)
-    return Fail(error, entry.path + ": cannot decode the image (PNG or JPEG expected)");
   msg->utime = entry.utime;
   msg->camera_id = camera_id;
-  msg->width = image.cols;
-  msg->height = image.rows;
+  msg->width = image_width;
+  msg->height = image_height;
   const std::string ext = Lower(fs::path(entry.path).extension().string());
   if (keep_jpeg && (ext == ".jpg" || ext == ".jpeg")) {
     msg->encoding = camera_frame_t::ENCODING_JPEG;
@@ -242,11 +287,8 @@ bool LoadRecordedImage(const RecordedEntry& entry, const std::string& camera_id,
     msg->data.assign(bytes.begin(), bytes.end());
   } else {
     msg->encoding = camera_frame_t::ENCODING_MONO8;
-    msg->stride = image.cols;
-    msg->data.resize(static_cast<size_t>(image.cols) * static_cast<size_t>(image.rows));
-    for (int r = 0; r < image.rows; ++r)
-      std::copy(image.ptr<uint8_t>(r), image.ptr<uint8_t>(r) + image.cols,
-                msg->data.begin() + static_cast<std::ptrdiff_t>(r) * image.cols);
+    msg->stride = image_width;
+    msg->data = std::move(grey);
   }
   msg->size = static_cast<int32_t>(msg->data.size());
   return true;
