@@ -183,6 +183,27 @@ TEST(CalibrateCliTest, TheConfigsEngineSectionAndIntrinsicsFromAFileAreRead) {
   EXPECT_EQ(RunCommand(calibrate + dir.file("bare.yaml") + " --intrinsics " + dir.file("k.json")),
             3);  // read, calibrated, too little data
   EXPECT_EQ(ReadJson(dir.file("r.json"))["reason"], "too_few_boards");
+
+  // --debug: what the detectors made of the pair, the LiDAR's clusters with their gates.
+  EXPECT_EQ(RunCommand(calibrate + dir.file("calib.yaml") + " --debug " + dir.file("dbg/x")), 3);
+  const auto debug = ReadJson(dir.file("dbg/x/pair_000000.json"));
+  EXPECT_EQ(debug["pair"], 0);
+  EXPECT_EQ(debug["camera"]["boards"].size(), 3u);  // the simulator's three boards
+  for (const auto& b : debug["camera"]["boards"]) {
+    EXPECT_EQ(b["corners_px"].size(), 4u);
+    EXPECT_LT(b["reprojection_rms_px"].get<double>(), 1.0);
+  }
+  int boards = 0;
+  for (const auto& c : debug["lidar"]["clusters"]) {
+    boards += c["gate"] == "board" ? 1 : 0;
+    EXPECT_GE(c["cells"].get<int>(), 8);
+    if (c["gate"] == "board") {
+      EXPECT_GE(c["descriptor_score"].get<double>(), 0.94);
+    }
+  }
+  EXPECT_EQ(boards, debug["lidar"]["boards"].get<int>());
+  EXPECT_GE(boards, 2);
+  EXPECT_GT(debug["lidar"]["clusters"].size(), static_cast<size_t>(boards));  // the refused too
 }
 
 }  // namespace

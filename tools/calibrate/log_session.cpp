@@ -12,6 +12,7 @@
 #include "calibd/drivers/lcm_frames.hpp"
 #include "calibd/drivers/recorded_folder.hpp"
 #include "calibd/lidar_frame_t.hpp"
+#include "frame_debug.hpp"
 
 namespace calibd::tools {
 
@@ -51,7 +52,9 @@ class SessionBuilder {
     // Detectors are built only when they will run (their references take a few hundred ms).
     if (options_.detect) {
       camera_detector_.emplace(options_.camera, config_.camera, config_.boards);
-      lidar_detector_.emplace(options_.lidar, model, config_.boards);
+      LidarDetectorConfig lidar = options_.lidar;
+      lidar.report_clusters = lidar.report_clusters || !options_.debug_dir.empty();
+      lidar_detector_.emplace(lidar, model, config_.boards);
     }
     if (camera_detector_ && !camera_detector_->ok()) {
       if (error) *error = "camera detector: " + camera_detector_->error();
@@ -116,6 +119,14 @@ class SessionBuilder {
       if (!session_->AddFrame(cd_, ld_, config_.boards,
                               FrameTimes{pending_->utime, lidar_msg.utime}))
         ++stats_->frames_over_capacity;
+      if (!options_.debug_dir.empty()) {
+        const FrameDebugInput debug{
+            pair_index, pending_->utime, lidar_msg.utime, static_cast<int>(cloud.size), &cd_, &ld_};
+        std::string write_error;
+        if (!WriteFrameDebug(options_.debug_dir, debug, &write_error) &&
+            stats_->debug_write_failures++ == 0)
+          stats_->first_debug_error = write_error;
+      }
     }
     if (kept_ && std::find(keep_.begin(), keep_.end(), pair_index) != keep_.end()) {
       FramePairData d;

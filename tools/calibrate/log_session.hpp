@@ -28,6 +28,9 @@ struct LogReadOptions {
   /// False: only pair frames and copy the `keep` pairs (no detection, `session` untouched), e.g.
   /// to fetch pictures after a calibration.
   bool detect = true;
+  /// --debug: a directory (existing) receiving what the detectors made of each pair
+  /// (frame_debug.hpp); empty: none. Turns on the LiDAR's cluster reports.
+  std::string debug_dir;
 };
 
 struct LogReadStats {
@@ -38,6 +41,8 @@ struct LogReadStats {
   int bad_camera = 0, bad_lidar = 0;            ///< of them, per sensor
   std::string first_bad_camera, first_bad_lidar;
   int frames_over_capacity = 0;
+  int debug_write_failures = 0;  ///< --debug files that could not be written
+  std::string first_debug_error;
   /// Dropped: time not after the previous frame of the same sensor (duplicates included).
   int out_of_order = 0;
   std::vector<double> camera_ms, lidar_ms;  ///< detection time per pair

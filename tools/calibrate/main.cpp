@@ -104,6 +104,13 @@ Options:
                        boards in cluttered indoor still poses, at some cost in time and in
                        board-like furniture (dropped when it stands still while the board
                        moves) (default off)
+  --debug DIR          what the detectors made of each frame pair, one JSON file per pair
+                       (DIR/pair_000000.json, DIR is created): the camera's boards (corners,
+                       PnP error, decision margin) and rejected candidates, and every LiDAR
+                       cluster with its cells, rectangle, RMS size, planarity, tilt, attached
+                       share, descriptor score and the gate that stopped it (board, too_large,
+                       attached, on_ground, not_planar, tilted, rectangle, size, descriptor,
+                       capacity)
   --max-frames N       frame pairs kept (default 2000)
   --pair-tolerance-ms  camera time allowed outside the LiDAR sweep (default 20)
   --quiet              no progress or summary
@@ -178,6 +185,8 @@ int main(int argc, char** argv) {
       html_path = value;
     else if (arg == "--export")
       export_dir = value;
+    else if (arg == "--debug")
+      read_options.debug_dir = value;
     else if (arg == "--truth")
       truth_path = value;
     else if (arg == "--method") {
@@ -268,6 +277,15 @@ int main(int argc, char** argv) {
   read_options.lidar_model = lidar_model;
   if (!quiet && lidar_model.kind == LidarKind::kGeneric)
     std::cerr << "calibd-calibrate: " << DescribeGenericLidar(lidar_model, &lidar_estimate) << "\n";
+  if (!read_options.debug_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(read_options.debug_dir, ec);
+    if (ec) {
+      std::cerr << "calibd-calibrate: --debug: cannot create " << read_options.debug_dir << ": "
+                << ec.message() << "\n";
+      return 2;
+    }
+  }
   const auto t_start = std::chrono::steady_clock::now();
   SessionObservations session;
   tools::LogReadStats stats;
@@ -278,6 +296,9 @@ int main(int argc, char** argv) {
     std::cerr << "calibd-calibrate: " << error << "\n";
     return 1;
   }
+  if (stats.debug_write_failures > 0)
+    std::cerr << "calibd-calibrate: warning: " << stats.debug_write_failures
+              << " --debug file(s) not written (first: " << stats.first_debug_error << ")\n";
   if (stats.padded_clouds > 0)
     std::cerr << "calibd-calibrate: warning: " << stats.padded_clouds
               << " binary PCD file(s) have bytes after their last point, ignored as PCL ignores "
