@@ -49,8 +49,10 @@ void ScoreLidar(const FrameDetections& frame, std::vector<int>* board_of_point,
     if (best != votes.end() && 2 * *best > c.num_points) {
       found[static_cast<size_t>(best - votes.begin())] = 1;
       ++drive->lidar_tp;
+      drive->lidar_true.push_back(1);
     } else {
       ++drive->lidar_fp;
+      drive->lidar_true.push_back(0);
     }
   }
   for (size_t b = 0; b < truth.size(); ++b)
@@ -79,6 +81,7 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
   FrameDetections frame;
   std::vector<int> board_of_point;
   drive->lidar_tp = drive->lidar_fp = drive->lidar_fn = drive->camera_boards_in_view = 0;
+  drive->lidar_true.clear();
   for (int k = 0; k < frames; ++k) {
     detected.Detect(k, true, &frame);
     ScoreLidar(frame, &board_of_point, drive);

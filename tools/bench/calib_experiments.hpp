@@ -37,6 +37,8 @@ struct RecordedDrive {
   /// on one true board; a board with at least kVisibleBoardPoints points and no true positive is
   /// a false negative.
   int lidar_tp = 0, lidar_fp = 0, lidar_fn = 0;
+  /// Per LiDAR detection, in the order they entered `observations`: 1 for a true positive.
+  std::vector<char> lidar_true;
   int camera_boards_in_view = 0;  ///< boards whose tag the camera could see (truth)
 };
 

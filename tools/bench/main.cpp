@@ -127,7 +127,8 @@ recordings
          person among furniture, 1.5-10 m; VLP-16, VLP-32C, OS1-64, Livox-Avia- and Mid-360-like
          LiDARs; pinhole and fisheye cameras), each calibrated from a config with only the board
          geometry, intrinsics, the LiDAR model's name and a prior 8 deg / 15 cm off: LiDAR board
-         recall and precision, verdict, error against the truth and grid-search convergence from
+         recall and precision (per frame, and of what the engine keeps after dropping static
+         scenery), verdict, error against the truth and grid-search convergence from
          priors rotated by up to +-10 deg, against the targets. Fails when a target is missed.
   --scenario LIST     comma-separated scenarios (default: all)
   --seed N            simulation seed (default 1)
