@@ -477,20 +477,32 @@ cv::Mat RenderCheckerboard(const CameraModel& model, const BoardGeometry& g,
   return image;
 }
 
-TEST(CameraDetector, CheckerboardGivesItsPose) {
-  CameraIntrinsics k;  // half-size camera, same field of view: keeps the rendering quick
+// A half-size camera with the default one's field of view: keeps the rendering quick.
+CameraIntrinsics HalfSizeCamera() {
+  CameraIntrinsics k;
   k.width = 1920;
   k.height = 960;
   k.fx = k.fy = 1662.5;
   k.cx = 959.5;
   k.cy = 479.5;
-  const CameraModel model(k);
+  return k;
+}
+
+// Board 7: a checkerboard of 5 x 7 inner corners, 6 cm squares.
+BoardGeometry SmallCheckerboard() {
   BoardGeometry g;
   g.board_id = 7;
   g.pattern = BoardGeometry::PatternKind::kCheckerboard;
   g.checker_inner_rows = 5;
   g.checker_inner_cols = 7;
   g.checker_square_size_m = 0.06;
+  return g;
+}
+
+TEST(CameraDetector, CheckerboardGivesItsPose) {
+  const CameraIntrinsics k = HalfSizeCamera();
+  const CameraModel model(k);
+  const BoardGeometry g = SmallCheckerboard();
   std::string error;
   ASSERT_TRUE(g.IsValid(&error)) << error;
   ASSERT_EQ(g.CheckerCornersInBoard().size(), 35u);
@@ -530,19 +542,9 @@ TEST(CameraDetector, CheckerboardGivesItsPose) {
 TEST(CameraDetector, ASmallCheckerboardInAStillFrameIsSearchedAtFullResolution) {
   // Squares of 7 px: gone in the half-size image the search runs on, found at full resolution,
   // which a still frame (no stream) can afford; a frame of a 10 Hz stream does not pay for it.
-  CameraIntrinsics k;
-  k.width = 1920;
-  k.height = 960;
-  k.fx = k.fy = 1662.5;
-  k.cx = 959.5;
-  k.cy = 479.5;
+  const CameraIntrinsics k = HalfSizeCamera();
   const CameraModel model(k);
-  BoardGeometry g;
-  g.board_id = 7;
-  g.pattern = BoardGeometry::PatternKind::kCheckerboard;
-  g.checker_inner_rows = 5;
-  g.checker_inner_cols = 7;
-  g.checker_square_size_m = 0.06;
+  const BoardGeometry g = SmallCheckerboard();
   const double distance = 14.0;
   Pose T_true = KnownPose(distance);
   T_true.translation().x() = 0.3;

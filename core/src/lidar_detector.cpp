@@ -146,7 +146,7 @@ struct LidarDetector::Impl {
   // Per-cluster scratch, sized once: one point per cell of a cluster (the mean of the cell's
   // points) and the input indices of all its points.
   std::vector<Eigen::Vector3f> cluster_points;
-  std::vector<int32_t> cluster_cells, cluster_indices;
+  std::vector<int32_t> cluster_indices;
   // Planes inside clusters that fail as a whole, and the scratch of one plane.
   PlaneRegions planes;
   std::vector<Eigen::Vector3f> region_points;
@@ -303,53 +303,38 @@ struct LidarDetector::Impl {
     out->clusters.push_back(*report);
   }
 
-  // Gates, descriptor and output of one cluster: n range-image cells `cells`, the cells c with
-  // mark[c] == id (the segmenter's labels, or a plane's). Fills points[k] and scratch_cells[k]
-  // (which may be `cells` itself) with each cell's point and index, even for a cluster too large
-  // to be a board when `fill_all` (its planes are extracted next).
-  ClusterGate Evaluate(const PointCloudView& cloud, const int32_t* cells, int n,
-                       const int32_t* mark, int32_t id, bool fill_all, Eigen::Vector3f* points,
-                       int32_t* scratch_cells, LidarClusterReport* report, LidarDetections* out) {
-    const LidarDetectorConfig& c = config;
-    report->num_points = n;
-    report->first_cell = cells[0];
-    const bool too_large = TooLarge(cells, n);
-    if (too_large && !fill_all) {
-      if (c.report_clusters) {
-        const RangeImageCell& first = image.cell(cells[0]);
-        report->centroid = Eigen::Vector3d(first.x, first.y, first.z);
-      }
-      Report(ClusterGate::kTooLarge, report, out);
-      return ClusterGate::kTooLarge;
-    }
-    // One point per cell, the mean of the cell's points (paper §III-C-1: the average of a pixel
-    // once far points are removed): the cluster is sampled on the range-image grid like the
-    // references, whatever the scan pattern's density. An M1 board at 7 m near a zone edge has
-    // three times the points on one side (the sinusoidal sweep turns there): it scores 0.86 with
-    // all points, 0.97 with one per cell (measured with M2DP l = 4, t = 16). All the cells'
-    // points go to the output.
+  // One point per cell of a segment, the mean of the cell's points (paper §III-C-1: the average of
+  // a pixel once far points are removed), into cluster_points: the cluster is sampled on the
+  // range-image grid like the references, whatever the scan pattern's density. An M1 board at 7 m
+  // near a zone edge has three times the points on one side (the sinusoidal sweep turns there): it
+  // scores 0.86 with all points, 0.97 with one per cell (measured with M2DP l = 4, t = 16). All the
+  // cells' points go to the output.
+  void FillPoints(const PointCloudView& cloud, const int32_t* cells, int n) {
     const int32_t* next_point = image.next_point().data();
-    double spacing_sum = 0.0;
     for (int k = 0; k < n; ++k) {
-      const int32_t cell_id = cells[k];
-      const RangeImageCell& cell = image.cell(cell_id);
+      const RangeImageCell& cell = image.cell(cells[k]);
       Eigen::Vector3f sum(cell.x, cell.y, cell.z);
       for (int32_t i = cell.next_point; i >= 0; i = next_point[i])
         sum += Eigen::Vector3f(cloud.x[i], cloud.y[i], cloud.z[i]);
-      points[k] = sum / static_cast<float>(cell.num_points);
-      scratch_cells[k] = cell_id;
-      spacing_sum += image.row_spacing_rad(image.RowOf(cell_id));
+      cluster_points[k] = sum / static_cast<float>(cell.num_points);
     }
-    if (too_large) {
-      report->centroid = points[0].cast<double>();
-      Report(ClusterGate::kTooLarge, report, out);
-      return ClusterGate::kTooLarge;
-    }
+  }
+
+  // Gates, descriptor and output of one cluster not too large to be a board: n range-image cells
+  // `cells` with their points (FillPoints), the cells c with mark[c] == id (the segmenter's
+  // labels, or a plane's).
+  ClusterGate Evaluate(const PointCloudView& cloud, const int32_t* cells,
+                       const Eigen::Vector3f* points, int n, const int32_t* mark, int32_t id,
+                       LidarClusterReport* report, LidarDetections* out) {
+    const LidarDetectorConfig& c = config;
+    const int32_t* next_point = image.next_point().data();
+    double spacing_sum = 0.0;
+    for (int k = 0; k < n; ++k) spacing_sum += image.row_spacing_rad(image.RowOf(cells[k]));
     const double beam_spacing = std::max(image.azimuth_step_rad(), spacing_sum / n);
     const bool on_ground =
-        c.min_board_clearance_m > 0.0 && RestsOnGround(scratch_cells, points, n, mark, id);
+        c.min_board_clearance_m > 0.0 && RestsOnGround(cells, points, n, mark, id);
     if (on_ground && !c.report_clusters) return ClusterGate::kOnGround;
-    if (c.weight_by_sample_area) RowWeights(scratch_cells, n);
+    if (c.weight_by_sample_area) RowWeights(cells, n);
     const float* weights = c.weight_by_sample_area ? cluster_weights.data() : nullptr;
     ClusterPca pca;
     ComputeClusterPca(points, n, &pca, weights);
@@ -393,7 +378,7 @@ struct LidarDetector::Impl {
     board.score = score;
     int num_indices = 0;
     for (int k = 0; k < n; ++k) {
-      const RangeImageCell& cell = image.cell(scratch_cells[k]);
+      const RangeImageCell& cell = image.cell(cells[k]);
       cluster_indices[num_indices++] = cell.index;
       for (int32_t i = cell.next_point; i >= 0; i = next_point[i])
         cluster_indices[num_indices++] = i;
@@ -541,7 +526,6 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   if (d.image.rows() < 2) min_gap = d.image.row_spacing_rad(0);
   d.min_cell_sr = d.image.azimuth_step_rad() * std::max(min_gap, 1e-6);
   d.cluster_points.resize(static_cast<size_t>(d.image.rows()) * d.image.cols());
-  d.cluster_cells.resize(d.cluster_points.size());
   d.region_points.resize(d.cluster_points.size());
   d.region_cells.resize(d.cluster_points.size());
   d.row_gap_sum.resize(d.image.rows());
@@ -650,21 +634,41 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
     const Segment& seg = d.segmenter.segment(s);
     const int n = seg.size();
     if (n < c.min_cluster_points) continue;
+    const int32_t* cells = members + seg.begin;
     LidarClusterReport report;
     report.segment = s;
-    const ClusterGate gate =
-        d.Evaluate(cloud, members + seg.begin, n, d.segmenter.labels().data(), seg.label,
-                   c.extract_planes, d.cluster_points.data(), d.cluster_cells.data(), &report, out);
+    report.num_points = n;
+    report.first_cell = cells[0];
+    const bool too_large = d.TooLarge(cells, n);
+    if (too_large && !c.extract_planes) {
+      if (c.report_clusters) {
+        const RangeImageCell& first = d.image.cell(cells[0]);
+        report.centroid = Eigen::Vector3d(first.x, first.y, first.z);
+      }
+      d.Report(ClusterGate::kTooLarge, &report, out);
+      continue;
+    }
+    d.FillPoints(cloud, cells, n);
+    ClusterGate gate = ClusterGate::kTooLarge;
+    if (too_large) {
+      report.centroid = d.cluster_points[0].cast<double>();
+      d.Report(gate, &report, out);
+    } else {
+      gate = d.Evaluate(cloud, cells, d.cluster_points.data(), n, d.segmenter.labels().data(),
+                        seg.label, &report, out);
+    }
     if (!c.extract_planes || !ExtractsPlanes(gate)) continue;
     // The cluster is not a board as a whole: the board may be one of its planes
-    // (plane_regions.hpp). Its cells' points were filled by Evaluate.
-    const int num_planes =
-        d.planes.Extract(d.image, d.cluster_cells.data(), d.cluster_points.data(), n);
+    // (plane_regions.hpp).
+    const int num_planes = d.planes.Extract(d.image, cells, d.cluster_points.data(), n);
     for (int p = 0; p < num_planes; ++p) {
       const PlaneRegion& region = d.planes.region(p);
       if (region.size() == n) break;  // the whole cluster again
-      for (int m = 0; m < region.size(); ++m)
-        d.region_cells[m] = d.cluster_cells[d.planes.members()[region.begin + m]];
+      for (int m = 0; m < region.size(); ++m) {
+        const int32_t k = d.planes.members()[region.begin + m];
+        d.region_cells[m] = cells[k];
+        d.region_points[m] = d.cluster_points[k];
+      }
       LidarClusterReport plane_report;
       plane_report.segment = s;
       plane_report.plane = p;
@@ -681,8 +685,8 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
         d.Report(ClusterGate::kAttached, &plane_report, out);
         continue;
       }
-      d.Evaluate(cloud, d.region_cells.data(), region.size(), d.planes.cell_region().data(), p + 1,
-                 false, d.region_points.data(), d.region_cells.data(), &plane_report, out);
+      d.Evaluate(cloud, d.region_cells.data(), d.region_points.data(), region.size(),
+                 d.planes.cell_region().data(), p + 1, &plane_report, out);
     }
   }
   const Clock::time_point t4 = Clock::now();

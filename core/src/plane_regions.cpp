@@ -8,6 +8,8 @@ namespace calibd {
 
 namespace {
 
+// The 4-neighbourhood: left, right, down, up.
+constexpr int kDr[4] = {0, 0, -1, 1}, kDc[4] = {-1, 1, 0, 0};
 // A local plane's window is sampled at most this many rows and columns each way.
 constexpr int kHalfSamples = 3;
 // A local plane needs this many cells of the cluster in its window.
@@ -123,7 +125,6 @@ bool PlaneRegions::LocalPlane(const RangeImage& image, const Eigen::Vector3f* po
 
 int PlaneRegions::Grow(const RangeImage& image, const Eigen::Vector3f* points, int k, int32_t label,
                        int tail, float tolerance, PlaneRegion* region) {
-  static constexpr int kDr[4] = {0, 0, -1, 1}, kDc[4] = {-1, 1, 0, 0};
   // The seed's window plane (through the window's centroid: the seed's own point is off the
   // plane by its noise).
   Eigen::Vector3f normal = normals_[k], center = centers_[k];
@@ -164,7 +165,6 @@ int PlaneRegions::Grow(const RangeImage& image, const Eigen::Vector3f* points, i
 
 double PlaneRegions::AttachedFraction(const RangeImage& image, const Eigen::Vector3f* points,
                                       int i) const {
-  static constexpr int kDr[4] = {0, 0, -1, 1}, kDc[4] = {-1, 1, 0, 0};
   const PlaneRegion& region = regions_[i];
   const int32_t label = region.label;
   const float jump = kJumpTolerances * tolerance_;
