@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <string>
@@ -105,6 +107,13 @@ TEST(CameraModel, IsValidNamesTheBadField) {
   error.clear();
   EXPECT_FALSE(c.IsValid(&error));
   EXPECT_NE(error.find("fx"), std::string::npos) << error;
+  // Infinite focal lengths (a config's `fx: +.INF`, found by fuzz_calib_config: it passed, and
+  // the config written back did not parse).
+  c.fx = 3325.0;
+  c.fy = std::numeric_limits<double>::infinity();
+  error.clear();
+  EXPECT_FALSE(c.IsValid(&error));
+  EXPECT_NE(error.find("finite"), std::string::npos) << error;
 }
 
 // ---- Kannala-Brandt (equidistant fisheye, cv::fisheye's k1..k4) ----

@@ -11,8 +11,8 @@ bool CameraIntrinsics::IsValid(std::string* error) const {
   std::ostringstream why;
   if (width <= 0 || height <= 0)
     why << "width/height must be positive";
-  else if (!(fx > 0.0) || !(fy > 0.0))
-    why << "fx/fy must be positive";
+  else if (!(fx > 0.0 && std::isfinite(fx)) || !(fy > 0.0 && std::isfinite(fy)))
+    why << "fx/fy must be positive and finite";
   else if (!(cx >= 0.0 && cx < width && cy >= 0.0 && cy < height))
     why << "cx/cy must lie inside the image";
   else if (!std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(p1) || !std::isfinite(p2) ||
