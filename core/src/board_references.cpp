@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <map>
 #include <random>
 
 #include "calibd/core/geometry.hpp"
@@ -26,6 +28,77 @@ double RingGapAt(const std::vector<double>& rings_deg, double elevation_deg) {
   return below > -1e300 ? sorted[sorted.size() - 1] - sorted[sorted.size() - 2]
                         : sorted[1] - sorted[0];
 }
+Eigen::Vector3d Direction(double elevation_rad, double azimuth_rad) {
+  return {std::cos(elevation_rad) * std::cos(azimuth_rad),
+          std::cos(elevation_rad) * std::sin(azimuth_rad), std::sin(elevation_rad)};
+}
+
+// Uniform in (0, 1] from 53 random bits (our own transform, so that the result does not depend
+// on the standard library's distributions).
+double Uniform(std::mt19937_64* rng) {
+  return (static_cast<double>((*rng)() >> 11) + 1.0) * 0x1.0p-53;
+}
+
+// A seed from every field of the view (their bits, mixed as splitmix64 does).
+uint64_t SeedOf(const BoardView& view) {
+  uint64_t seed = 0;
+  for (double v : {view.distance_m, view.elevation_deg, view.yaw_deg, view.pitch_deg,
+                   view.azimuth_phase, view.elevation_phase}) {
+    uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    seed += bits + 0x9e3779b97f4a7c15ULL;
+    seed = (seed ^ (seed >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    seed = (seed ^ (seed >> 27)) * 0x94d049bb133111ebULL;
+    seed ^= seed >> 31;
+  }
+  return seed;
+}
+
+// A non-repetitive pattern's frame over the board: beams uniform in solid angle over the patch
+// el0 +- half_span (and the azimuths it spans), as many as the pattern's density
+// (nominal_points_per_frame over its field of view) gives; then, as LidarDetector describes a
+// real cluster, one mean point per range-image cell hit. The view's phases shift the cells and
+// seed the draw, so each phase is another frame.
+template <typename Hit>
+void SampleIrregularBeams(const LidarModel& model, double el0, double half_span,
+                          const BoardView& view, const Hit& hit,
+                          std::vector<Eigen::Vector3f>* points, std::vector<float>* weights) {
+  const double az_fov = (model.azimuth_max_deg - model.azimuth_min_deg) * kDegToRad;
+  const double el_lo_fov = model.elevation_min_deg * kDegToRad;
+  const double el_hi_fov = model.elevation_max_deg * kDegToRad;
+  const double fov_sr = az_fov * (std::sin(el_hi_fov) - std::sin(el_lo_fov));
+  if (!(fov_sr > 0.0) || model.nominal_points_per_frame <= 0) return;
+  const double per_sr = model.nominal_points_per_frame / fov_sr;
+  const double el_lo = el0 - half_span, el_hi = el0 + half_span;
+  const double half_az = std::min(M_PI, half_span / std::max(0.05, std::cos(el0)));
+  const double patch_sr = 2.0 * half_az * (std::sin(el_hi) - std::sin(el_lo));
+  const long beams = std::lround(per_sr * patch_sr);
+  std::mt19937_64 rng(SeedOf(view));
+  const double az_step = model.azimuth_resolution_deg * kDegToRad;
+  const double el_step = model.elevation_resolution_deg * kDegToRad;
+  struct Cell {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int hits = 0;
+  };
+  std::map<std::pair<long, long>, Cell> cells;
+  for (long b = 0; b < beams; ++b) {
+    const double az = (2.0 * Uniform(&rng) - 1.0) * half_az;
+    const double el =
+        std::asin(std::sin(el_lo) + Uniform(&rng) * (std::sin(el_hi) - std::sin(el_lo)));
+    Eigen::Vector3d p;
+    if (!hit(Direction(el, az), &p)) continue;
+    Cell& c = cells[{std::lround(std::floor(az / az_step + view.azimuth_phase)),
+                     std::lround(std::floor(el / el_step + view.elevation_phase))}];
+    c.sum += p;
+    ++c.hits;
+  }
+  for (const auto& [key, c] : cells) {
+    const Eigen::Vector3d mean = c.sum / c.hits;
+    points->push_back(mean.cast<float>());
+    if (weights) weights->push_back(static_cast<float>(el_step));
+  }
+}
+
 }  // namespace
 
 void SimulateBoardCluster(const LidarModel& model, double width_m, double height_m,
@@ -53,6 +126,21 @@ void SimulateBoardCluster(const LidarModel& model, double width_m, double height
   const double radius = 0.5 * std::hypot(width_m, height_m);
   const double half_span = std::asin(std::min(1.0, radius / view.distance_m)) + 1e-9;
 
+  // Where the beam of direction `d` hits the board, if it does.
+  auto hit = [&](const Eigen::Vector3d& d, Eigen::Vector3d* p) {
+    const double denom = d.dot(n);
+    if (std::fabs(denom) < 1e-9) return false;
+    const double t = centre.dot(n) / denom;
+    if (t <= 0.0) return false;
+    const Eigen::Vector3d local = t * d - centre;
+    *p = t * d;
+    return std::fabs(local.dot(ax)) <= 0.5 * width_m && std::fabs(local.dot(ay)) <= 0.5 * height_m;
+  };
+  if (model.non_repetitive) {
+    SampleIrregularBeams(model, el0, half_span, view, hit, points, weights);
+    return;
+  }
+
   std::vector<double> elevations;
   if (rings) {
     for (double e : model.ring_elevation_deg) elevations.push_back(e * kDegToRad);
@@ -76,15 +164,9 @@ void SimulateBoardCluster(const LidarModel& model, double width_m, double height
     const float weight = static_cast<float>(std::max(gap, 0.0));
     for (int k = -half_cols; k <= half_cols; ++k) {
       const double az = (k + view.azimuth_phase) * az_step;
-      const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
-                              std::sin(el));
-      const double denom = d.dot(n);
-      if (std::fabs(denom) < 1e-9) continue;
-      const double t = centre.dot(n) / denom;
-      if (t <= 0.0) continue;
-      const Eigen::Vector3d local = t * d - centre;
-      if (std::fabs(local.dot(ax)) <= 0.5 * width_m && std::fabs(local.dot(ay)) <= 0.5 * height_m) {
-        points->push_back((t * d).cast<float>());
+      Eigen::Vector3d p;
+      if (hit(Direction(el, az), &p)) {
+        points->push_back(p.cast<float>());
         if (weights) weights->push_back(weight);
       }
     }
@@ -111,7 +193,7 @@ void AddRangeNoise(double sigma_m, uint64_t seed, std::vector<Eigen::Vector3f>* 
 std::vector<BoardView> DefaultReferenceViews() {
   std::vector<BoardView> views;
   for (double elevation : {0.0, -6.0})
-    for (double distance : {5.0, 8.0, 12.0, 18.0, 25.0, 32.0})
+    for (double distance : {2.0, 3.5, 5.0, 8.0, 12.0, 18.0, 25.0, 32.0})
       for (double yaw : {0.0, -20.0, 20.0, -40.0, 40.0})
         for (double pitch : {0.0, -20.0, 20.0, -40.0, 40.0})
           views.push_back(BoardView{distance, elevation, yaw, pitch});

@@ -270,6 +270,7 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   // Re-solves on random halves need the spread of the extrinsic over board subsets, not every
   // point of each board: half the points do.
   one.max_points_per_observation = std::max(3, one.max_points_per_observation / 2);
+  one.max_points_per_solve /= 2;
   const int threads = std::max(1, engine.direct.threads);
   const size_t n = corr.observations.size();
   const int chunks = 4 * threads;

@@ -31,6 +31,21 @@ int StrideOf(const BoardObservation& o, int max_points) {
   return std::max(1, (o.num_points + max_points - 1) / max_points);
 }
 
+// `config` with its per-observation point caps raised to the session's budget shared over the
+// observations used (max_points_per_solve).
+DirectOptimizerConfig WithSessionBudget(const std::vector<BoardGeometry>& boards,
+                                        const ObservationSet& set, const std::vector<char>* use,
+                                        DirectOptimizerConfig config) {
+  int used = 0;
+  for (size_t k = 0; k < set.observations.size(); ++k) used += Used(boards, set, use, k);
+  if (used == 0) return config;
+  config.max_points_per_observation =
+      std::max(config.max_points_per_observation, config.max_points_per_solve / used);
+  config.joint_points_per_observation =
+      std::max(config.joint_points_per_observation, config.max_joint_points_per_solve / used);
+  return config;
+}
+
 ceres::Solver::Options SolverOptions(const DirectOptimizerConfig& config) {
   ceres::Solver::Options options;
   options.max_num_iterations = config.max_iterations;
@@ -100,6 +115,8 @@ bool DirectOptimizerConfig::IsValid(std::string* error) const {
   if (!(huber_m < 1.0)) return fail("huber_m must be below 1 m");
   if (max_points_per_observation < 3) return fail("max_points_per_observation must be >= 3");
   if (joint_points_per_observation < 3) return fail("joint_points_per_observation must be >= 3");
+  if (max_points_per_solve < 0) return fail("max_points_per_solve must be >= 0");
+  if (max_joint_points_per_solve < 0) return fail("max_joint_points_per_solve must be >= 0");
   if (max_iterations < 1) return fail("max_iterations must be >= 1");
   if (round_iterations < 1) return fail("round_iterations must be >= 1");
   if (threads < 1) return fail("threads must be >= 1");
@@ -217,12 +234,13 @@ static bool CanSolve(const std::vector<BoardGeometry>& boards, const Observation
 }
 
 DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
-                            const Pose& T_init, const DirectOptimizerConfig& config,
+                            const Pose& T_init, const DirectOptimizerConfig& session_config,
                             const std::vector<char>* use, bool solve, const CameraModel* camera) {
   const auto t0 = std::chrono::steady_clock::now();
   DirectResult result;
   result.T_camera_lidar = T_init;
-  if (!CanSolve(boards, set, config, use, &result)) return result;
+  if (!CanSolve(boards, set, session_config, use, &result)) return result;
+  const DirectOptimizerConfig config = WithSessionBudget(boards, set, use, session_config);
 
   // Board poses: the camera's, or refined with the extrinsic (refine_board_poses).
   std::vector<Pose> T_camera_board(set.observations.size());
@@ -271,7 +289,7 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
 
 DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
                                    const ObservationSet& set, const Pose& T_init,
-                                   const DirectOptimizerConfig& config,
+                                   const DirectOptimizerConfig& session_config,
                                    const std::vector<Pose>& T_camera_board,
                                    const std::vector<char>* use) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -281,7 +299,8 @@ DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
     result.reason = "one board pose per observation needed";
     return result;
   }
-  if (!CanSolve(boards, set, config, use, &result)) return result;
+  if (!CanSolve(boards, set, session_config, use, &result)) return result;
+  const DirectOptimizerConfig config = WithSessionBudget(boards, set, use, session_config);
   SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_init, true, HeldSolve::kResolve,
                       &result);
   result.solve_ms =

@@ -429,8 +429,9 @@ struct LidarDetector::Impl {
   }
 
   // The reference descriptors of every distinct board size (paper §III-C-2), built on two
-  // threads at start-up (about 1200 descriptors: half the agent's time to ready). Each view has
-  // its own noise seed, so the result does not depend on the thread count.
+  // threads at start-up (views x reference_samples descriptors per board size: about half the
+  // agent's time to ready). Each view has its own noise seed, so the result does not depend on the
+  // thread count.
   void BuildReferences() {
     struct Task {
       double width_m, height_m;

@@ -231,6 +231,7 @@ LidarModel MakeAvia() {
   m.range_quantization_m = 0.001;
   m.frame_rate_hz = 10.0;
   m.nominal_points_per_frame = 24000;
+  m.non_repetitive = true;
   return m;
 }
 
@@ -254,6 +255,7 @@ LidarModel MakeMid360() {
   m.range_quantization_m = 0.001;
   m.frame_rate_hz = 10.0;
   m.nominal_points_per_frame = 20000;
+  m.non_repetitive = true;
   return m;
 }
 

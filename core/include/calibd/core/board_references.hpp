@@ -32,10 +32,12 @@ struct BoardView {
 
 /// Intersects the beams of `model` with a width x height rectangle seen as `view`: for ring
 /// LiDARs the ring elevations x azimuth steps; for ringless ones the grid of their azimuth and
-/// elevation resolution (both shifted by the view's phases). Writes the hit points (LiDAR frame,
-/// noise-free) into `points` and, if `weights` is not null, the elevation gap each beam stands
-/// for (half the gap between its neighbouring rows, rad), as LidarDetector weighs real clusters
-/// (LidarDetectorConfig::weight_by_sample_area).
+/// elevation resolution (both shifted by the view's phases); for non-repetitive ones
+/// (LidarModel::non_repetitive) beams drawn at random at the pattern's density, one mean point
+/// per range-image cell hit (the phases shift the cells and seed the draw). Writes the hit points
+/// (LiDAR frame, noise-free) into `points` and, if `weights` is not null, the elevation gap each
+/// beam stands for (half the gap between its neighbouring rows, rad), as LidarDetector weighs real
+/// clusters (LidarDetectorConfig::weight_by_sample_area).
 void SimulateBoardCluster(const LidarModel& model, double width_m, double height_m,
                           const BoardView& view, std::vector<Eigen::Vector3f>* points,
                           std::vector<float>* weights = nullptr);
@@ -45,8 +47,9 @@ void SimulateBoardCluster(const LidarModel& model, double width_m, double height
 /// the result does not depend on the standard library).
 void AddRangeNoise(double sigma_m, uint64_t seed, std::vector<Eigen::Vector3f>* points);
 
-/// The views the detector builds references from: distances 5, 8, 12, 18, 25 and 32 m, yaw and
-/// pitch in {0, +-20, +-40} deg, at elevations 0 and -6 deg (a board below a roof LiDAR).
+/// The views the detector builds references from: distances 2, 3.5, 5, 8, 12, 18, 25 and 32 m
+/// (workshops and labs place boards from 1.5 m), yaw and pitch in {0, +-20, +-40} deg, at
+/// elevations 0 and -6 deg (a board below a roof LiDAR).
 std::vector<BoardView> DefaultReferenceViews();
 
 }  // namespace calibd

@@ -37,8 +37,11 @@ namespace calibd {
 struct VerdictConfig {
   double verify_rotation_deg = 0.15;  ///< below both: `verified`, the prior is kept
   double verify_translation_m = 0.015;
-  double max_rotation_deg = 10.0;  ///< mechanical tolerance: beyond it, `rejected`
-  double max_translation_m = 0.15;
+  /// Mechanical tolerance: beyond it, `rejected`. A nominal prior from the mounting drawings is
+  /// within about 10 deg / 20 cm of the truth (the grid search's reach), so a first calibration
+  /// from one must pass it.
+  double max_rotation_deg = 10.0;
+  double max_translation_m = 0.20;
   /// The least data the engine solves with. The verdict rests on the evidence (the formal
   /// sigmas, the plane conditioning, the half-data spread, the residuals), not on counts: a dozen
   /// well-spread still poses of one board can pass, two hundred frames of one board far away

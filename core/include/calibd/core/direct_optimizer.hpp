@@ -29,6 +29,12 @@ struct DirectOptimizerConfig {
   /// agent replay rejected); since the solve works on the normal equations
   /// (compressed_box_cost.hpp) 256 costs falcon's 200 pairs about 126 ms.
   int max_points_per_observation = 256;
+  /// The session's point budget: with fewer observations than a drive's, each gets up to
+  /// this / observations points instead, so a dozen still poses of one board use every point
+  /// they have (their information is in the points), while a 600-board drive is strided to
+  /// max_points_per_observation as before. Same for joint_points_per_observation.
+  int max_points_per_solve = 600 * 256;
+  int max_joint_points_per_solve = 600 * 64;
   int max_iterations = 50;
   double function_tolerance = 1e-10;
   int threads = 2;

@@ -117,7 +117,7 @@ struct LidarDetectorConfig {
   /// Noisy samplings averaged into each reference view, each at another phase of the beam grid
   /// (BoardView::azimuth_phase, elevation_phase) with its own noise: the reference is the mean
   /// (standardized) descriptor, which a single real cluster correlates with better than with any
-  /// single sampling. More costs start-up time (300 views x 4: 0.2-0.4 s in Release) for small
+  /// single sampling. More costs start-up time (400 views x 4 per board size) for small
   /// gains (8 samplings: the same precision and recall on the bench, twice the start-up).
   int reference_samples = 4;
   /// Pearson correlation with the best reference (paper Eq. 1); the paper's 0.94. Lower admits

@@ -39,6 +39,10 @@ struct LidarModel {
   double range_quantization_m = 0.004;  ///< range resolution of the sensor
   double frame_rate_hz = 10.0;
   int nominal_points_per_frame = 0;  ///< typical returns per frame (for buffer sizing)
+  /// No fixed beam grid (Livox's rosettes, the Mid-360's sweep): within one frame the beams fall
+  /// irregularly, about nominal_points_per_frame over the field of view, so a range-image cell
+  /// holds none, one or several. Reference boards are then sampled at random at that density.
+  bool non_repetitive = false;
 };
 
 /// Parses a model name (LidarModelNames()). Returns false and sets `error`, listing the names, for
