@@ -144,5 +144,65 @@ TEST(GridSearchTest, EmptyInputAndNoCandidateAreExplicit) {
   EXPECT_NE(g.reason.find("fewer than"), std::string::npos) << g.reason;
 }
 
+// Points of a side x side square facing the sensor, centred `range_m` away at azimuth `az_deg`
+// and elevation -5 deg, `step_m` apart.
+std::vector<Eigen::Vector3f> FacingSquare(double range_m, double az_deg, double side_m,
+                                          double step_m) {
+  const double az = az_deg * kDeg, el = -5.0 * kDeg;
+  const Eigen::Vector3d dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+  const Eigen::Vector3d right = Eigen::Vector3d::UnitZ().cross(dir).normalized();
+  const Eigen::Vector3d up = dir.cross(right);
+  std::vector<Eigen::Vector3f> pts;
+  const int n = static_cast<int>(side_m / step_m);
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j)
+      pts.push_back(
+          (range_m * dir + (i * step_m - side_m / 2) * right + (j * step_m - side_m / 2) * up)
+              .cast<float>());
+  return pts;
+}
+
+TEST(GridSearchTest, AClusterFarBehindTheBoardDoesNotCount) {
+  // Each frame: a 0.9 m board 4 m away, and a large cluster (a cabinet face, a wall patch) 8 m
+  // away, 8 deg beside it, inside the board's range-image region. Counted, its points pull the
+  // search towards rotations that centre the region on it; it is 4 m behind the board, outside
+  // the cube Alg. 1 draws around the board, so it must not count.
+  auto r = Record("ot128", 1);
+  const Pose T_cl = r->session.T_camera_lidar();
+  std::vector<BoardGeometry> boards(1);
+  boards[0].width_m = boards[0].height_m = 0.9;
+  SessionObservations s;
+  s.Reserve(6, 2, 6000);
+  for (int f = 0; f < 6; ++f) {
+    const double az = -20.0 + 10.0 * f;
+    ASSERT_TRUE(s.BeginFrame());
+    Pose T_lidar_board = Pose::Identity();
+    const double el = -5.0 * kDeg;
+    T_lidar_board.translation() =
+        4.0 * Eigen::Vector3d(std::cos(el) * std::cos(az * kDeg),
+                              std::cos(el) * std::sin(az * kDeg), std::sin(el));
+    SessionObservations::CameraBoard cam;
+    cam.frame = f;
+    cam.board_index = 0;
+    cam.T_camera_board = T_cl * T_lidar_board;
+    ASSERT_TRUE(s.AddCameraBoard(cam));
+    const auto board = FacingSquare(4.0, az, 0.9, 0.03);
+    const auto far = FacingSquare(8.0, az + 8.0, 1.2, 0.03);
+    ASSERT_TRUE(s.AddLidarCluster(board.data(), nullptr, static_cast<int>(board.size())));
+    ASSERT_TRUE(s.AddLidarCluster(far.data(), nullptr, static_cast<int>(far.size())));
+  }
+  GridSearch search(GridSearchConfig{}, r->projection, boards);
+  ObservationSet corr;
+  corr.Reserve(6, 6000);
+  const GridSearchResult g = search.Run(s, T_cl, &corr);
+  ASSERT_EQ(g.status, GridSearchResult::Status::kOk) << g.reason;
+  EXPECT_LT(g.perturbation_rpy_deg.norm(), 1.0) << g.perturbation_rpy_deg.transpose();
+  // Every correspondence is the board, none the far cluster.
+  ASSERT_EQ(corr.observations.size(), 6u);
+  for (const BoardObservation& o : corr.observations) {
+    EXPECT_NEAR(corr.points[o.first_point].norm(), 4.0, 0.7);
+  }
+}
+
 }  // namespace
 }  // namespace calibd

@@ -78,11 +78,24 @@ bool GridSearch::RegionOf(const Eigen::Vector3d& c, double side, Roi* roi) const
 }
 
 bool GridSearch::BoardRegion(const SessionObservations::CameraBoard& cam,
-                             const Pose& T_lidar_camera, Roi* roi) const {
+                             const Pose& T_lidar_camera, Roi* roi, double* range_lo,
+                             double* range_hi) const {
   if (cam.board_index < 0 || cam.board_index >= static_cast<int>(boards_.size())) return false;
   const BoardGeometry& g = boards_[cam.board_index];
-  return RegionOf(T_lidar_camera * cam.T_camera_board.translation(),
-                  std::max(g.width_m, g.height_m), roi);
+  const Eigen::Vector3d centre = T_lidar_camera * cam.T_camera_board.translation();
+  const double side = std::max(g.width_m, g.height_m);
+  const double range = centre.norm();
+  const double reach = side + 0.05 * range;
+  *range_lo = range - reach;
+  *range_hi = range + reach;
+  return RegionOf(centre, side, roi);
+}
+
+double GridSearch::ClusterRange(const SessionObservations& s,
+                                const SessionObservations::LidarCluster& c) {
+  double sum = 0.0;
+  for (int i = 0; i < c.num_points; ++i) sum += s.points[c.first_point + i].cast<double>().norm();
+  return c.num_points > 0 ? sum / c.num_points : 0.0;
 }
 
 void GridSearch::Prepare(const SessionObservations& s) {
@@ -90,9 +103,13 @@ void GridSearch::Prepare(const SessionObservations& s) {
   integral_.clear();
   frame_first_cluster_.assign(static_cast<size_t>(s.num_frames) + 1, 0);
   for (const auto& c : s.lidar) {
-    ClusterGrid g{
-        c.frame,         std::numeric_limits<int>::max(), std::numeric_limits<int>::max(), 0, 0,
-        integral_.size()};
+    ClusterGrid g{c.frame,
+                  std::numeric_limits<int>::max(),
+                  std::numeric_limits<int>::max(),
+                  0,
+                  0,
+                  integral_.size(),
+                  ClusterRange(s, c)};
     int row_hi = std::numeric_limits<int>::min(), col_hi = std::numeric_limits<int>::min();
     std::vector<std::pair<int, int>>& cells = cells_;
     cells.clear();
@@ -155,9 +172,11 @@ long GridSearch::CountFast(const SessionObservations& s, const Pose& T_camera_li
     const int rank = Rank(cam.frame, s.num_frames);
     if (rank < 0 || rank % frame_stride != 0) continue;
     Roi roi;
-    if (!BoardRegion(cam, T_lidar_camera, &roi)) continue;
+    double range_lo = 0.0, range_hi = 0.0;
+    if (!BoardRegion(cam, T_lidar_camera, &roi, &range_lo, &range_hi)) continue;
     long best = 0;
     for (int k = frame_first_cluster_[cam.frame]; k < frame_first_cluster_[cam.frame + 1]; ++k) {
+      if (grids_[k].range_m < range_lo || grids_[k].range_m > range_hi) continue;
       const long n = ClusterCount(grids_[k], roi);
       total += n;
       if (best_cluster && n > best) {
@@ -174,9 +193,12 @@ long GridSearch::CountBruteForce(const SessionObservations& s, const Pose& T_cam
   long total = 0;
   for (const auto& cam : s.camera) {
     Roi roi;
-    if (!BoardRegion(cam, T_lidar_camera, &roi)) continue;
+    double range_lo = 0.0, range_hi = 0.0;
+    if (!BoardRegion(cam, T_lidar_camera, &roi, &range_lo, &range_hi)) continue;
     for (const auto& c : s.lidar) {
       if (c.frame != cam.frame) continue;
+      const double range = ClusterRange(s, c);
+      if (range < range_lo || range > range_hi) continue;
       for (int i = 0; i < c.num_points; ++i) {
         int row = 0, col = 0;
         if (!CellOfPoint(projection_, s.points[c.first_point + i].cast<double>(), &row, &col))

@@ -5,6 +5,11 @@
 /// every camera-detected board centre mapped into the LiDAR frame. The best candidate also yields
 /// the camera-LiDAR board correspondences for the optimisation.
 ///
+/// Alg. 1's region is a cube around the predicted board centre; its range-image rectangle also
+/// holds whatever lies in front of or behind the board in that direction (a wall 2 m behind, a
+/// cabinet face). A cluster counts only when its mean range is within the cube's reach of the
+/// predicted centre's (a board side, plus 5% of the range for the camera's depth error).
+///
 /// Beyond the paper: a second, finer pass around the best coarse candidate, and an explicit
 /// "no candidate" result when even the best one sees too few points (instead of a silent guess).
 
@@ -99,12 +104,17 @@ class GridSearch {
   };
   struct ClusterGrid {  // integral image of a cluster's points over its cell bounding box
     int frame, row0, col0, rows, cols;
-    size_t offset;  // into integral_
+    size_t offset;   // into integral_
+    double range_m;  // mean range of its points
   };
   bool RegionOf(const Eigen::Vector3d& centre_lidar, double side, Roi* roi) const;
-  /// The region of one camera-detected board under T_lidar_camera; false when there is none.
+  /// The region of one camera-detected board under T_lidar_camera, and the range band
+  /// [range_lo, range_hi] a cluster's mean range must fall in; false when there is none.
   bool BoardRegion(const SessionObservations::CameraBoard& cam, const Pose& T_lidar_camera,
-                   Roi* roi) const;
+                   Roi* roi, double* range_lo, double* range_hi) const;
+  /// Mean range of a cluster's points.
+  static double ClusterRange(const SessionObservations& session,
+                             const SessionObservations::LidarCluster& cluster);
   long CountFast(const SessionObservations& session, const Pose& T_camera_lidar,
                  std::vector<int>* best_cluster, int frame_stride = 1) const;
   long ClusterCount(const ClusterGrid& g, const Roi& roi) const;
