@@ -127,6 +127,54 @@ TEST(RecordedFolderCliTest, FolderAndImportedLogCalibrateNearTheTruth) {
   EXPECT_EQ(folder["frames"]["bad_messages"].get<int>(), 0) << folder["frames"];
   EXPECT_EQ(folder["frames"]["unpaired_camera"].get<int>(), 0);
 
+  // --inspect, as a new user without a config: the tags, the LiDAR model and a starter config
+  // that, once its TODOs are measured, reads back with the session's boards and model.
+  ASSERT_EQ(testing::RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --inspect --folder " +
+                                dir.file("rec") + " --intrinsics " + dir.file("camera_info.yaml") +
+                                " --write-config " + dir.file("starter.yaml") + " > " +
+                                dir.file("inspect.txt") + " 2>&1"),
+            0);
+  std::string table, starter;
+  ASSERT_TRUE(ReadWholeFile(dir.file("inspect.txt"), &table, &error)) << error;
+  ASSERT_TRUE(ReadWholeFile(dir.file("starter.yaml"), &starter, &error)) << error;
+  for (const BoardGeometry& g : config.boards)
+    EXPECT_NE(table.find("tag " + g.tag_family + " id " + std::to_string(g.tag_id) + " ("),
+              std::string::npos)
+        << table;
+  EXPECT_NE(table.find("128 rings"), std::string::npos) << table;
+  EXPECT_NE(table.find("model ot128"), std::string::npos) << table;
+  ConfigParseOptions with_intrinsics;
+  with_intrinsics.intrinsics = &config.camera;
+  CalibConfig unmeasured;
+  EXPECT_FALSE(ParseConfigYaml(starter, &unmeasured, &error, with_intrinsics));  // TODOs refuse
+  EXPECT_NE(error.find("width_m"), std::string::npos) << error;
+  // The tape measure: every board's sizes, and the lever arm.
+  ASSERT_EQ(starter.find("checkerboard"), std::string::npos) << starter;
+  ASSERT_FALSE(config.boards.empty());
+  for (const char* key : {"width_m: TODO", "height_m: TODO", "tag_size_m: TODO"}) {
+    const std::string k(key);
+    const std::string value =
+        k.rfind("tag_size", 0) == 0 ? ShortestDecimal(config.boards[0].tag_size_m)
+        : k.rfind("width", 0) == 0  ? ShortestDecimal(config.boards[0].width_m)
+                                    : ShortestDecimal(config.boards[0].height_m);
+    for (size_t at = starter.find(k); at != std::string::npos; at = starter.find(k))
+      starter.replace(at, k.size(), k.substr(0, k.size() - 4) + value);
+  }
+  CalibConfig measured;
+  ASSERT_TRUE(ParseConfigYaml(starter, &measured, &error, with_intrinsics)) << error << "\n"
+                                                                            << starter;
+  EXPECT_EQ(measured.lidar_model, "ot128");
+  ASSERT_EQ(measured.boards.size(), config.boards.size()) << starter;
+  for (size_t b = 0; b < config.boards.size(); ++b) {
+    EXPECT_EQ(measured.boards[b].tag_family, config.boards[b].tag_family);
+    EXPECT_EQ(measured.boards[b].tag_id, config.boards[b].tag_id);
+  }
+  // The nominal prior of the forward mounting: within the grid search's reach of the truth.
+  EXPECT_LT(RotationAngle(measured.prior_T_camera_lidar.linear(),
+                          testing::TruthExtrinsic(dir.file("truth.json")).linear()) *
+                180.0 / M_PI,
+            10.0);
+
   // calibd-import: the same folder as a log, replayed by calibd-calibrate --log.
   ASSERT_EQ(RunCommand(std::string(CALIBD_IMPORT_EXE) + " --folder " + dir.file("rec") +
                        " --config " + dir.file("spoilt.yaml") + " --intrinsics " +

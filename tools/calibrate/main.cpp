@@ -24,6 +24,7 @@
 #include "calibd/drivers/intrinsics_file.hpp"
 #include "calibd/drivers/recorded_folder.hpp"
 #include "html_report.hpp"
+#include "inspect.hpp"
 #include "lidar_model_source.hpp"
 #include "log_session.hpp"
 #include "overlay.hpp"
@@ -38,11 +39,21 @@ constexpr const char* kHelp =
 
 Usage: calibd-calibrate --log session.lcmlog --config calib.yaml [--report report.json] [options]
        calibd-calibrate --folder DIR --config calib.yaml [--intrinsics FILE] [options]
+       calibd-calibrate --inspect --folder DIR [--intrinsics FILE] [--mounting NAME]
+                        [--write-config FILE]
 
 Reads the camera and LiDAR frames of the log (calibd's LCM channels) or of a folder of recorded
 frames, pairs them by time, detects the configured boards in both sensors, runs the coarse grid
 search around the config's prior extrinsic and the direct optimisation (paper Eq. 4-5), and judges
 the result against the prior.
+
+--inspect looks at a folder before any config exists: per file, the AprilTags (family, id,
+size in px; tag36h11, tag25h9, tagStandard41h12, tag36h10) and checkerboards (inner corners,
+square size in px) the image shows, or the cloud's points, rings, elevation span and the named
+LiDAR model it fits; then a starter config with those boards, the model and a nominal prior from
+--mounting (forward: camera looking forward, LiDAR x forward; backward, left, right), printed or
+written to --write-config FILE, with TODO where only a tape measure can tell (board, tag and
+square sizes, the lever arm). Unreadable files are named and skipped.
 
 Options:
   --log FILE           LCM log with CALIBD_CAMERA and CALIBD_LIDAR frames
@@ -151,6 +162,8 @@ int main(int argc, char** argv) {
   bool method_given = false, motion_compensation_given = false, board_pose_refinement_given = false;
   tools::LogReadOptions read_options;
   bool quiet = false;
+  bool inspect = false;
+  tools::InspectOptions inspect_options;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--help" || arg == "-h") {
@@ -161,6 +174,10 @@ int main(int argc, char** argv) {
     }
     if (arg == "--quiet") {
       quiet = true;
+      continue;
+    }
+    if (arg == "--inspect") {
+      inspect = true;
       continue;
     }
     if (i + 1 >= argc) {
@@ -189,6 +206,10 @@ int main(int argc, char** argv) {
       read_options.debug_dir = value;
     else if (arg == "--truth")
       truth_path = value;
+    else if (arg == "--mounting")
+      inspect_options.mounting = value;
+    else if (arg == "--write-config")
+      inspect_options.config_out = value;
     else if (arg == "--method") {
       method = value;
       method_given = true;
@@ -225,6 +246,16 @@ int main(int argc, char** argv) {
       std::cerr << "calibd-calibrate: unknown option '" << arg << "' (see --help)\n";
       return 2;
     }
+  }
+  if (inspect) {
+    if (folder_path.empty() || !log_path.empty() || !config_path.empty()) {
+      std::cerr << "calibd-calibrate: --inspect needs --folder DIR and no --log or --config (see "
+                   "--help)\n";
+      return 2;
+    }
+    inspect_options.folder = folder_path;
+    inspect_options.intrinsics_path = intrinsics_path;
+    return tools::RunInspect(inspect_options, std::cout, std::cerr);
   }
   if (log_path.empty() == folder_path.empty() || config_path.empty()) {
     std::cerr << "calibd-calibrate: --config and one of --log or --folder are required (see "
