@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "calibd/core/lidar_resolution.hpp"
 #include "temp_dir.hpp"
 
 namespace calibd {
@@ -159,6 +160,8 @@ TEST(ConfigFileTest, GenericLidarKeysRoundTripAndNameTheBadKey) {
   c.lidar_generic.elevation_min_deg = -15.0;
   c.lidar_generic.elevation_max_deg = 15.0;
   c.lidar_generic.max_points = 250000;
+  c.lidar_generic.pattern = GenericLidarConfig::Pattern::kIrregular;
+  c.lidar_generic.points_per_frame = 24000;
   const std::string yaml = ConfigToYaml(c);
   CalibConfig back;
   std::string error;
@@ -168,6 +171,8 @@ TEST(ConfigFileTest, GenericLidarKeysRoundTripAndNameTheBadKey) {
   EXPECT_EQ(back.lidar_generic.elevation_resolution_deg, 0.0);  // estimated
   EXPECT_EQ(back.lidar_generic.elevation_min_deg, -15.0);
   EXPECT_EQ(back.lidar_generic.max_points, 250000);
+  EXPECT_EQ(back.lidar_generic.pattern, GenericLidarConfig::Pattern::kIrregular);
+  EXPECT_EQ(back.lidar_generic.points_per_frame, 24000);
   // Only the model name is needed: every generic value has a default.
   std::string minimal = ConfigToYaml(Example());
   minimal.replace(minimal.find("model: m1"), 9, "model: generic");
@@ -182,6 +187,24 @@ TEST(ConfigFileTest, GenericLidarKeysRoundTripAndNameTheBadKey) {
   bad.replace(bad.find("azimuth_resolution_deg: 0.1"), 27, "azimuth_resolution_deg: -1");
   EXPECT_FALSE(ParseConfigYaml(bad, &back, &error));
   EXPECT_EQ(error.rfind("lidar.generic.azimuth_resolution_deg", 0), 0u) << error;
+  bad = yaml;
+  bad.replace(bad.find("pattern: irregular"), 18, "pattern: rosette");
+  EXPECT_FALSE(ParseConfigYaml(bad, &back, &error));
+  EXPECT_EQ(error.rfind("lidar.generic.pattern", 0), 0u) << error;
+  EXPECT_NE(error.find("auto, lines or irregular"), std::string::npos) << error;
+  // An irregular pattern needs its density to make a model without frames.
+  GenericLidarConfig irregular = c.lidar_generic;
+  irregular.azimuth_resolution_deg = irregular.elevation_resolution_deg = 0.4;
+  irregular.azimuth_min_deg = -35.0;
+  irregular.azimuth_max_deg = 35.0;
+  irregular.pattern = GenericLidarConfig::Pattern::kIrregular;
+  LidarModel model;
+  ASSERT_TRUE(MakeGenericLidarModel(irregular, nullptr, &model, &error)) << error;
+  EXPECT_TRUE(model.non_repetitive);
+  EXPECT_EQ(model.pattern_points_per_frame, 24000);
+  irregular.points_per_frame = 0;
+  EXPECT_FALSE(irregular.complete());
+  EXPECT_FALSE(MakeGenericLidarModel(irregular, nullptr, &model, &error));
 }
 
 TEST(ConfigFileTest, MissingFileNamesThePath) {

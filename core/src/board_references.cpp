@@ -67,8 +67,10 @@ void SampleIrregularBeams(const LidarModel& model, double el0, double half_span,
   const double el_lo_fov = model.elevation_min_deg * kDegToRad;
   const double el_hi_fov = model.elevation_max_deg * kDegToRad;
   const double fov_sr = az_fov * (std::sin(el_hi_fov) - std::sin(el_lo_fov));
-  if (!(fov_sr > 0.0) || model.nominal_points_per_frame <= 0) return;
-  const double per_sr = model.nominal_points_per_frame / fov_sr;
+  const int frame_points = model.pattern_points_per_frame > 0 ? model.pattern_points_per_frame
+                                                              : model.nominal_points_per_frame;
+  if (!(fov_sr > 0.0) || frame_points <= 0) return;
+  const double per_sr = frame_points / fov_sr;
   const double el_lo = el0 - half_span, el_hi = el0 + half_span;
   const double half_az = std::min(M_PI, half_span / std::max(0.05, std::cos(el0)));
   const double patch_sr = 2.0 * half_az * (std::sin(el_hi) - std::sin(el_lo));

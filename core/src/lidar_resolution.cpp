@@ -46,6 +46,17 @@ class GapHistogram {
     ++total_;
   }
   int total() const { return total_; }
+  // Quantile q of every gap (not only a cluster's), degrees.
+  double Quantile(double q) const {
+    const double target = q * total_;
+    double cum = 0.0;
+    for (int i = 0; i < kBins; ++i) {
+      cum += counts_[static_cast<size_t>(i)];
+      if (cum >= target && counts_[static_cast<size_t>(i)] > 0)
+        return kMinDeg * std::pow(kRatio, i + 0.5);
+    }
+    return kMinDeg * std::pow(kRatio, kBins);
+  }
 
   // Median of the finest cluster holding at least `min_fraction` of the gaps; false when there is
   // none. A cluster is a run of occupied bins in which empty stretches of up to kBridgeBins
@@ -204,6 +215,8 @@ bool LidarResolutionConfig::IsValid(std::string* error) const {
     return fail("max_gap_deg: must be in (max_resolution_deg, 5]");
   if (!(min_cluster_fraction > 0.0 && min_cluster_fraction <= 1.0))
     return fail("min_cluster_fraction: must be in (0, 1]");
+  if (!(irregular_gap_spread > 1.0 && irregular_gap_spread < 100.0))
+    return fail("irregular_gap_spread: must be in (1, 100)");
   if (min_points_per_frame < 10) return fail("min_points_per_frame: must be >= 10");
   return true;
 }
@@ -304,6 +317,8 @@ LidarResolutionEstimate EstimateLidarResolution(const PointCloudView* frames, si
   // Vertical gaps in azimuth columns two mean sample spacings wide, per frame.
   const double mean_points = static_cast<double>(n) / static_cast<double>(begin.size());
   const double spacing = std::sqrt((az_hi - az_lo) * (el_hi - el_lo) / mean_points);
+  est.mean_spacing_deg = spacing;
+  est.mean_points_per_frame = static_cast<int>(std::lround(mean_points));
   const double column_deg = std::clamp(2.0 * spacing, 0.05, 5.0);
   std::vector<uint64_t> keys, tmp;
   keys.reserve(largest);
@@ -340,6 +355,26 @@ LidarResolutionEstimate EstimateLidarResolution(const PointCloudView* frames, si
     return est;
   }
   az_res = std::clamp(az_res, config.min_resolution_deg, config.max_resolution_deg);
+  // Scan lines or none: along a line the samples are evenly spaced (a spinning sensor's firing
+  // step; a MEMS mirror's sinusoid spreads them by up to 2x), so a band's horizontal gaps are
+  // nearly equal; a rosette's or a non-repetitive sweep's passes cross a band at random, and
+  // their gaps spread like a Poisson process's (quartile ratio ln 4 / ln(4/3) = 4.8). Without
+  // lines the finest gap is a petal's own sample step, not a spacing between lines: the bins are
+  // the mean spacing instead, square.
+  est.horizontal_gap_spread = horizontal.Quantile(0.75) / horizontal.Quantile(0.25);
+  est.irregular = est.horizontal_gap_spread > config.irregular_gap_spread;
+  if (std::abs(std::log(est.horizontal_gap_spread / config.irregular_gap_spread)) < std::log(1.3)) {
+    std::ostringstream o;
+    o << std::fixed << std::setprecision(1) << "the pattern is neither clearly in scan lines nor "
+      << "clearly irregular (horizontal gaps' quartile ratio " << est.horizontal_gap_spread
+      << ", threshold " << config.irregular_gap_spread
+      << "): check the bins against the datasheet, or set lidar.generic.azimuth_resolution_deg "
+         "and elevation_resolution_deg";
+    est.warning = o.str();
+  }
+  if (est.irregular) {
+    el_res = az_res = std::clamp(spacing, config.min_resolution_deg, config.max_resolution_deg);
+  }
 
   // Bins centred on the samples; one step of margin around the trimmed field of view.
   const double el_phase = SamplePhase(el, el_res);
@@ -387,6 +422,8 @@ bool GenericLidarConfig::IsValid(std::string* error) const {
     return fail("frame_rate_hz", "must be in [1, 100]");
   if (estimation_frames < 1 || estimation_frames > 20)
     return fail("estimation_frames", "must be in [1, 20]");
+  if (points_per_frame < 0 || points_per_frame > max_points)
+    return fail("points_per_frame", "must be 0 (estimate) or in [1, max_points]");
   return true;
 }
 
@@ -425,6 +462,21 @@ bool MakeGenericLidarModel(const GenericLidarConfig& config,
   m.frame_rate_hz = config.frame_rate_hz;
   // Buffers are sized from the configured maximum, not from the frames seen so far.
   m.nominal_points_per_frame = config.max_points / 2;
+  using Pattern = GenericLidarConfig::Pattern;
+  m.non_repetitive = config.pattern == Pattern::kIrregular ||
+                     (config.pattern == Pattern::kAuto && have && estimate->irregular);
+  if (m.non_repetitive) {
+    m.pattern_points_per_frame = config.points_per_frame > 0 ? config.points_per_frame
+                                 : have                      ? estimate->mean_points_per_frame
+                                                             : 0;
+    if (m.pattern_points_per_frame <= 0) {
+      if (error)
+        *error =
+            "generic LiDAR: an irregular pattern needs lidar.generic.points_per_frame (returns "
+            "per frame) or frames to estimate it from";
+      return false;
+    }
+  }
   // Bound the range image: 4 cells per point of the largest frame is far beyond any useful
   // binning (one point per cell at the sensor's resolution) and keeps a bad override finite.
   const double cells = (m.azimuth_max_deg - m.azimuth_min_deg) / m.azimuth_resolution_deg *
@@ -470,11 +522,16 @@ std::string DescribeGenericLidar(const LidarModel& model, const LidarResolutionE
     << " deg, FOV azimuth [" << std::setprecision(1) << model.azimuth_min_deg << ", "
     << model.azimuth_max_deg << "] deg, elevation [" << model.elevation_min_deg << ", "
     << model.elevation_max_deg << "] deg";
+  if (model.non_repetitive)
+    o << ", irregular pattern (no scan lines) of about " << model.pattern_points_per_frame
+      << " points a frame";
   if (estimate && estimate->ok)
     o << " (estimated from " << estimate->frames_used << " frames, " << estimate->points_used
       << " points; values set in lidar.generic override)";
   else
     o << " (from lidar.generic)";
+  if (estimate && estimate->ok && !estimate->warning.empty())
+    o << "; warning: " << estimate->warning;
   return o.str();
 }
 

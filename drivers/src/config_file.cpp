@@ -125,7 +125,7 @@ void ParseOrThrow(const YAML::Node& root, const ConfigParseOptions& options, Cal
     CheckKnown(g,
                {"azimuth_resolution_deg", "elevation_resolution_deg", "azimuth_min_deg",
                 "azimuth_max_deg", "elevation_min_deg", "elevation_max_deg", "max_points",
-                "frame_rate_hz", "estimation_frames"},
+                "frame_rate_hz", "estimation_frames", "pattern", "points_per_frame"},
                "lidar.generic");
     GenericLidarConfig& gc = c->lidar_generic;
     for (auto [name, field] :
@@ -140,6 +140,18 @@ void ParseOrThrow(const YAML::Node& root, const ConfigParseOptions& options, Cal
     gc.max_points = GetOr<int>(g, "max_points", "lidar.generic.max_points", gc.max_points);
     gc.estimation_frames =
         GetOr<int>(g, "estimation_frames", "lidar.generic.estimation_frames", gc.estimation_frames);
+    const auto pattern = GetOr<std::string>(g, "pattern", "lidar.generic.pattern", "auto");
+    if (pattern == "auto")
+      gc.pattern = GenericLidarConfig::Pattern::kAuto;
+    else if (pattern == "lines")
+      gc.pattern = GenericLidarConfig::Pattern::kLines;
+    else if (pattern == "irregular")
+      gc.pattern = GenericLidarConfig::Pattern::kIrregular;
+    else
+      throw KeyError{"lidar.generic.pattern",
+                     "must be auto, lines or irregular (got '" + pattern + "')"};
+    gc.points_per_frame =
+        GetOr<int>(g, "points_per_frame", "lidar.generic.points_per_frame", gc.points_per_frame);
   }
 
   const YAML::Node boards = Child(root, "boards", "boards");
@@ -265,7 +277,11 @@ std::string ConfigToYaml(const CalibConfig& c) {
       << "\n    elevation_min_deg: " << Num(g.elevation_min_deg)
       << "\n    elevation_max_deg: " << Num(g.elevation_max_deg)
       << "\n    max_points: " << g.max_points << "\n    frame_rate_hz: " << Num(g.frame_rate_hz)
-      << "\n    estimation_frames: " << g.estimation_frames << "\n";
+      << "\n    estimation_frames: " << g.estimation_frames << "\n    pattern: "
+      << (g.pattern == GenericLidarConfig::Pattern::kLines       ? "lines"
+          : g.pattern == GenericLidarConfig::Pattern::kIrregular ? "irregular"
+                                                                 : "auto")
+      << "\n    points_per_frame: " << g.points_per_frame << "\n";
   }
   o << "boards:\n";
   for (const auto& b : c.boards) {

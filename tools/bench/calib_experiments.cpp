@@ -63,10 +63,10 @@ void ScoreLidar(const FrameDetections& frame, std::vector<int>* board_of_point,
 }  // namespace
 
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
-                 const LidarDetectorConfig& lidar) {
+                 const LidarDetectorConfig& lidar, const LidarModel* model) {
   const auto t0 = std::chrono::steady_clock::now();
   DetectedSession detected;
-  if (!detected.Init(options, error, lidar)) return false;
+  if (!detected.Init(options, error, lidar, model)) return false;
   const sim::SessionSimulator& session = detected.session();
   drive->seed = options.seed;
   drive->config = session.UserConfig();

@@ -46,9 +46,11 @@ struct RecordedDrive {
 inline constexpr int kVisibleBoardPoints = 30;
 
 /// Simulates every frame pair of a drive and runs the real detectors on it into
-/// `drive->observations`, the way tests/recorded_session.hpp does.
+/// `drive->observations`, the way tests/recorded_session.hpp does; the LiDAR detector with
+/// `model` when given (DetectedSession::Init).
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
-                 const LidarDetectorConfig& lidar = LidarDetectorConfig{});
+                 const LidarDetectorConfig& lidar = LidarDetectorConfig{},
+                 const LidarModel* model = nullptr);
 
 /// Board observations at camera-to-board distances in (min_m, max_m) only (paper Table II: close
 /// < 8.5 m, far > 25 m). Camera boards are kept by their PnP distance. A LiDAR cluster's board is

@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <string>
 #include <vector>
 
+#include "calibd/core/lidar_model.hpp"
 #include "calibd/core/lidar_resolution.hpp"
 #include "session.hpp"
 
@@ -34,9 +36,12 @@ int RunResolutionBench(int argc, char** argv) {
                  arg.c_str());
     return 2;
   }
-  std::printf("%-7s %8s %9s %9s %9s %9s\n", "lidar", "points", "az [deg]", "el [deg]", "median ms",
-              "p95 ms");
-  for (const char* lidar : {"ot128", "m1", "falcon"}) {
+  std::printf("%-7s %8s %9s %9s %9s %9s %9s %9s %9s %9s %s\n", "lidar", "points", "az [deg]",
+              "el [deg]", "model az", "model el", "h spread", "h frac", "median ms", "p95 ms",
+              "pattern");
+  for (const LidarKind kind : SimulatedLidarKinds()) {
+    const LidarModel named = MakeLidarModel(kind);
+    const char* lidar = named.name.c_str();
     sim::SessionOptions o;
     o.lidar_model = lidar;
     o.trajectory.mode = "static";
@@ -67,9 +72,15 @@ int RunResolutionBench(int argc, char** argv) {
       std::fprintf(stderr, "calibd-bench resolution: %s: %s\n", lidar, est.error.c_str());
       return 1;
     }
-    std::printf("%-7s %8zu %9.4f %9.4f %9.2f %9.2f %9.2f\n", lidar, scan.size(),
-                est.azimuth_resolution_deg, est.elevation_resolution_deg, ms[ms.size() / 2],
-                ms[std::min(ms.size() - 1, ms.size() * 95 / 100)], cpu[cpu.size() / 2]);
+    std::printf(
+        "%-7s %8zu %9.4f %9.4f %9.4f %9.4f %9.3f %9.3f %9.2f %9.2f %s\n", lidar, scan.size(),
+        est.azimuth_resolution_deg, est.elevation_resolution_deg, named.azimuth_resolution_deg,
+        named.has_rings
+            ? std::abs(named.ring_elevation_deg.front() - named.ring_elevation_deg.back()) /
+                  static_cast<double>(named.ring_elevation_deg.size() - 1)
+            : named.elevation_resolution_deg,
+        est.horizontal_gap_spread, est.horizontal_cluster_fraction, ms[ms.size() / 2],
+        ms[std::min(ms.size() - 1, ms.size() * 95 / 100)], est.irregular ? "irregular" : "lines");
   }
   return 0;
 }

@@ -32,11 +32,11 @@ sim::SessionOptions BenchSessionOptions(const std::string& lidar, unsigned long 
 }
 
 bool DetectedSession::Init(const sim::SessionOptions& options, std::string* error,
-                           const LidarDetectorConfig& lidar) {
+                           const LidarDetectorConfig& lidar, const LidarModel* model) {
   if (!session_.Init(options, error)) return false;
   lidar_config_ = lidar;
   const auto& geometries = session_.workshop().geometries;
-  lidar_detector_.emplace(lidar_config_, session_.lidar_model(), geometries);
+  lidar_detector_.emplace(lidar_config_, model ? *model : session_.lidar_model(), geometries);
   if (!lidar_detector_->ok()) {
     if (error) *error = "LiDAR detector: " + lidar_detector_->error();
     return false;

@@ -36,9 +36,12 @@ double ProcessCpuMs();
 class DetectedSession {
  public:
   /// Builds the session and both detectors (the camera's default config, `lidar` for the LiDAR,
-  /// the workshop's boards); false with `error` saying what failed.
+  /// the workshop's boards); the LiDAR detector with `model` when given (e.g. a generic model
+  /// estimated from the sweeps), else the simulated sensor's. False with `error` saying what
+  /// failed.
   bool Init(const sim::SessionOptions& options, std::string* error,
-            const LidarDetectorConfig& lidar = LidarDetectorConfig{});
+            const LidarDetectorConfig& lidar = LidarDetectorConfig{},
+            const LidarModel* model = nullptr);
 
   const sim::SessionSimulator& session() const { return session_; }
   const LidarDetectorConfig& lidar_config() const { return lidar_config_; }

@@ -403,12 +403,16 @@ int main(int argc, char** argv) {
       {"azimuth_resolution_deg", lidar_model.azimuth_resolution_deg},
       {"elevation_resolution_deg", lidar_model.elevation_resolution_deg},
       {"azimuth_fov_deg", {lidar_model.azimuth_min_deg, lidar_model.azimuth_max_deg}},
-      {"elevation_fov_deg", {lidar_model.elevation_min_deg, lidar_model.elevation_max_deg}}};
+      {"elevation_fov_deg", {lidar_model.elevation_min_deg, lidar_model.elevation_max_deg}},
+      {"pattern", lidar_model.non_repetitive ? "irregular" : "lines"}};
+  if (lidar_model.non_repetitive)
+    report["lidar_model"]["points_per_frame"] = lidar_model.pattern_points_per_frame;
   if (lidar_model.kind == LidarKind::kGeneric)
     report["lidar_model"]["estimated_from"] = {{"frames", lidar_estimate.frames_used},
                                                {"points", lidar_estimate.points_used},
                                                {"ok", lidar_estimate.ok},
-                                               {"error", lidar_estimate.error}};
+                                               {"error", lidar_estimate.error},
+                                               {"warning", lidar_estimate.warning}};
   report["board_pose_refinement"] = {{"refined_boards", out.refined_boards},
                                      {"mean_rotation_change_deg", out.board_rotation_change_deg},
                                      {"mean_translation_change_m", out.board_translation_change_m}};

@@ -43,6 +43,9 @@ struct LidarModel {
   /// irregularly, about nominal_points_per_frame over the field of view, so a range-image cell
   /// holds none, one or several. Reference boards are then sampled at random at that density.
   bool non_repetitive = false;
+  /// Returns of one frame over the field of view, for a non-repetitive pattern's density; 0:
+  /// nominal_points_per_frame (which a generic model sizes its buffers with instead).
+  int pattern_points_per_frame = 0;
 };
 
 /// Parses a model name (LidarModelNames()). Returns false and sets `error`, listing the names, for

@@ -68,6 +68,11 @@ struct LidarResolutionConfig {
   /// The finest spacing cluster must hold at least this fraction of the gaps to count as typical:
   /// lower follows rarer fine spacings (an odd pair of close rings), higher the bulk.
   double min_cluster_fraction = 0.1;
+  /// Horizontal gaps spread wider than this (upper over lower quartile) mean a pattern without
+  /// scan lines (irregular): about 1 along a spinning sensor's rings, 2 along a MEMS mirror's
+  /// sinusoid, 4.8 for a Poisson process (calibd-bench resolution prints each simulated
+  /// pattern's). Within a factor 1.3 of it the estimate carries a warning.
+  double irregular_gap_spread = 3.0;
   /// Fewer valid points in a frame: the frame is not used.
   int min_points_per_frame = 1000;
   /// Clamps of the result, degrees.
@@ -95,6 +100,18 @@ struct LidarResolutionEstimate {
   int horizontal_gaps = 0;       ///< gaps the azimuth resolution was chosen from
   /// Fraction of the gaps inside the chosen (finest typical) cluster.
   double vertical_cluster_fraction = 0.0, horizontal_cluster_fraction = 0.0;
+  /// sqrt(field of view / points per frame): the mean spacing of the samples, whatever their
+  /// pattern.
+  double mean_spacing_deg = 0.0;
+  /// No scan lines (a rosette, a non-repetitive sweep): the bins are the mean spacing, square,
+  /// and the model is non-repetitive (LidarModel::non_repetitive).
+  bool irregular = false;
+  int mean_points_per_frame = 0;
+  /// Upper over lower quartile of the horizontal gaps: near 1 along scan lines (2 for a MEMS
+  /// mirror's sinusoid), about 4.8 for samples without lines (a Poisson process).
+  double horizontal_gap_spread = 0.0;
+  /// Set when the estimate is uncertain, in words for the user (what to check or set).
+  std::string warning;
 };
 
 /// Estimates the scan geometry from `num_frames` frames (one is enough; a few give a steadier
@@ -115,13 +132,19 @@ struct GenericLidarConfig {
   int max_points = 400000;
   double frame_rate_hz = 10.0;  ///< sweeps per second (pairing window)
   int estimation_frames = 3;    ///< first LiDAR frames of a session the estimate is taken from
+  /// Scan lines or none (a rosette, a non-repetitive sweep: LidarModel::non_repetitive). kAuto
+  /// takes the estimate's verdict; without an estimate (the agent) it means lines.
+  enum class Pattern { kAuto, kLines, kIrregular } pattern = Pattern::kAuto;
+  /// An irregular pattern's returns per frame over its field of view (the density its reference
+  /// boards are drawn at); 0: the estimate's.
+  int points_per_frame = 0;
 
   bool azimuth_fov_set() const { return azimuth_min_deg != 0.0 || azimuth_max_deg != 0.0; }
   bool elevation_fov_set() const { return elevation_min_deg != 0.0 || elevation_max_deg != 0.0; }
   /// True when every value is given, so no estimate is needed.
   bool complete() const {
     return azimuth_resolution_deg > 0.0 && elevation_resolution_deg > 0.0 && azimuth_fov_set() &&
-           elevation_fov_set();
+           elevation_fov_set() && (pattern != Pattern::kIrregular || points_per_frame > 0);
   }
   /// False with `error` naming the bad key (lidar.generic.*).
   bool IsValid(std::string* error) const;
