@@ -5,6 +5,7 @@
 
 #include <cstdlib>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
@@ -110,9 +111,10 @@ TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {
   EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) +
                        " --log x --config y --board-pose-refinement maybe"),
             2);
-  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --frames 1 --out " +
-                       dir.file("one.lcmlog") + " --config-out " + dir.file("calib.yaml")),
-            0);
+  ASSERT_EQ(
+      RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --trajectory static --frames 1 --out " +
+                 dir.file("one.lcmlog") + " --config-out " + dir.file("calib.yaml")),
+      0);
   EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log /nonexistent.lcmlog --config " +
                        dir.file("calib.yaml")),
             1);
@@ -132,9 +134,10 @@ TEST(CalibrateCliTest, BadInputsGiveClearExitCodes) {
 
 TEST(CalibrateCliTest, TheConfigsEngineSectionAndIntrinsicsFromAFileAreRead) {
   testing::TempDir dir;
-  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --frames 1 --out " +
-                       dir.file("one.lcmlog") + " --config-out " + dir.file("calib.yaml")),
-            0);
+  ASSERT_EQ(
+      RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --trajectory static --frames 1 --out " +
+                 dir.file("one.lcmlog") + " --config-out " + dir.file("calib.yaml")),
+      0);
   CalibConfig config;
   std::string error, text;
   ASSERT_TRUE(LoadConfigFile(dir.file("calib.yaml"), &config, &error)) << error;
@@ -204,6 +207,27 @@ TEST(CalibrateCliTest, TheConfigsEngineSectionAndIntrinsicsFromAFileAreRead) {
   EXPECT_EQ(boards, debug["lidar"]["boards"].get<int>());
   EXPECT_GE(boards, 2);
   EXPECT_GT(debug["lidar"]["clusters"].size(), static_cast<size_t>(boards));  // the refused too
+  // The range-image picture: the boards' cells in green, the refused clusters in their gates'
+  // colours (the legend in the JSON).
+  EXPECT_EQ(debug["lidar"]["picture"]["file"], "pair_000000.png");
+  EXPECT_NE(debug["lidar"]["picture"]["colours"].get<std::string>().find("board (green)"),
+            std::string::npos);
+  const cv::Mat picture = cv::imread(dir.file("dbg/x/pair_000000.png"), cv::IMREAD_COLOR);
+  ASSERT_FALSE(picture.empty());
+  EXPECT_EQ(picture.cols, 1800);     // the OT128's columns
+  EXPECT_EQ(picture.rows, 128 * 3);  // its rings, 3 px each
+  int green = 0, refused = 0;
+  for (int y = 0; y < picture.rows; ++y)
+    for (int x = 0; x < picture.cols; ++x) {
+      const cv::Vec3b p = picture.at<cv::Vec3b>(y, x);
+      green += p == cv::Vec3b(60, 220, 60) ? 1 : 0;
+      refused += p == cv::Vec3b(0, 150, 255) || p == cv::Vec3b(220, 60, 220) ||
+                         p == cv::Vec3b(230, 120, 30) || p == cv::Vec3b(40, 40, 200)
+                     ? 1
+                     : 0;
+    }
+  EXPECT_GT(green, 100 * boards);
+  EXPECT_GT(refused, 0);
 }
 
 }  // namespace

@@ -227,9 +227,9 @@ TEST(RecordedFolderCliTest, FolderAndImportedLogCalibrateNearTheTruth) {
 
 TEST(RecordedFolderCliTest, StemPairsBadFilesAndExitCodes) {
   testing::TempDir dir;
-  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --frames 1 --out " +
-                       dir.file("one.lcmlog") + " --config-out " + dir.file("calib.yaml") +
-                       " --image-encoding jpeg"),
+  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) +
+                       " --quiet --trajectory static --frames 1 --out " + dir.file("one.lcmlog") +
+                       " --config-out " + dir.file("calib.yaml") + " --image-encoding jpeg"),
             0);
   const std::string rec = dir.file("rec");
   std::filesystem::create_directories(rec);

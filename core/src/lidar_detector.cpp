@@ -549,6 +549,16 @@ bool LidarDetector::ok() const { return impl_->ok; }
 const std::string& LidarDetector::error() const { return impl_->error; }
 int LidarDetector::num_references() const { return impl_->num_references; }
 
+const RangeImage& LidarDetector::range_image() const { return impl_->image; }
+
+const std::vector<int32_t>& LidarDetector::cell_labels() const { return impl_->segmenter.labels(); }
+
+int32_t LidarDetector::segment_label(int segment) const {
+  return segment >= 0 && segment < impl_->segmenter.num_segments()
+             ? impl_->segmenter.segment(segment).label
+             : kLabelNone;
+}
+
 double LidarDetector::ScoreCluster(const std::vector<Eigen::Vector3f>& points) {
   Impl& d = *impl_;
   if (!d.ok || points.size() < 3) return 0.0;

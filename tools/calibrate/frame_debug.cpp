@@ -1,7 +1,14 @@
 #include "frame_debug.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <unordered_map>
+#include <vector>
+
+#include "calibd/core/segmentation.hpp"
 
 #include "calibd/drivers/atomic_file.hpp"
 
@@ -11,7 +18,98 @@ namespace {
 
 nlohmann::json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
+// Colours of the picture (BGR for OpenCV), defined once with their legend.
+struct Swatch {
+  const char* what;
+  uint8_t b, g, r;
+  cv::Vec3b bgr() const { return {b, g, r}; }
+};
+constexpr Swatch kBoard{"board (green)", 60, 220, 60};
+constexpr Swatch kDescriptor{"descriptor: no reference matched (orange)", 0, 150, 255};
+constexpr Swatch kShape{"rectangle or size: not a board's extent (magenta)", 220, 60, 220};
+constexpr Swatch kSurface{"not_planar or tilted (blue)", 230, 120, 30};
+constexpr Swatch kLarge{"too_large, attached or capacity (red)", 40, 40, 200};
+constexpr Swatch kOnGround{"on_ground: stands on the floor (brown)", 40, 90, 140};
+constexpr Swatch kGround{"ground (dark green)", 30, 70, 30};
+constexpr Swatch kOther{"smaller clusters and other points (grey, brighter nearer)", 0, 0, 0};
+
+const Swatch& SwatchOf(ClusterGate gate) {
+  switch (gate) {
+    case ClusterGate::kBoard:
+      return kBoard;
+    case ClusterGate::kDescriptor:
+      return kDescriptor;
+    case ClusterGate::kRectangle:
+    case ClusterGate::kSize:
+      return kShape;
+    case ClusterGate::kNotPlanar:
+    case ClusterGate::kTilted:
+      return kSurface;
+    case ClusterGate::kOnGround:
+      return kOnGround;
+    default:
+      return kLarge;
+  }
+}
+
+// The range image coloured by what became of each cell; rows scaled up for few-ring sensors.
+cv::Mat RangeImagePicture(const LidarDetector& detector, const LidarDetections& lidar) {
+  const RangeImage& image = detector.range_image();
+  const std::vector<int32_t>& labels = detector.cell_labels();
+  // Segment label -> the whole segment's gate; planes found as boards are drawn over it.
+  std::unordered_map<int32_t, ClusterGate> gate_of_label;
+  for (const LidarClusterReport& r : lidar.clusters)
+    if (r.plane < 0) gate_of_label[detector.segment_label(r.segment)] = r.gate;
+  const int rows = image.rows(), cols = image.cols();
+  const int row_px = std::clamp(400 / std::max(1, rows), 1, 24);
+  const int col_px = std::clamp(720 / std::max(1, cols), 1, 8);
+  cv::Mat picture(rows * row_px, cols * col_px, CV_8UC3, cv::Scalar(0, 0, 0));
+  auto paint = [&](int cell, const cv::Vec3b& bgr) {
+    // Top row: the highest elevation; column 0 (azimuth -180 or the field's right edge) drawn on
+    // the right, as the sensor sees it.
+    const int y = (rows - 1 - image.RowOf(cell)) * row_px;
+    const int x = (cols - 1 - image.ColOf(cell)) * col_px;
+    picture(cv::Rect(x, y, col_px, row_px)).setTo(cv::Scalar(bgr[0], bgr[1], bgr[2]));
+  };
+  for (int cell = 0; cell < rows * cols; ++cell) {
+    const RangeImageCell& c = image.cell(cell);
+    if (c.index < 0) continue;
+    const int32_t label = static_cast<size_t>(cell) < labels.size() ? labels[cell] : kLabelNone;
+    if (label == kLabelGround) {
+      paint(cell, kGround.bgr());
+      continue;
+    }
+    const auto it = gate_of_label.find(label);
+    if (label > 0 && it != gate_of_label.end()) {
+      paint(cell, SwatchOf(it->second).bgr());
+      continue;
+    }
+    const auto grey = static_cast<uint8_t>(std::clamp(220.0 - 6.0 * c.range, 50.0, 220.0));
+    paint(cell, cv::Vec3b(grey, grey, grey));
+  }
+  // Boards found as planes inside a refused cluster: their points' cells.
+  const std::vector<int32_t>& point_cell = image.point_cell();
+  for (const BoardCluster& b : lidar.boards)
+    for (int k = b.first_point; k < b.first_point + b.num_points; ++k) {
+      const int32_t i = lidar.point_indices[static_cast<size_t>(k)];
+      if (i >= 0 && static_cast<size_t>(i) < point_cell.size() && point_cell[i] >= 0)
+        paint(point_cell[i], kBoard.bgr());
+    }
+  return picture;
+}
+
 }  // namespace
+
+const char* FrameDebugPictureLegend() {
+  static const std::string legend = [] {
+    std::string s;
+    for (const Swatch* w :
+         {&kBoard, &kDescriptor, &kShape, &kSurface, &kLarge, &kOnGround, &kGround, &kOther})
+      s += std::string(s.empty() ? "" : "; ") + w->what;
+    return s;
+  }();
+  return legend.c_str();
+}
 
 std::string FrameDebugJson(const FrameDebugInput& in) {
   nlohmann::json j;
@@ -53,6 +151,11 @@ std::string FrameDebugJson(const FrameDebugInput& in) {
                                  {"attached_fraction", r.attached_fraction},
                                  {"descriptor_score", r.score}});
   }
+  if (in.lidar_detector) {
+    char picture[32];
+    std::snprintf(picture, sizeof(picture), "pair_%06d.png", in.pair_index);
+    lidar["picture"] = {{"file", picture}, {"colours", FrameDebugPictureLegend()}};
+  }
   j["lidar"] = lidar;
   return j.dump(1) + "\n";
 }
@@ -60,7 +163,15 @@ std::string FrameDebugJson(const FrameDebugInput& in) {
 bool WriteFrameDebug(const std::string& dir, const FrameDebugInput& in, std::string* error) {
   char name[32];
   std::snprintf(name, sizeof(name), "/pair_%06d.json", in.pair_index);
-  return WriteFileAtomic(dir + name, FrameDebugJson(in), error);
+  if (!WriteFileAtomic(dir + name, FrameDebugJson(in), error)) return false;
+  if (!in.lidar_detector) return true;
+  std::vector<uint8_t> png;
+  std::snprintf(name, sizeof(name), "/pair_%06d.png", in.pair_index);
+  if (!cv::imencode(".png", RangeImagePicture(*in.lidar_detector, *in.lidar), png)) {
+    if (error) *error = dir + name + ": cannot encode the picture";
+    return false;
+  }
+  return WriteFileAtomic(dir + name, std::string(png.begin(), png.end()), error);
 }
 
 }  // namespace calibd::tools

@@ -121,7 +121,8 @@ class SessionBuilder {
         ++stats_->frames_over_capacity;
       if (!options_.debug_dir.empty()) {
         const FrameDebugInput debug{
-            pair_index, pending_->utime, lidar_msg.utime, static_cast<int>(cloud.size), &cd_, &ld_};
+            pair_index, pending_->utime,  lidar_msg.utime, static_cast<int>(cloud.size), &cd_,
+            &ld_,       &*lidar_detector_};
         std::string write_error;
         if (!WriteFrameDebug(options_.debug_dir, debug, &write_error) &&
             stats_->debug_write_failures++ == 0)

@@ -121,7 +121,10 @@ Options:
                        cluster with its cells, rectangle, RMS size, planarity, tilt, attached
                        share, descriptor score and the gate that stopped it (board, too_large,
                        attached, on_ground, not_planar, tilted, rectangle, size, descriptor,
-                       capacity)
+                       capacity); and DIR/pair_000000.png, the range image (top: highest
+                       elevation) with each cell coloured by that gate: board green, descriptor
+                       orange, rectangle or size magenta, not_planar or tilted blue, too_large,
+                       attached or capacity red, on_ground brown, ground dark green, the rest grey
   --max-frames N       frame pairs kept (default 2000)
   --pair-tolerance-ms  camera time allowed outside the LiDAR sweep (default 20)
   --quiet              no progress or summary

@@ -16,6 +16,7 @@
 #include "calibd/core/board.hpp"
 #include "calibd/core/image_view.hpp"
 #include "calibd/core/lidar_model.hpp"
+#include "calibd/core/range_image.hpp"
 
 namespace calibd {
 
@@ -248,6 +249,13 @@ class LidarDetector {
   void ReserveOutput(LidarDetections* out) const;
 
   int num_references() const;
+
+  /// The last Detect()'s range image, and each of its cells' label: segmentation.hpp's
+  /// kLabelEmpty, kLabelGround, kLabelPruned, kLabelNone, or the label of a segment, which is
+  /// segment_label(LidarClusterReport::segment). For pictures (calibd-calibrate --debug).
+  const RangeImage& range_image() const;
+  const std::vector<int32_t>& cell_labels() const;
+  int32_t segment_label(int segment) const;
   /// Descriptor of a point cluster (LiDAR frame) and its best score against the references, every
   /// point counted once (Detect() describes one mean point per range-image cell, weighed by
   /// weight_by_sample_area). For tests and tuning.
