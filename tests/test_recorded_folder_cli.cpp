@@ -323,5 +323,34 @@ TEST(RecordedFolderCliTest, StemPairsBadFilesAndExitCodes) {
             0);
 }
 
+TEST(RecordedFolderCliTest, TheSimulatorWritesFoldersThatCalibrateReads) {
+  // calibd-sim --folder, with frames.csv and without (pairs by name), a sensor with rings and one
+  // without: every pair read back, no file refused, the ring field only where there are rings.
+  testing::TempDir dir;
+  for (const std::string lidar : {"vlp16", "avia"}) {
+    for (const bool csv : {true, false}) {
+      const std::string rec = dir.file(lidar + (csv ? "-csv" : "-stems"));
+      ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) + " --quiet --lidar " + lidar +
+                           " --trajectory stills --rate 0.5 --frames 3 --folder " + rec +
+                           (csv ? "" : " --no-frames-csv") + " --config-out " + dir.file("c.yaml") +
+                           (csv ? "" : " --image-encoding jpeg")),
+                0);
+      EXPECT_EQ(std::filesystem::exists(rec + "/frames.csv"), csv);
+      EXPECT_TRUE(std::filesystem::exists(rec + (csv ? "/000002.png" : "/000002.jpg")));
+      std::string pcd, error;
+      ASSERT_TRUE(ReadWholeFile(rec + "/000000.pcd", &pcd, &error)) << error;
+      EXPECT_EQ(pcd.find("FIELDS x y z intensity ring t") != std::string::npos, lidar == "vlp16")
+          << pcd.substr(0, 200);
+      EXPECT_NE(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --folder " + rec + " --config " +
+                           dir.file("c.yaml") + " --report " + dir.file("r.json")),
+                1);
+      const auto report = ReadJson(dir.file("r.json"));
+      EXPECT_EQ(report["frames"]["pairs"].get<int>(), 3) << lidar << " " << report["frames"];
+      EXPECT_EQ(report["frames"]["bad_messages"].get<int>(), 0) << report["frames"];
+      EXPECT_GT(report["frames"]["camera_boards"].get<int>(), 0) << report["frames"];
+    }
+  }
+}
+
 }  // namespace
 }  // namespace calibd

@@ -25,10 +25,18 @@ Writes an LCM log of camera and LiDAR frames (the channels of calibd's registry)
 the ground truth (for evaluation only) and the calibration config a user would write.
 
 Usage: calibd-sim --out session.lcmlog [--truth truth.json] [--config-out calib.yaml] [options]
+       calibd-sim --folder DIR [--no-frames-csv] [--truth truth.json] [--config-out calib.yaml]
+                  [options]
        calibd-sim --replay session.lcmlog --publish-url URL [--loops N] [--speed X]
 
 Output:
-  --out FILE               LCM log to write (required). Event timestamps are capture times.
+  --out FILE               LCM log to write. Event timestamps are capture times.
+  --folder DIR             and/or a folder of recorded frames as other tools write them (for
+                           calibd-calibrate --folder and calibd-import): NNNNNN.pcd (binary PCD:
+                           x y z intensity, ring for sensors with rings, t in s after the sweep
+                           start) and NNNNNN.png (.jpg with --image-encoding jpeg), and
+                           frames.csv with their capture times (DIR is created)
+  --no-frames-csv          no frames.csv: the pairs go by file name, without times
   --truth FILE             ground-truth JSON: true/prior extrinsic, intrinsics, board poses per
                            frame, indices of the LiDAR points on each board
   --config-out FILE        calibration config YAML (intrinsics, boards, LiDAR model, perturbed prior)
@@ -181,6 +189,7 @@ int main(int argc, char** argv) {
   Parser p;
   p.with_value = {
       {"--out", text(&out.log_path)},
+      {"--folder", text(&out.folder_path)},
       {"--replay", text(&live.log_path)},
       {"--publish-url", text(&live.url)},
       {"--loops", integer(&live.loops, 1, 1e6)},
@@ -281,6 +290,7 @@ int main(int argc, char** argv) {
       {"--lidar-serial", text(&o.lidar_serial)},
   };
   p.flags = {{"--quiet", [&] { quiet = true; }},
+             {"--no-frames-csv", [&] { out.folder_without_times = true; }},
              {"--help", [&] { help = true; }},
              {"-h", [&] { help = true; }},
              {"--no-clutter", [&] { o.workshop.clutter = false; }},
@@ -340,8 +350,8 @@ int main(int argc, char** argv) {
   if (!cx_set) o.camera.cx = (o.camera.width - 1) / 2.0;
   if (!cy_set) o.camera.cy = (o.camera.height - 1) / 2.0;
   if (frames > 0) o.trajectory.duration_s = frames / o.trajectory.rate_hz;
-  if (out.log_path.empty()) {
-    std::cerr << "calibd-sim: --out FILE is required (see --help)\n";
+  if (out.log_path.empty() && out.folder_path.empty()) {
+    std::cerr << "calibd-sim: --out FILE or --folder DIR is required (see --help)\n";
     return 2;
   }
   std::string error;
@@ -355,7 +365,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (!quiet) {
-    std::cout << "calibd-sim: wrote " << out.log_path;
+    std::cout << "calibd-sim: wrote "
+              << (out.log_path.empty() ? out.folder_path + "/" : out.log_path);
+    if (!out.log_path.empty() && !out.folder_path.empty()) std::cout << ", " << out.folder_path;
     if (!out.truth_path.empty()) std::cout << ", " << out.truth_path;
     if (!out.config_path.empty()) std::cout << ", " << out.config_path;
     if (!out.overlay_path.empty()) std::cout << ", " << out.overlay_path;

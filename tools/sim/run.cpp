@@ -4,13 +4,17 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <filesystem>
 #include <iomanip>
 #include <opencv2/imgcodecs.hpp>
 #include <ostream>
 
 #include "calibd/channels.hpp"
+#include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "calibd/drivers/lcm_log.hpp"
+#include "calibd/drivers/pcd_writer.hpp"
 #include "lcm_output.hpp"
 #include "overlay.hpp"
 #include "truth_json.hpp"
@@ -31,17 +35,82 @@ calibd::sensor_info_t SensorInfo(int8_t kind, int64_t utime, const std::string& 
   return s;
 }
 
+// One frame pair's events in the log, in time order: sensor info (`with_info`), the image at
+// mid-exposure, the sweep when it completes.
+bool WriteLogFrame(const SessionOptions& options, bool with_info, const cv::Mat& image,
+                   const FrameTruth& frame_truth, const calibd::lidar_frame_t& lidar_msg,
+                   int64_t sweep_us, LcmLogWriter* log, calibd::camera_frame_t* camera_msg,
+                   std::string* error) {
+  if (with_info) {
+    const int64_t t = frame_truth.camera_utime - 1;
+    if (!log->WriteMessage(std::string(channels::kSensorInfo.name), t,
+                           SensorInfo(calibd::sensor_info_t::KIND_CAMERA, t, options.camera_id,
+                                      "sim-3840x1920", options.camera_serial),
+                           error) ||
+        !log->WriteMessage(std::string(channels::kSensorInfo.name), t,
+                           SensorInfo(calibd::sensor_info_t::KIND_LIDAR, t, options.lidar_id,
+                                      options.lidar_model, options.lidar_serial),
+                           error))
+      return false;
+  }
+  const int8_t encoding = options.image_encoding == "jpeg" ? calibd::camera_frame_t::ENCODING_JPEG
+                                                           : calibd::camera_frame_t::ENCODING_MONO8;
+  if (!ToCameraMessage(image, frame_truth.camera_utime, options.camera_id, encoding,
+                       options.jpeg_quality, camera_msg)) {
+    if (error)
+      *error = "JPEG encoding of the frame at " + std::to_string(frame_truth.camera_utime) +
+               " us failed";
+    return false;
+  }
+  return log->WriteMessage(std::string(channels::kCamera.name), frame_truth.camera_utime,
+                           *camera_msg, error) &&
+         log->WriteMessage(std::string(channels::kLidar.name), frame_truth.lidar_utime + sweep_us,
+                           lidar_msg, error);
+}
+
+// Frame k written into the folder: its cloud and image, and their rows of frames.csv.
+bool WriteFolderFrame(const std::string& dir, int k, const cv::Mat& image, bool jpeg,
+                      int jpeg_quality, const calibd::lidar_frame_t& lidar, bool with_ring,
+                      int64_t camera_utime, std::string* csv, std::string* error) {
+  char stem[16];
+  std::snprintf(stem, sizeof(stem), "%06d", k);
+  const std::string cloud = std::string(stem) + ".pcd";
+  const std::string picture = std::string(stem) + (jpeg ? ".jpg" : ".png");
+  std::vector<uint8_t> bytes;
+  const std::vector<int> params =
+      jpeg ? std::vector<int>{cv::IMWRITE_JPEG_QUALITY, jpeg_quality} : std::vector<int>{};
+  if (!cv::imencode(jpeg ? ".jpg" : ".png", image, bytes, params)) {
+    if (error) *error = dir + "/" + picture + ": cannot encode the image";
+    return false;
+  }
+  if (!WriteFileAtomic(dir + "/" + picture, std::string(bytes.begin(), bytes.end()), error) ||
+      !WriteFileAtomic(dir + "/" + cloud, PcdBinaryFile(lidar, with_ring), error))
+    return false;
+  *csv += std::to_string(lidar.utime) + ",lidar," + cloud + "\n" + std::to_string(camera_utime) +
+          ",camera," + picture + "\n";
+  return true;
+}
+
 }  // namespace
 
 bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, SimSummary* summary,
                    std::ostream* progress, std::string* error) {
-  if (outputs.log_path.empty()) {
-    if (error) *error = "--out: an LCM log path is required";
+  if (outputs.log_path.empty() && outputs.folder_path.empty()) {
+    if (error) *error = "--out FILE or --folder DIR is required";
     return false;
   }
-  // Open the output first: a bad path fails at once, before the expensive set-up.
+  // Open the outputs first: a bad path fails at once, before the expensive set-up.
   LcmLogWriter log;
-  if (!log.Open(outputs.log_path, error)) return false;
+  if (!outputs.log_path.empty() && !log.Open(outputs.log_path, error)) return false;
+  if (!outputs.folder_path.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(outputs.folder_path, ec);
+    if (ec) {
+      if (error) *error = "--folder: cannot create " + outputs.folder_path + ": " + ec.message();
+      return false;
+    }
+  }
+  std::string csv = "time_us,sensor,file\n";
   SessionSimulator session;
   if (!session.Init(options, error)) return false;
   const int n = session.num_frames();
@@ -57,40 +126,24 @@ bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, Sim
   FrameTruth frame_truth;
   calibd::camera_frame_t camera_msg;
   calibd::lidar_frame_t lidar_msg;
-  const std::string cam_channel(channels::kCamera.name), lidar_channel(channels::kLidar.name),
-      info_channel(channels::kSensorInfo.name);
   const int64_t sweep_us =
       static_cast<int64_t>(std::llround(1e6 / session.lidar_model().frame_rate_hz));
   const int info_every = std::max(
       1, static_cast<int>(std::lround(options.trajectory.rate_hz / channels::kSensorInfo.rate_hz)));
-  const int8_t encoding = options.image_encoding == "jpeg" ? calibd::camera_frame_t::ENCODING_JPEG
-                                                           : calibd::camera_frame_t::ENCODING_MONO8;
+  const bool jpeg = options.image_encoding == "jpeg";
   summary->frames.clear();
   const auto t0 = std::chrono::steady_clock::now();
 
   for (int k = 0; k < n; ++k) {
     session.SimulateFrame(k, &image, &scan, &frame_truth);
-    // Events in time order: sensor info, the image at mid-exposure, the sweep when it completes.
-    if (k % info_every == 0) {
-      const int64_t t = frame_truth.camera_utime - 1;
-      if (!log.WriteMessage(info_channel, t,
-                            SensorInfo(calibd::sensor_info_t::KIND_CAMERA, t, options.camera_id,
-                                       "sim-3840x1920", options.camera_serial),
-                            error) ||
-          !log.WriteMessage(info_channel, t,
-                            SensorInfo(calibd::sensor_info_t::KIND_LIDAR, t, options.lidar_id,
-                                       options.lidar_model, options.lidar_serial),
-                            error))
-        return false;
-    }
-    if (!ToCameraMessage(image, frame_truth.camera_utime, options.camera_id, encoding,
-                         options.jpeg_quality, &camera_msg)) {
-      if (error) *error = "JPEG encoding of frame " + std::to_string(k) + " failed";
-      return false;
-    }
-    if (!log.WriteMessage(cam_channel, frame_truth.camera_utime, camera_msg, error)) return false;
     ToLidarMessage(scan, frame_truth.lidar_utime, options.lidar_id, &lidar_msg);
-    if (!log.WriteMessage(lidar_channel, frame_truth.lidar_utime + sweep_us, lidar_msg, error))
+    if (!outputs.folder_path.empty() &&
+        !WriteFolderFrame(outputs.folder_path, k, image, jpeg, options.jpeg_quality, lidar_msg,
+                          session.lidar_model().has_rings, frame_truth.camera_utime, &csv, error))
+      return false;
+    if (!outputs.log_path.empty() &&
+        !WriteLogFrame(options, k % info_every == 0, image, frame_truth, lidar_msg, sweep_us, &log,
+                       &camera_msg, error))
       return false;
     truth.AddFrame(frame_truth, static_cast<int>(scan.size()));
 
@@ -125,10 +178,15 @@ bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, Sim
                 << std::flush;
     }
   }
-  if (!log.Close(error)) return false;
-  summary->events_written = log.events_written();
-  struct stat st {};
-  summary->log_bytes = ::stat(outputs.log_path.c_str(), &st) == 0 ? st.st_size : 0;
+  if (!outputs.log_path.empty()) {
+    if (!log.Close(error)) return false;
+    summary->events_written = log.events_written();
+    struct stat st {};
+    summary->log_bytes = ::stat(outputs.log_path.c_str(), &st) == 0 ? st.st_size : 0;
+  }
+  if (!outputs.folder_path.empty() && !outputs.folder_without_times &&
+      !WriteFileAtomic(outputs.folder_path + "/frames.csv", csv, error))
+    return false;
   if (!outputs.truth_path.empty() && !truth.Save(outputs.truth_path, error)) return false;
   if (!outputs.config_path.empty() &&
       !SaveConfigFile(outputs.config_path, session.UserConfig(), error))

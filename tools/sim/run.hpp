@@ -12,7 +12,13 @@
 namespace calibd::sim {
 
 struct SimOutputs {
-  std::string log_path;      ///< LCM log (required)
+  std::string log_path;  ///< LCM log ("" = none; then folder_path is required)
+  /// A folder of recorded frames as other tools write them ("" = none): NNNNNN.pcd (binary PCD
+  /// with x y z intensity, ring for sensors with rings, t) and NNNNNN.png (or .jpg with the jpeg
+  /// image encoding), and frames.csv with their capture times unless folder_without_times (the
+  /// pairs then go by name, as drivers/recorded_folder.hpp reads them).
+  std::string folder_path;
+  bool folder_without_times = false;
   std::string truth_path;    ///< ground-truth JSON ("" = none)
   std::string config_path;   ///< user calibration config YAML ("" = none)
   std::string overlay_path;  ///< PNG of one frame with projected LiDAR points ("" = none)
