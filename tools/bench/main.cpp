@@ -135,7 +135,7 @@ recordings
   --trials N          grid-search trials per scenario (default 20; 0 skips)
   --extract-planes on|off
                       search clusters refused as a whole for board planes (LiDAR detector's
-                      extract_planes; default off)
+                      extract_planes; default on, as calibd-calibrate)
   --json FILE         also write the figures as JSON
 
 Exit codes: 0 done, 1 failed, 2 bad option.

@@ -161,7 +161,7 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
   doc["extract_planes"] = o.extract_planes;
   bool all_met = true;
   out << "LiDAR detector: planes inside refused clusters "
-      << (o.extract_planes ? "extracted" : "not extracted (the default)") << "\n\n";
+      << (o.extract_planes ? "extracted (calibd-calibrate's default)" : "not extracted") << "\n\n";
   out << "| scenario | camera boards found / in view | LiDAR boards: recall / precision | "
          "precision after static scenery | verdict "
          "| rotation / translation error | with the true LiDAR boards only | grid search from +-10 "

@@ -17,8 +17,8 @@ namespace calibd::bench {
 struct RecordingsBenchOptions {
   std::vector<std::string> scenarios;  ///< names; empty: every scenario
   unsigned long long seed = 1;
-  int grid_trials = 20;         ///< grid-search convergence trials per scenario (0 skips)
-  bool extract_planes = false;  ///< LidarDetectorConfig::extract_planes
+  int grid_trials = 20;        ///< grid-search convergence trials per scenario (0 skips)
+  bool extract_planes = true;  ///< LidarDetectorConfig::extract_planes (calibd-calibrate's default)
   std::string json_path;
 };
 

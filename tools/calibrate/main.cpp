@@ -114,7 +114,8 @@ Options:
                        behind it, its tripod, the person holding it) for board planes: finds
                        boards in cluttered indoor still poses, at some cost in time and in
                        board-like furniture (dropped when it stands still while the board
-                       moves) (default off)
+                       moves) (default on; calibd-agent, which runs in real time on streams of
+                       boards standing free, leaves it off)
   --debug DIR          what the detectors made of each frame pair, one JSON file per pair
                        (DIR/pair_000000.json, DIR is created): the camera's boards (corners,
                        PnP error, decision margin) and rejected candidates, and every LiDAR
@@ -164,6 +165,9 @@ int main(int argc, char** argv) {
   // Given on the command line: then over the config's engine section.
   bool method_given = false, motion_compensation_given = false, board_pose_refinement_given = false;
   tools::LogReadOptions read_options;
+  // Offline, the time plane extraction costs (tens of ms a frame) buys the boards of cluttered
+  // still poses (recordings from other rigs).
+  read_options.lidar.extract_planes = true;
   bool quiet = false;
   bool inspect = false;
   tools::InspectOptions inspect_options;
