@@ -227,8 +227,9 @@ Summary Summarise(const std::vector<ScoredRun>& runs) {
 }
 
 GridTrials RunGridTrials(const RecordedDrive& drive, const RangeImage& projection, int trials,
-                         uint64_t rng_seed) {
+                         uint64_t rng_seed, const ScoredRun* basin) {
   GridTrials g;
+  if (basin) g.converged_deg = 0.05;
   std::mt19937_64 rng(rng_seed);
   std::uniform_real_distribution<double> angle(-g.max_deg, g.max_deg);
   const EngineConfig with_search = BenchEngine(Method::kDirectRefined);
@@ -251,7 +252,11 @@ GridTrials RunGridTrials(const RecordedDrive& drive, const RangeImage& projectio
     g.without_search.push_back(
         RunEngine(config, drive.observations, projection, without_search, drive.T_camera_lidar));
     auto converged = [&](const ScoredRun& r) {
-      return r.has_estimate && r.rotation_error_deg < g.converged_deg ? 1 : 0;
+      if (!r.has_estimate) return 0;
+      // Small angles: the difference of the two error vectors is the angle between estimates.
+      const double off =
+          basin ? (r.error_rpy_deg - basin->error_rpy_deg).norm() : r.rotation_error_deg;
+      return off < g.converged_deg ? 1 : 0;
     };
     g.converged_with += converged(g.with_search.back());
     g.converged_without += converged(g.without_search.back());

@@ -201,7 +201,15 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
                          std::vector<char>(drive.lidar_true.begin(), drive.lidar_true.end())),
                   projection, EngineConfig{}, drive.T_camera_lidar);
     GridTrials grid;
-    if (o.grid_trials > 0) grid = RunGridTrials(drive, projection, o.grid_trials, 20240607);
+    if (o.grid_trials > 0) {
+      // The basin: the engine started from the truth.
+      CalibConfig from_truth = drive.config;
+      from_truth.prior_T_camera_lidar = drive.T_camera_lidar;
+      const ScoredRun basin = RunEngine(from_truth, drive.observations, projection, EngineConfig{},
+                                        drive.T_camera_lidar);
+      grid = RunGridTrials(drive, projection, o.grid_trials, 20240607,
+                           basin.has_estimate ? &basin : nullptr);
+    }
 
     const int tp = drive.lidar_tp, fp = drive.lidar_fp, fn = drive.lidar_fn;
     const double recall = tp + fn > 0 ? static_cast<double>(tp) / (tp + fn) : 0.0;
