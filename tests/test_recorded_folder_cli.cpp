@@ -348,6 +348,19 @@ TEST(RecordedFolderCliTest, TheSimulatorWritesFoldersThatCalibrateReads) {
       EXPECT_EQ(report["frames"]["pairs"].get<int>(), 3) << lidar << " " << report["frames"];
       EXPECT_EQ(report["frames"]["bad_messages"].get<int>(), 0) << report["frames"];
       EXPECT_GT(report["frames"]["camera_boards"].get<int>(), 0) << report["frames"];
+      // --inspect names the model from the rings it sees (some of the VLP-16's see nothing
+      // indoors), and has no ring to go by for the Avia-like sensor.
+      ASSERT_EQ(testing::RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --inspect --folder " +
+                                    rec + " > " + dir.file("inspect.txt") + " 2>&1"),
+                0);
+      std::string table;
+      ASSERT_TRUE(ReadWholeFile(dir.file("inspect.txt"), &table, &error)) << error;
+      EXPECT_NE(table.find(lidar == "vlp16" ? "model vlp16" : "no ring field"), std::string::npos)
+          << table;
+      EXPECT_NE(table.find("lidar:\n  id: lidar\n  model: " +
+                           std::string(lidar == "vlp16" ? "vlp16" : "generic")),
+                std::string::npos)
+          << table;
     }
   }
 }

@@ -65,20 +65,31 @@ CloudSurvey SurveyCloud(const lidar_frame_t& m) {
   s.elevation_max_deg = s.points > 0 ? hi : 0.0;
   s.model = "generic";
   if (s.rings < 2) return s;
-  // The span of the rings' median elevations against the named models with rings.
-  std::vector<double> medians;
+  // Each seen ring's median elevation against the named models' ring tables (rings that saw
+  // nothing, e.g. the sky indoors, are simply absent): a model fits when every seen ring index
+  // exists in it and its elevations match to within 0.5 deg after a common offset (a sensor
+  // mounted tilted shifts them all).
+  std::vector<std::pair<int, double>> medians;  // ring, median elevation
   for (auto& [ring, e] : elevations) {
     std::nth_element(e.begin(), e.begin() + static_cast<long>(e.size() / 2), e.end());
-    medians.push_back(e[e.size() / 2]);
+    medians.emplace_back(ring, e[e.size() / 2]);
   }
-  const auto [mn, mx] = std::minmax_element(medians.begin(), medians.end());
   for (LidarKind kind : SimulatedLidarKinds()) {
     const LidarModel model = MakeLidarModel(kind);
-    if (!model.has_rings || static_cast<int>(model.ring_elevation_deg.size()) != s.rings) continue;
-    const auto [a, b] =
-        std::minmax_element(model.ring_elevation_deg.begin(), model.ring_elevation_deg.end());
-    // A sensor mounted tilted shifts the span; its width stays.
-    if (std::abs((*mx - *mn) - (*b - *a)) < 2.0) s.model = model.name;
+    const auto rings = static_cast<int>(model.ring_elevation_deg.size());
+    if (!model.has_rings || medians.back().first >= rings) continue;
+    std::vector<double> offsets;
+    for (const auto& [ring, el] : medians) offsets.push_back(el - model.ring_elevation_deg[ring]);
+    std::nth_element(offsets.begin(), offsets.begin() + static_cast<long>(offsets.size() / 2),
+                     offsets.end());
+    const double offset = offsets[offsets.size() / 2];
+    const bool fits = std::all_of(medians.begin(), medians.end(), [&](const auto& seen) {
+      return std::abs(seen.second - offset - model.ring_elevation_deg[seen.first]) < 0.5;
+    });
+    if (fits) {
+      s.model = model.name;
+      break;
+    }
   }
   return s;
 }
