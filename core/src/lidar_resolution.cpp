@@ -317,7 +317,6 @@ LidarResolutionEstimate EstimateLidarResolution(const PointCloudView* frames, si
   // Vertical gaps in azimuth columns two mean sample spacings wide, per frame.
   const double mean_points = static_cast<double>(n) / static_cast<double>(begin.size());
   const double spacing = std::sqrt((az_hi - az_lo) * (el_hi - el_lo) / mean_points);
-  est.mean_spacing_deg = spacing;
   est.mean_points_per_frame = static_cast<int>(std::lround(mean_points));
   const double column_deg = std::clamp(2.0 * spacing, 0.05, 5.0);
   std::vector<uint64_t> keys, tmp;

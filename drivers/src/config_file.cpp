@@ -2,14 +2,23 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <iomanip>
 #include <sstream>
+#include <utility>
 
 #include "calibd/drivers/atomic_file.hpp"
 
 namespace calibd {
 
 namespace {
+
+// lidar.generic.pattern's names, for reading and writing.
+constexpr std::pair<GenericLidarConfig::Pattern, const char*> kGenericPatterns[] = {
+    {GenericLidarConfig::Pattern::kAuto, "auto"},
+    {GenericLidarConfig::Pattern::kLines, "lines"},
+    {GenericLidarConfig::Pattern::kIrregular, "irregular"},
+};
 
 // Thrown only inside this file, to carry the failing key up to the parse entry point.
 struct KeyError {
@@ -141,15 +150,12 @@ void ParseOrThrow(const YAML::Node& root, const ConfigParseOptions& options, Cal
     gc.estimation_frames =
         GetOr<int>(g, "estimation_frames", "lidar.generic.estimation_frames", gc.estimation_frames);
     const auto pattern = GetOr<std::string>(g, "pattern", "lidar.generic.pattern", "auto");
-    if (pattern == "auto")
-      gc.pattern = GenericLidarConfig::Pattern::kAuto;
-    else if (pattern == "lines")
-      gc.pattern = GenericLidarConfig::Pattern::kLines;
-    else if (pattern == "irregular")
-      gc.pattern = GenericLidarConfig::Pattern::kIrregular;
-    else
+    const auto* named = std::find_if(std::begin(kGenericPatterns), std::end(kGenericPatterns),
+                                     [&](const auto& p) { return pattern == p.second; });
+    if (named == std::end(kGenericPatterns))
       throw KeyError{"lidar.generic.pattern",
                      "must be auto, lines or irregular (got '" + pattern + "')"};
+    gc.pattern = named->first;
     gc.points_per_frame =
         GetOr<int>(g, "points_per_frame", "lidar.generic.points_per_frame", gc.points_per_frame);
   }
@@ -226,6 +232,12 @@ std::string ShortestDecimal(double v) {
   return std::to_string(v);
 }
 
+std::string FixedDecimal(double v, int decimals) {
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(decimals) << v;
+  return o.str();
+}
+
 bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* error,
                      const ConfigParseOptions& options) {
   CalibConfig c;
@@ -278,9 +290,9 @@ std::string ConfigToYaml(const CalibConfig& c) {
       << "\n    elevation_max_deg: " << Num(g.elevation_max_deg)
       << "\n    max_points: " << g.max_points << "\n    frame_rate_hz: " << Num(g.frame_rate_hz)
       << "\n    estimation_frames: " << g.estimation_frames << "\n    pattern: "
-      << (g.pattern == GenericLidarConfig::Pattern::kLines       ? "lines"
-          : g.pattern == GenericLidarConfig::Pattern::kIrregular ? "irregular"
-                                                                 : "auto")
+      << std::find_if(std::begin(kGenericPatterns), std::end(kGenericPatterns),
+                      [&](const auto& p) { return g.pattern == p.first; })
+             ->second
       << "\n    points_per_frame: " << g.points_per_frame << "\n";
   }
   o << "boards:\n";

@@ -3,9 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <iomanip>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "calib_experiments.hpp"
 #include "calibd/core/lidar_model.hpp"
@@ -13,6 +11,7 @@
 #include "calibd/core/session_observations.hpp"
 #include "calibd/core/static_scenery.hpp"
 #include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/config_file.hpp"
 
 namespace calibd::bench {
 
@@ -132,12 +131,6 @@ bool EstimateGenericModel(const sim::SessionOptions& options, LidarModel* model,
   return true;
 }
 
-std::string Fixed(double v, int decimals) {
-  std::ostringstream o;
-  o << std::fixed << std::setprecision(decimals) << v;
-  return o.str();
-}
-
 }  // namespace
 
 std::string RecordingScenarioNames() {
@@ -232,19 +225,19 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
                      accurate && (o.grid_trials == 0 || grid.converged_with == o.grid_trials);
     all_met = all_met && met;
     out << "| " << s.name << " | " << drive.observations.camera.size() << " / "
-        << drive.camera_boards_in_view << " | " << Fixed(recall, 3) << " / " << Fixed(precision, 3)
-        << " (" << tp << " TP, " << fp << " FP, " << fn << " FN) | "
-        << (aligned ? Fixed(kept_precision, 3) + " (" + std::to_string(kept_tp) + " TP, " +
+        << drive.camera_boards_in_view << " | " << FixedDecimal(recall, 3) << " / "
+        << FixedDecimal(precision, 3) << " (" << tp << " TP, " << fp << " FP, " << fn << " FN) | "
+        << (aligned ? FixedDecimal(kept_precision, 3) + " (" + std::to_string(kept_tp) + " TP, " +
                           std::to_string(kept_fp) + " FP)"
                     : std::string("-"))
         << " | " << run.verdict << (run.reason.empty() ? "" : " (" + run.reason + ")") << " | "
-        << (run.has_estimate ? Fixed(run.rotation_error_deg, 3) + " deg / " +
-                                   Fixed(run.translation_error_m * 1000.0, 1) + " mm"
+        << (run.has_estimate ? FixedDecimal(run.rotation_error_deg, 3) + " deg / " +
+                                   FixedDecimal(run.translation_error_m * 1000.0, 1) + " mm"
                              : std::string("-"))
         << " (<= " << s.max_rotation_deg << " deg / " << s.max_translation_m * 1000.0 << " mm) | "
         << oracle.verdict << ", "
-        << (oracle.has_estimate ? Fixed(oracle.rotation_error_deg, 3) + " deg / " +
-                                      Fixed(oracle.translation_error_m * 1000.0, 1) + " mm"
+        << (oracle.has_estimate ? FixedDecimal(oracle.rotation_error_deg, 3) + " deg / " +
+                                      FixedDecimal(oracle.translation_error_m * 1000.0, 1) + " mm"
                                 : std::string("-"))
         << " | "
         << (o.grid_trials > 0

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
 #include <map>
 #include <ostream>
 #include <set>
@@ -13,6 +12,7 @@
 #include "calibd/core/lidar_resolution.hpp"
 #include "calibd/core/target_survey.hpp"
 #include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/config_file.hpp"
 #include "calibd/drivers/intrinsics_file.hpp"
 #include "calibd/drivers/recorded_folder.hpp"
 #include "calibd/lidar_frame_t.hpp"
@@ -94,12 +94,6 @@ CloudSurvey SurveyCloud(const lidar_frame_t& m) {
   return s;
 }
 
-std::string Fixed(double v, int decimals) {
-  std::ostringstream o;
-  o << std::fixed << std::setprecision(decimals) << v;
-  return o.str();
-}
-
 }  // namespace
 
 const char* InspectMountings() { return "forward, backward, left, right"; }
@@ -153,7 +147,8 @@ int RunInspect(const InspectOptions& options, std::ostream& out, std::ostream& e
       const std::vector<TagSighting> seen = survey.Tags(view);
       out << name << " | " << msg.width << " x " << msg.height << " px;";
       for (const TagSighting& t : seen) {
-        out << " tag " << t.family << " id " << t.id << " (" << Fixed(t.side_px, 0) << " px)";
+        out << " tag " << t.family << " id " << t.id << " (" << FixedDecimal(t.side_px, 0)
+            << " px)";
         auto& [count, px] = tags[{t.family, t.id}];
         ++count;
         px = std::max(px, t.side_px);
@@ -161,7 +156,7 @@ int RunInspect(const InspectOptions& options, std::ostream& out, std::ostream& e
       CheckerSighting c;
       if (seen.empty() && survey.Checkerboard(view, &c)) {
         out << " checkerboard " << c.inner_cols << " x " << c.inner_rows << " inner corners ("
-            << Fixed(c.square_px, 0) << " px squares)";
+            << FixedDecimal(c.square_px, 0) << " px squares)";
         auto& [count, px] = checkers[{c.inner_cols, c.inner_rows}];
         ++count;
         px = std::max(px, c.square_px);
@@ -185,8 +180,8 @@ int RunInspect(const InspectOptions& options, std::ostream& out, std::ostream& e
         out << s.rings << " rings, ";
       else
         out << "no ring field, ";
-      out << "elevation " << Fixed(s.elevation_min_deg, 1) << " .. "
-          << Fixed(s.elevation_max_deg, 1) << " deg; model " << s.model << "\n";
+      out << "elevation " << FixedDecimal(s.elevation_min_deg, 1) << " .. "
+          << FixedDecimal(s.elevation_max_deg, 1) << " deg; model " << s.model << "\n";
     }
   }
   out << "\n" << images << " images, " << clouds << " point clouds";
@@ -219,7 +214,7 @@ int RunInspect(const InspectOptions& options, std::ostream& out, std::ostream& e
   int id = 0;
   for (const auto& [key, seen] : tags) {
     yaml << "  - id: " << id++ << "  # seen in " << seen.first << " images, up to "
-         << Fixed(seen.second, 0) << " px\n"
+         << FixedDecimal(seen.second, 0) << " px\n"
          << "    width_m: TODO   # board edge, m: measure it\n    height_m: TODO\n"
          << "    pattern: apriltag\n    tag_family: " << key.first << "\n    tag_id: " << key.second
          << "\n    tag_size_m: TODO  # the tag's black square, m\n"
@@ -227,7 +222,7 @@ int RunInspect(const InspectOptions& options, std::ostream& out, std::ostream& e
   }
   for (const auto& [key, seen] : checkers) {
     yaml << "  - id: " << id++ << "  # seen in " << seen.first << " images, squares up to "
-         << Fixed(seen.second, 0) << " px\n"
+         << FixedDecimal(seen.second, 0) << " px\n"
          << "    width_m: TODO\n    height_m: TODO\n    pattern: checkerboard\n"
          << "    checker_inner_cols: " << key.first << "\n    checker_inner_rows: " << key.second
          << "\n    checker_square_size_m: TODO  # side of one square, m\n"

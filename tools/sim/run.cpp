@@ -37,10 +37,9 @@ calibd::sensor_info_t SensorInfo(int8_t kind, int64_t utime, const std::string& 
 
 // One frame pair's events in the log, in time order: sensor info (`with_info`), the image at
 // mid-exposure, the sweep when it completes.
-bool WriteLogFrame(const SessionOptions& options, bool with_info, const cv::Mat& image,
-                   const FrameTruth& frame_truth, const calibd::lidar_frame_t& lidar_msg,
-                   int64_t sweep_us, LcmLogWriter* log, calibd::camera_frame_t* camera_msg,
-                   std::string* error) {
+bool WriteLogFrame(const SessionOptions& options, bool with_info, const FrameTruth& frame_truth,
+                   const calibd::camera_frame_t& camera_msg, const calibd::lidar_frame_t& lidar_msg,
+                   int64_t sweep_us, LcmLogWriter* log, std::string* error) {
   if (with_info) {
     const int64_t t = frame_truth.camera_utime - 1;
     if (!log->WriteMessage(std::string(channels::kSensorInfo.name), t,
@@ -53,40 +52,32 @@ bool WriteLogFrame(const SessionOptions& options, bool with_info, const cv::Mat&
                            error))
       return false;
   }
-  const int8_t encoding = options.image_encoding == "jpeg" ? calibd::camera_frame_t::ENCODING_JPEG
-                                                           : calibd::camera_frame_t::ENCODING_MONO8;
-  if (!ToCameraMessage(image, frame_truth.camera_utime, options.camera_id, encoding,
-                       options.jpeg_quality, camera_msg)) {
-    if (error)
-      *error = "JPEG encoding of the frame at " + std::to_string(frame_truth.camera_utime) +
-               " us failed";
-    return false;
-  }
   return log->WriteMessage(std::string(channels::kCamera.name), frame_truth.camera_utime,
-                           *camera_msg, error) &&
+                           camera_msg, error) &&
          log->WriteMessage(std::string(channels::kLidar.name), frame_truth.lidar_utime + sweep_us,
                            lidar_msg, error);
 }
 
-// Frame k written into the folder: its cloud and image, and their rows of frames.csv.
-bool WriteFolderFrame(const std::string& dir, int k, const cv::Mat& image, bool jpeg,
-                      int jpeg_quality, const calibd::lidar_frame_t& lidar, bool with_ring,
-                      int64_t camera_utime, std::string* csv, std::string* error) {
+// Frame k written into the folder: its cloud and image (a JPEG message's bytes as they are, a
+// mono8 one as PNG), and their rows of frames.csv.
+bool WriteFolderFrame(const std::string& dir, int k, const cv::Mat& image,
+                      const calibd::camera_frame_t& camera, const calibd::lidar_frame_t& lidar,
+                      bool with_ring, std::string* csv, std::string* error) {
   char stem[16];
   std::snprintf(stem, sizeof(stem), "%06d", k);
   const std::string cloud = std::string(stem) + ".pcd";
+  const bool jpeg = camera.encoding == calibd::camera_frame_t::ENCODING_JPEG;
   const std::string picture = std::string(stem) + (jpeg ? ".jpg" : ".png");
-  std::vector<uint8_t> bytes;
-  const std::vector<int> params =
-      jpeg ? std::vector<int>{cv::IMWRITE_JPEG_QUALITY, jpeg_quality} : std::vector<int>{};
-  if (!cv::imencode(jpeg ? ".jpg" : ".png", image, bytes, params)) {
+  std::vector<uint8_t> png;
+  if (!jpeg && !cv::imencode(".png", image, png)) {
     if (error) *error = dir + "/" + picture + ": cannot encode the image";
     return false;
   }
+  const std::vector<uint8_t>& bytes = jpeg ? camera.data : png;
   if (!WriteFileAtomic(dir + "/" + picture, std::string(bytes.begin(), bytes.end()), error) ||
       !WriteFileAtomic(dir + "/" + cloud, PcdBinaryFile(lidar, with_ring), error))
     return false;
-  *csv += std::to_string(lidar.utime) + ",lidar," + cloud + "\n" + std::to_string(camera_utime) +
+  *csv += std::to_string(lidar.utime) + ",lidar," + cloud + "\n" + std::to_string(camera.utime) +
           ",camera," + picture + "\n";
   return true;
 }
@@ -130,20 +121,25 @@ bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, Sim
       static_cast<int64_t>(std::llround(1e6 / session.lidar_model().frame_rate_hz));
   const int info_every = std::max(
       1, static_cast<int>(std::lround(options.trajectory.rate_hz / channels::kSensorInfo.rate_hz)));
-  const bool jpeg = options.image_encoding == "jpeg";
+  const int8_t encoding = options.image_encoding == "jpeg" ? calibd::camera_frame_t::ENCODING_JPEG
+                                                           : calibd::camera_frame_t::ENCODING_MONO8;
   summary->frames.clear();
   const auto t0 = std::chrono::steady_clock::now();
 
   for (int k = 0; k < n; ++k) {
     session.SimulateFrame(k, &image, &scan, &frame_truth);
     ToLidarMessage(scan, frame_truth.lidar_utime, options.lidar_id, &lidar_msg);
-    if (!outputs.folder_path.empty() &&
-        !WriteFolderFrame(outputs.folder_path, k, image, jpeg, options.jpeg_quality, lidar_msg,
-                          session.lidar_model().has_rings, frame_truth.camera_utime, &csv, error))
+    if (!ToCameraMessage(image, frame_truth.camera_utime, options.camera_id, encoding,
+                         options.jpeg_quality, &camera_msg)) {
+      if (error) *error = "JPEG encoding of frame " + std::to_string(k) + " failed";
       return false;
-    if (!outputs.log_path.empty() &&
-        !WriteLogFrame(options, k % info_every == 0, image, frame_truth, lidar_msg, sweep_us, &log,
-                       &camera_msg, error))
+    }
+    if (!outputs.folder_path.empty() &&
+        !WriteFolderFrame(outputs.folder_path, k, image, camera_msg, lidar_msg,
+                          session.lidar_model().has_rings, &csv, error))
+      return false;
+    if (!outputs.log_path.empty() && !WriteLogFrame(options, k % info_every == 0, frame_truth,
+                                                    camera_msg, lidar_msg, sweep_us, &log, error))
       return false;
     truth.AddFrame(frame_truth, static_cast<int>(scan.size()));
 

@@ -100,13 +100,11 @@ struct LidarResolutionEstimate {
   int horizontal_gaps = 0;       ///< gaps the azimuth resolution was chosen from
   /// Fraction of the gaps inside the chosen (finest typical) cluster.
   double vertical_cluster_fraction = 0.0, horizontal_cluster_fraction = 0.0;
-  /// sqrt(field of view / points per frame): the mean spacing of the samples, whatever their
-  /// pattern.
-  double mean_spacing_deg = 0.0;
-  /// No scan lines (a rosette, a non-repetitive sweep): the bins are the mean spacing, square,
-  /// and the model is non-repetitive (LidarModel::non_repetitive).
+  /// No scan lines (a rosette, a non-repetitive sweep): the bins are the mean sample spacing
+  /// sqrt(field of view / points per frame), square, and the model is non-repetitive
+  /// (LidarModel::non_repetitive).
   bool irregular = false;
-  int mean_points_per_frame = 0;
+  int mean_points_per_frame = 0;  ///< valid points per frame used (an irregular pattern's density)
   /// Upper over lower quartile of the horizontal gaps: near 1 along scan lines (2 for a MEMS
   /// mirror's sinusoid), about 4.8 for samples without lines (a Poisson process).
   double horizontal_gap_spread = 0.0;
