@@ -9,7 +9,9 @@
 #include <random>
 #include <vector>
 
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/geometry.hpp"
+#include "calibd/core/lidar_model.hpp"
 
 namespace calibd {
 namespace {
@@ -97,6 +99,29 @@ TEST(StaticSceneryTest, NothingIsDroppedOnADrive) {
       10, [](int k) { return Eigen::Vector3d(20.0 - 1.0 * k, 3.0, 0.0); },
       [](int k) { return Eigen::Vector3d(25.0 - 1.0 * k, -4.0, -0.8); });
   EXPECT_EQ(FindStaticScenery(s, Boards(), StaticSceneryConfig{}).num_scenery, 0);
+}
+
+TEST(StaticSceneryTest, TheEngineSolvesFromTheMovingBoardsAndNamesTheirClusters) {
+  // The first session above: the engine drops the cabinet and pairs each camera board with its
+  // board cluster; every correspondence names that cluster in the session it was given (board
+  // clusters are the even ones), not in the subset left after the scenery step.
+  const SessionObservations s = MakeSession(
+      12,
+      [](int k) { return Eigen::Vector3d(2.0 + 0.3 * k, 1.5 * std::sin(1.3 * k), 0.2 * (k % 3)); },
+      [](int) { return Eigen::Vector3d(6.0, -3.0, -0.8); });
+  CalibConfig config;
+  config.boards = Boards();
+  config.prior_T_camera_lidar.linear() = RotationFromRpy(-90.0 * kDeg, 0.0, -90.0 * kDeg);
+  config.prior_T_camera_lidar.translation() = Eigen::Vector3d(0.1, -0.2, 0.05);
+  RangeImage projection;
+  projection.Configure(MakeLidarModel(LidarKind::kVlp16), 0.5, 200.0, 1);
+  ObservationSet correspondences;
+  const CalibrationOutcome outcome =
+      Calibrate(config, s, projection, EngineConfig{}, &correspondences);
+  EXPECT_EQ(outcome.static_scenery_clusters, 12);
+  ASSERT_EQ(correspondences.observations.size(), 12u);
+  for (const BoardObservation& o : correspondences.observations)
+    EXPECT_EQ(o.lidar_cluster, 2 * o.frame) << "frame " << o.frame;
 }
 
 TEST(StaticSceneryTest, BadConfigIsRefusedNamingTheField) {

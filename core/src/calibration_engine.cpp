@@ -204,6 +204,15 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   out.grid = grid.Run(session, config.prior_T_camera_lidar, &corr, engine.max_solve_frames);
   if (out.grid.status != GridSearchResult::Status::kOk)
     return Reject(out, "no_grid_candidate", out.grid.reason);
+  if (scenery.num_scenery > 0) {
+    // Each correspondence names its cluster in the caller's session, not in the subset.
+    std::vector<int> original;
+    original.reserve(session.lidar.size());
+    for (size_t j = 0; j < observed.lidar.size(); ++j)
+      if (!scenery.scenery[j]) original.push_back(static_cast<int>(j));
+    for (BoardObservation& o : corr.observations)
+      if (o.lidar_cluster >= 0) o.lidar_cluster = original[static_cast<size_t>(o.lidar_cluster)];
+  }
   out.T_camera_lidar = out.grid.T_camera_lidar;
   out.motion = CompensateBoardMotion(session, out.grid.T_camera_lidar, engine.motion, &corr);
   CoverageFigures(config, corr, &out.quality);

@@ -157,8 +157,11 @@ EngineConfig BenchEngine(Method method) {
 ScoredRun RunEngine(const CalibConfig& config, const SessionObservations& s,
                     const RangeImage& projection, const EngineConfig& engine,
                     const Pose& T_camera_lidar_true) {
-  const CalibrationOutcome outcome = Calibrate(config, s, projection, engine);
+  ObservationSet correspondences;
+  const CalibrationOutcome outcome = Calibrate(config, s, projection, engine, &correspondences);
   ScoredRun r;
+  for (const BoardObservation& o : correspondences.observations)
+    if (o.lidar_cluster >= 0) r.lidar_clusters_used.push_back(o.lidar_cluster);
   r.verdict = VerdictName(outcome.verdict);
   r.reason = outcome.reason;
   r.detail = outcome.detail;

@@ -95,6 +95,8 @@ struct ScoredRun {
   int frames = 0;         ///< frame pairs in the (sub)session
   int camera_boards = 0;  ///< camera board detections in the (sub)session
   int boards_used = 0;    ///< correspondences after the grid search
+  /// The LiDAR cluster of each correspondence: indices into the session's `lidar`.
+  std::vector<int> lidar_clusters_used;
 };
 
 ScoredRun RunEngine(const CalibConfig& config, const SessionObservations& s,

@@ -19,6 +19,9 @@ struct BoardObservation {
   std::array<Eigen::Vector2d, 4> corners_px;  ///< detected tag corners (AprilTag order)
   int first_point = 0;  ///< this board's LiDAR points in ObservationSet::points
   int num_points = 0;
+  /// The LiDAR cluster the points came from: its index in the SessionObservations::lidar the
+  /// engine was given (-1 when the points did not come from a session's cluster).
+  int lidar_cluster = -1;
   /// Apparent velocity of the board centre in the camera frame (m/s), when known
   /// (board_motion.hpp); CompensateBoardMotion moves the points by it.
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();

@@ -138,7 +138,8 @@ bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeomet
 
 /// Runs the whole session-level calibration. `projection` is a RangeImage configured for the
 /// config's LiDAR model (the grid search projects into it). `correspondences` (optional) receives
-/// the camera-LiDAR board pairs the grid search found (for pictures and reports).
+/// the camera-LiDAR board pairs the grid search found (for pictures and reports), each naming
+/// its cluster in `session.lidar` (BoardObservation::lidar_cluster).
 /// `reprojection_px` (optional, for reports) receives the paper Table I error of each of those
 /// correspondences, index for index: the mean over its tag corners (px) of the errors behind
 /// QualityFigures::reprojection_mean_px, NaN where the board's fit failed; empty when the
