@@ -365,5 +365,35 @@ TEST(RecordedFolderCliTest, TheSimulatorWritesFoldersThatCalibrateReads) {
   }
 }
 
+TEST(RecordedFolderCliTest, StillPosesRecordedAsAStreamByARosetteCalibrateNearTheTruth) {
+  // 12 poses of a Livox-Avia-like rosette, 5 sweeps each (calibd-sim --frames-per-pose), as Livox
+  // users record: a sweep alone can cover too little of a board to pass the detector's gates,
+  // but a pose's board is found in some of its sweeps, each paired with its own image.
+  testing::TempDir dir;
+  const std::string rec = dir.file("stream");
+  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) +
+                       " --quiet --lidar avia --trajectory stills --rate 0.5 --frames 12"
+                       " --frames-per-pose 5 --still-distance 2,6 --boards 1 --board-size 0.9"
+                       " --tag-size 0.7 --width 1920 --height 1200 --fx 1100 --fy 1100"
+                       " --folder " +
+                       rec + " --truth " + dir.file("truth.json") + " --config-out " +
+                       dir.file("c.yaml")),
+            0);
+  // Five frames 0.1 s apart per pose, the poses 2 s apart.
+  const auto truth = ReadJson(dir.file("truth.json"));
+  ASSERT_EQ(truth["frames"].size(), 60u);
+  const auto utime = [&](int k) { return truth["frames"][k]["camera_utime"].get<int64_t>(); };
+  EXPECT_EQ(utime(4) - utime(0), 400000);
+  EXPECT_EQ(utime(5) - utime(0), 2000000);
+  ASSERT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --quiet --folder " + rec +
+                       " --config " + dir.file("c.yaml") + " --truth " + dir.file("truth.json") +
+                       " --report " + dir.file("r.json")),
+            0);
+  const auto report = ReadJson(dir.file("r.json"));
+  EXPECT_EQ(report["verdict"].get<std::string>(), "updated") << report["detail"];
+  EXPECT_LT(report["error_vs_truth"]["rotation_deg"].get<double>(), 0.1);
+  EXPECT_LT(report["error_vs_truth"]["translation_m"].get<double>(), 0.01);
+}
+
 }  // namespace
 }  // namespace calibd

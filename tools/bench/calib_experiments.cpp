@@ -55,9 +55,16 @@ void ScoreLidar(const FrameDetections& frame, std::vector<int>* board_of_point,
       drive->lidar_true.push_back(0);
     }
   }
-  for (size_t b = 0; b < truth.size(); ++b)
-    if (!found[b] && static_cast<int>(truth[b].lidar_point_indices.size()) >= kVisibleBoardPoints)
-      ++drive->lidar_fn;
+  uint32_t found_bits = 0, visible_bits = 0;
+  for (size_t b = 0; b < truth.size(); ++b) {
+    const bool visible =
+        static_cast<int>(truth[b].lidar_point_indices.size()) >= kVisibleBoardPoints;
+    if (!found[b] && visible) ++drive->lidar_fn;
+    if (b < 32 && found[b]) found_bits |= 1u << b;
+    if (b < 32 && (found[b] || visible)) visible_bits |= 1u << b;
+  }
+  drive->lidar_found_boards.push_back(found_bits);
+  drive->lidar_visible_boards.push_back(visible_bits);
 }
 
 }  // namespace
@@ -82,6 +89,8 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
   std::vector<int> board_of_point;
   drive->lidar_tp = drive->lidar_fp = drive->lidar_fn = drive->camera_boards_in_view = 0;
   drive->lidar_true.clear();
+  drive->lidar_found_boards.clear();
+  drive->lidar_visible_boards.clear();
   for (int k = 0; k < frames; ++k) {
     detected.Detect(k, true, &frame);
     ScoreLidar(frame, &board_of_point, drive);

@@ -39,6 +39,8 @@ struct RecordedDrive {
   int lidar_tp = 0, lidar_fp = 0, lidar_fn = 0;
   /// Per LiDAR detection, in the order they entered `observations`: 1 for a true positive.
   std::vector<char> lidar_true;
+  /// Per frame pair, bit b for board b: found by a true positive; visible (found or missed).
+  std::vector<uint32_t> lidar_found_boards, lidar_visible_boards;
   int camera_boards_in_view = 0;  ///< boards whose tag the camera could see (truth)
 };
 

@@ -60,6 +60,9 @@ Session:
                            tripod or held by a person, turned, with a chair, a wall, a box or a
                            bystander within 0.3-1 m), one still pose a frame (default drive)
   --still-distance MIN,MAX stills: LiDAR to board distance, m (default 1.5,8)
+  --frames-per-pose N      stills: N frame pairs per pose, one LiDAR sweep apart, as a stream
+                           recorded while the board stood still (default 1); --frames and
+                           --duration count poses
   --distance MIN,MAX       drive range from the LiDAR to the boards, m (default 6,30)
   --static-distance M      distance in static mode, m (default 10)
   --duration S             session length, s (default 20)
@@ -214,6 +217,7 @@ int main(int argc, char** argv) {
                                   o.stills.min_distance_m = n[0];
                                   o.stills.max_distance_m = n[1];
                                 })},
+      {"--frames-per-pose", integer(&o.stills.frames_per_pose, 1, 100)},
       {"--duration", number(&o.trajectory.duration_s, 0.1, 3600)},
       {"--rate", number(&o.trajectory.rate_hz, 0.1, 50)},
       {"--frames", integer(&frames, 1, 100000)},

@@ -61,6 +61,13 @@ bool SessionOptions::IsValid(std::string* error) const {
   if (!(stills.min_distance_m >= 0.5 && stills.max_distance_m > stills.min_distance_m &&
         stills.max_distance_m <= 60.0))
     return fail("--still-distance must satisfy 0.5 <= min < max <= 60 m");
+  if (!(stills.frames_per_pose >= 1 && stills.frames_per_pose <= 100))
+    return fail("--frames-per-pose must be in [1, 100]");
+  if (trajectory.mode == "stills" && stills.frames_per_pose > 1 && kind != LidarKind::kGeneric &&
+      (stills.frames_per_pose - 1) / MakeLidarModel(kind).frame_rate_hz >= 1.0 / trajectory.rate_hz)
+    return fail(
+        "--frames-per-pose: the sweeps of one pose must end before the next pose "
+        "(lower --rate or the frames per pose)");
   if (!(std::abs(prior_rot_deg) <= 10.0)) return fail("--prior-rot-deg must be within +-10 deg");
   if (!(std::abs(prior_trans_m) <= 0.5)) return fail("--prior-trans-m must be within +-0.5 m");
   if (!(lidar_noise.range_sigma_m >= 0.0 && lidar_noise.range_sigma_m <= 0.5))
@@ -135,8 +142,9 @@ bool SessionSimulator::BuildStillPoses(std::string* error) {
     return FacesCameraInImage(camera_->model(), T_world_camera.inverse() * T_world_board,
                               g.BoardVerticesInBoard(), -20.0);
   };
-  still_poses_.resize(static_cast<size_t>(num_frames()));
-  for (int k = 0; k < num_frames(); ++k)
+  const int poses = options_.trajectory.num_frames();
+  still_poses_.resize(static_cast<size_t>(poses));
+  for (int k = 0; k < poses; ++k)
     if (!BuildStillPose(options_.workshop, options_.stills, lidar_->model(),
                         T_world_vehicle * T_vehicle_lidar_, visible, options_.seed, k,
                         &still_poses_[static_cast<size_t>(k)], error))
@@ -146,11 +154,16 @@ bool SessionSimulator::BuildStillPoses(std::string* error) {
 
 void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, FrameTruth* truth) {
   const auto& traj = options_.trajectory;
-  last_frame_ = still_poses_.empty() ? 0 : k;
+  // Stills: frames_per_pose frames a sweep apart per pose, the poses 1 / rate_hz apart.
+  const int per_pose = still_poses_.empty() ? 1 : options_.stills.frames_per_pose;
+  last_frame_ = still_poses_.empty() ? 0 : k / per_pose;
   const Workshop& workshop = WorkshopOf(last_frame_);
   const double lidar_x = T_vehicle_lidar_.translation().x();
   const int64_t frame_period_us = static_cast<int64_t>(std::llround(1e6 / traj.rate_hz));
-  const int64_t camera_utime = options_.start_utime + k * frame_period_us;
+  const int64_t sweep_period_us =
+      static_cast<int64_t>(std::llround(1e6 / lidar_->model().frame_rate_hz));
+  const int64_t camera_utime =
+      options_.start_utime + (k / per_pose) * frame_period_us + (k % per_pose) * sweep_period_us;
   const int64_t lidar_utime = camera_utime - camera_phase_us_;
   const double sweep_s = 1.0 / lidar_->model().frame_rate_hz;
   auto seconds = [&](int64_t utime) {

@@ -76,7 +76,10 @@ class SessionSimulator {
   /// Builds the scene and sensors; false with `error` naming the bad option.
   bool Init(const SessionOptions& options, std::string* error);
 
-  int num_frames() const { return options_.trajectory.num_frames(); }
+  int num_frames() const {
+    return options_.trajectory.num_frames() *
+           (options_.trajectory.mode == "stills" ? options_.stills.frames_per_pose : 1);
+  }
   const SessionOptions& options() const { return options_; }
   /// The scene: the workshop of a drive; in a still-pose session, the pose of the last simulated
   /// frame (pose 0 before any).
@@ -106,8 +109,8 @@ class SessionSimulator {
   std::optional<CameraRenderer> camera_;  // built once: its ray table is large
   Pose T_vehicle_lidar_, T_vehicle_camera_, T_camera_lidar_, prior_T_camera_lidar_;
   int64_t camera_phase_us_ = 0;
-  std::vector<Workshop> still_poses_;  // one scene per frame of a still-pose session, else empty
-  int last_frame_ = 0;
+  std::vector<Workshop> still_poses_;  // one scene per pose of a still-pose session, else empty
+  int last_frame_ = 0;                 // its pose
 
   const Workshop& WorkshopOf(int k) const {
     return still_poses_.empty() ? workshop_ : still_poses_[static_cast<size_t>(k)];

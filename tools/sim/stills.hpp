@@ -22,6 +22,9 @@ struct StillPoseOptions {
   /// Clutter within 0.3-1 m of the boards: a person holding the board (else a tripod), a chair,
   /// a wall behind, a box on the floor behind and below, a bystander. False: tripods only.
   bool clutter = true;
+  /// Frame pairs recorded per pose, one LiDAR sweep apart (a stream recorded while the board
+  /// stood still); the poses stay 1 / trajectory.rate_hz apart.
+  int frames_per_pose = 1;
 };
 
 /// True when a board at T_world_board is usable by the camera (the caller's camera model).
