@@ -37,6 +37,10 @@ Options:
                      but agent.auto_commit could not write the store (the previous calibration
                      stays in use)
   --quiet            no log lines on stderr
+  --debug DIR        replays only: what the detectors made of each frame pair, as
+                     calibd-calibrate --debug writes it (DIR/pair_NNNNNN.json with every camera
+                     board and LiDAR cluster and the gate that stopped it, DIR/pair_NNNNNN.png the
+                     range image coloured by gate); DIR is created
 
 Exit codes: 0 stopped by SIGTERM/SIGINT (or --once: verified/updated), 1 could not start (store,
 LCM, detectors, UDS secret file, GPIO lines), 2 bad option or config (the message names the key),
@@ -66,6 +70,8 @@ int main(int argc, char** argv) {
       options.lcm_url = argv[++i];
     } else if (arg == "--publish-url" && i + 1 < argc) {
       options.publish_url = argv[++i];
+    } else if (arg == "--debug" && i + 1 < argc) {
+      options.debug_dir = argv[++i];
     } else {
       std::cerr << "calibd-agent: unknown option or missing value '" << arg << "' (see --help)\n";
       return 2;
@@ -75,6 +81,13 @@ int main(int argc, char** argv) {
   std::string error;
   if (!calibd::LoadAgentConfig(config_path, &config, &error)) {
     std::cerr << "calibd-agent: " << error << "\n";
+    return 2;
+  }
+  const std::string url = options.lcm_url.empty() ? config.lcm_url : options.lcm_url;
+  if (!options.debug_dir.empty() && url.rfind("file://", 0) != 0) {
+    std::cerr << "calibd-agent: --debug writes two files per frame pair: it needs a replayed log "
+                 "(--lcm-url file://...), not the vehicle's bus '"
+              << url << "'\n";
     return 2;
   }
   if (config.solve_heap_mb > 0) {

@@ -17,7 +17,8 @@ PACKAGES=(
   liblzf-dev
   # libjpeg-turbo: the agent decodes JPEG camera frames with it (drivers/src/jpeg_decoder.cpp)
   libjpeg62-turbo-dev
-  # libpng: PNG images of recorded folders (drivers/src/recorded_folder.cpp)
+  # libpng: PNG images of recorded folders (drivers/src/recorded_folder.cpp), --debug pictures
+  # (drivers/src/png_writer.cpp)
   libpng-dev
   # libFuzzer targets (make fuzz-smoke, tests/fuzz/): clang, whose runtime libraries
   # (libclang_rt.fuzzer, asan, ubsan) come with libclang-rt-14-dev

@@ -20,7 +20,8 @@ HOST_PACKAGES=(cmake ninja-build pkg-config liblcm-bin file
 # Sysroot: what core, drivers, the agent and the tests link, and their dependencies.
 SYSROOT_PACKAGES=(libc6-dev libstdc++-12-dev libeigen3-dev libopencv-dev libapriltag-dev
   libceres-dev liblcm-dev libgpiod-dev libyaml-cpp-dev nlohmann-json3-dev zlib1g-dev
-  libsystemd-dev libssl-dev liblzf-dev libgtest-dev libglib2.0-dev libjpeg62-turbo-dev)
+  libsystemd-dev libssl-dev liblzf-dev libgtest-dev libglib2.0-dev libjpeg62-turbo-dev
+  libpng-dev)
 SUITE=bookworm
 MIRRORS=("deb http://deb.debian.org/debian bookworm main"
   "deb http://deb.debian.org/debian bookworm-updates main"

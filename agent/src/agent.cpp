@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <filesystem>
 #include <iostream>
 
 #include "calibd/agent/session_marker.hpp"
@@ -164,7 +165,17 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
   CheckInterruptedSession();
   if (!wake_.Open(error)) return false;
   intake_.SetReadyEvent(&wake_);
-  if (!intake_.Init(IntakeConfigFrom(config_), config_.calib, error)) return false;
+  IntakeConfig intake = IntakeConfigFrom(config_);
+  if (!options.debug_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(options.debug_dir, ec);
+    if (ec) {
+      if (error) *error = "--debug: cannot create '" + options.debug_dir + "': " + ec.message();
+      return false;
+    }
+    intake.debug_dir = options.debug_dir;
+  }
+  if (!intake_.Init(intake, config_.calib, error)) return false;
 
   LidarModel lidar_model;
   if (!LidarModelFromConfig(config_.calib.lidar_model, config_.calib.lidar_generic, &lidar_model,
@@ -463,7 +474,11 @@ void Agent::Step(int64_t now_us) {
         std::to_string(c.lidar_boards_dropped) + " boards and " +
         std::to_string(c.lidar_candidates_dropped) + " clusters beyond its capacity, " +
         std::to_string(c.lidar_points_overflow) + " points beyond max_points, " +
-        std::to_string(c.lidar_boards_subsampled) + " boards subsampled to max_points_per_board");
+        std::to_string(c.lidar_boards_subsampled) + " boards subsampled to max_points_per_board" +
+        (c.debug_write_failures > 0
+             ? "; " + std::to_string(c.debug_write_failures) +
+                   " --debug pair(s) not written (first: " + c.first_debug_error + ")"
+             : std::string()));
   }
   if (machine_.NeedsSolve()) StartSolve();
   if (solver_.joinable() && solve_done_) FinishSolve();

@@ -18,6 +18,7 @@ struct FrameIntake::Slot {
   bool camera_ok = false, lidar_ok = false;
   std::string camera_error, lidar_error;
   double camera_ms = 0.0, lidar_ms = 0.0;
+  RangeImagePicture picture;  ///< IntakeConfig::debug_dir only
 };
 
 namespace {
@@ -74,7 +75,9 @@ bool FrameIntake::Init(const IntakeConfig& config, const CalibConfig& calib, std
     if (error) *error = "camera detector: " + camera_detector_->error();
     return false;
   }
-  lidar_detector_ = std::make_unique<LidarDetector>(config.lidar, model, calib.boards);
+  LidarDetectorConfig lidar = config.lidar;
+  lidar.report_clusters = lidar.report_clusters || !config.debug_dir.empty();
+  lidar_detector_ = std::make_unique<LidarDetector>(lidar, model, calib.boards);
   if (!lidar_detector_->ok()) {
     if (error) *error = "LiDAR detector: " + lidar_detector_->error();
     return false;
@@ -288,6 +291,9 @@ void FrameIntake::Worker(bool camera) {
       slot->lidar_ok = LidarFrameToView(slot->lidar, config_.limits, &cloud, &slot->lidar_error);
       if (slot->lidar_ok) lidar_detector_->Detect(cloud, &slot->lidar_detections);
       slot->lidar_ms = MsSince(t0);
+      // The picture reads the detector's range image: drawn before its next sweep.
+      if (slot->lidar_ok && !config_.debug_dir.empty())
+        DrawRangeImagePicture(*lidar_detector_, slot->lidar_detections, &slot->picture);
     }
     bool ready = false;
     {
@@ -326,12 +332,27 @@ int FrameIntake::Drain(SessionObservations* session) {
       if (!session->AddFrame(s->camera_detections, s->lidar_detections, calib_.boards,
                              FrameTimes{s->camera.utime, s->lidar.utime}))
         ++counters_.over_capacity;
+      if (!config_.debug_dir.empty()) WriteDebug(*s);
       ++counters_.pairs_detected;
       ++moved;
       break;
     }
   }
   return moved;
+}
+
+void FrameIntake::WriteDebug(const Slot& s) {
+  FrameDebugInput debug;
+  debug.pair_index = static_cast<int>(counters_.pairs_detected);
+  debug.camera_utime = s.camera.utime;
+  debug.lidar_utime = s.lidar.utime;
+  debug.lidar_points = s.lidar.num_points;
+  debug.camera = &s.camera_detections;
+  debug.lidar = &s.lidar_detections;
+  debug.picture = &s.picture;
+  std::string error;
+  if (!WriteFrameDebug(config_.debug_dir, debug, &error) && counters_.debug_write_failures++ == 0)
+    counters_.first_debug_error = error;
 }
 
 bool FrameIntake::Idle() const {

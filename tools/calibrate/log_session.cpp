@@ -9,10 +9,10 @@
 #include "calibd/channels.hpp"
 #include "calibd/core/frame_pairing.hpp"
 #include "calibd/core/lidar_model.hpp"
+#include "calibd/drivers/frame_debug.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
 #include "calibd/drivers/recorded_folder.hpp"
 #include "calibd/lidar_frame_t.hpp"
-#include "frame_debug.hpp"
 
 namespace calibd::tools {
 
@@ -120,9 +120,10 @@ class SessionBuilder {
                               FrameTimes{pending_->utime, lidar_msg.utime}))
         ++stats_->frames_over_capacity;
       if (!options_.debug_dir.empty()) {
+        DrawRangeImagePicture(*lidar_detector_, ld_, &picture_);
         const FrameDebugInput debug{
-            pair_index, pending_->utime,  lidar_msg.utime, static_cast<int>(cloud.size), &cd_,
-            &ld_,       &*lidar_detector_};
+            pair_index, pending_->utime, lidar_msg.utime, static_cast<int>(cloud.size), &cd_,
+            &ld_,       &picture_};
         std::string write_error;
         if (!WriteFrameDebug(options_.debug_dir, debug, &write_error) &&
             stats_->debug_write_failures++ == 0)
@@ -169,6 +170,7 @@ class SessionBuilder {
   cv::Mat decoded_;
   CameraDetections cd_;
   LidarDetections ld_;
+  RangeImagePicture picture_;  // --debug
 };
 
 }  // namespace

@@ -29,7 +29,7 @@ struct LogReadOptions {
   /// to fetch pictures after a calibration.
   bool detect = true;
   /// --debug: a directory (existing) receiving what the detectors made of each pair
-  /// (frame_debug.hpp); empty: none. Turns on the LiDAR's cluster reports.
+  /// (calibd/drivers/frame_debug.hpp); empty: none. Turns on the LiDAR's cluster reports.
   std::string debug_dir;
 };
 

@@ -45,6 +45,9 @@ struct AgentOptions {
   /// end of a file:// log: for replays and scripts. Exit code: see Agent::Run.
   bool once = false;
   bool quiet = false;  ///< no log lines on stderr
+  /// Replays only: what the detectors made of each pair goes there (IntakeConfig::debug_dir);
+  /// created when missing.
+  std::string debug_dir;
 };
 
 /// Run()'s exit code when a diagnostic tester asked for an ECU reset (UDS 0x11 01): the caller

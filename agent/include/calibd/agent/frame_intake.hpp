@@ -32,6 +32,7 @@
 #include "calibd/core/lidar_detector.hpp"
 #include "calibd/core/session_observations.hpp"
 #include "calibd/core/stream_gaps.hpp"
+#include "calibd/drivers/frame_debug.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
 #include "calibd/drivers/wake_event.hpp"
 #include "calibd/lidar_frame_t.hpp"
@@ -49,6 +50,10 @@ struct IntakeConfig {
   int64_t pair_tolerance_us = 20000;  ///< camera time allowed outside the LiDAR sweep
   CameraDetectorConfig camera;
   LidarDetectorConfig lidar;
+  /// Replays only (calibd-agent --debug): a directory receiving, per pair drained, what the
+  /// detectors made of it (calibd/drivers/frame_debug.hpp; the LiDAR's cluster reports are
+  /// turned on). Empty: nothing written.
+  std::string debug_dir;
 
   bool IsValid(std::string* error) const;
 };
@@ -82,8 +87,10 @@ struct IntakeCounters {
   /// (agent.max_points_per_board: kept as an even subsample).
   int64_t lidar_boards_dropped = 0, lidar_candidates_dropped = 0;
   int64_t lidar_points_overflow = 0, lidar_boards_subsampled = 0;
-  int64_t ignored_inactive = 0;  ///< frames received while not collecting
-  std::string last_error;        ///< what was wrong with the latest bad message
+  int64_t ignored_inactive = 0;      ///< frames received while not collecting
+  std::string last_error;            ///< what was wrong with the latest bad message
+  int64_t debug_write_failures = 0;  ///< IntakeConfig::debug_dir files not written
+  std::string first_debug_error;
 };
 
 class FrameIntake {
@@ -135,6 +142,8 @@ class FrameIntake {
   /// a clock step back while collecting, restarts the pairing on the new timeline.
   void AfterObserve(const StreamGaps& gaps, int64_t restarts_before, bool camera);
   int FreeSlot() const;
+  /// Writes the debug files of a drained pair (IntakeConfig::debug_dir).
+  void WriteDebug(const Slot& s);
 
   IntakeConfig config_;
   CalibConfig calib_;

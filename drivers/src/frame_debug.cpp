@@ -1,28 +1,26 @@
-#include "frame_debug.hpp"
+#include "calibd/drivers/frame_debug.hpp"
 
 #include <algorithm>
 #include <cstdio>
 #include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <unordered_map>
 #include <vector>
 
 #include "calibd/core/segmentation.hpp"
 
 #include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/png_writer.hpp"
 
-namespace calibd::tools {
+namespace calibd {
 
 namespace {
 
 nlohmann::json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
-// Colours of the picture (BGR for OpenCV), defined once with their legend.
+// Colours of the picture, defined once with their legend.
 struct Swatch {
   const char* what;
   uint8_t b, g, r;
-  cv::Vec3b bgr() const { return {b, g, r}; }
 };
 constexpr Swatch kBoard{"board (green)", 60, 220, 60};
 constexpr Swatch kDescriptor{"descriptor: no reference matched (orange)", 0, 150, 255};
@@ -52,40 +50,52 @@ const Swatch& SwatchOf(ClusterGate gate) {
   }
 }
 
-// The range image coloured by what became of each cell; rows scaled up for few-ring sensors.
-cv::Mat RangeImagePicture(const LidarDetector& detector, const LidarDetections& lidar) {
+}  // namespace
+
+void DrawRangeImagePicture(const LidarDetector& detector, const LidarDetections& lidar,
+                           RangeImagePicture* out) {
   const RangeImage& image = detector.range_image();
   const std::vector<int32_t>& labels = detector.cell_labels();
   // Segment label -> the whole segment's gate; planes found as boards are drawn over it.
   std::unordered_map<int32_t, ClusterGate> gate_of_label;
   for (const LidarClusterReport& r : lidar.clusters)
     if (r.plane < 0) gate_of_label[detector.segment_label(r.segment)] = r.gate;
+  // Rows scaled up for few-ring sensors.
   const int rows = image.rows(), cols = image.cols();
   const int row_px = std::clamp(400 / std::max(1, rows), 1, 24);
   const int col_px = std::clamp(720 / std::max(1, cols), 1, 8);
-  cv::Mat picture(rows * row_px, cols * col_px, CV_8UC3, cv::Scalar(0, 0, 0));
-  auto paint = [&](int cell, const cv::Vec3b& bgr) {
+  out->width = cols * col_px;
+  out->height = rows * row_px;
+  out->rgb.assign(static_cast<size_t>(out->width) * static_cast<size_t>(out->height) * 3, 0);
+  auto paint = [&](int cell, uint8_t r, uint8_t g, uint8_t b) {
     // Top row: the highest elevation; column 0 (azimuth -180 or the field's right edge) drawn on
     // the right, as the sensor sees it.
-    const int y = (rows - 1 - image.RowOf(cell)) * row_px;
-    const int x = (cols - 1 - image.ColOf(cell)) * col_px;
-    picture(cv::Rect(x, y, col_px, row_px)).setTo(cv::Scalar(bgr[0], bgr[1], bgr[2]));
+    const int y0 = (rows - 1 - image.RowOf(cell)) * row_px;
+    const int x0 = (cols - 1 - image.ColOf(cell)) * col_px;
+    for (int y = y0; y < y0 + row_px; ++y)
+      for (int x = x0; x < x0 + col_px; ++x) {
+        uint8_t* px = out->rgb.data() + (static_cast<size_t>(y) * out->width + x) * 3;
+        px[0] = r;
+        px[1] = g;
+        px[2] = b;
+      }
   };
+  auto paint_swatch = [&](int cell, const Swatch& w) { paint(cell, w.r, w.g, w.b); };
   for (int cell = 0; cell < rows * cols; ++cell) {
     const RangeImageCell& c = image.cell(cell);
     if (c.index < 0) continue;
     const int32_t label = static_cast<size_t>(cell) < labels.size() ? labels[cell] : kLabelNone;
     if (label == kLabelGround) {
-      paint(cell, kGround.bgr());
+      paint_swatch(cell, kGround);
       continue;
     }
     const auto it = gate_of_label.find(label);
     if (label > 0 && it != gate_of_label.end()) {
-      paint(cell, SwatchOf(it->second).bgr());
+      paint_swatch(cell, SwatchOf(it->second));
       continue;
     }
     const auto grey = static_cast<uint8_t>(std::clamp(220.0 - 6.0 * c.range, 50.0, 220.0));
-    paint(cell, cv::Vec3b(grey, grey, grey));
+    paint(cell, grey, grey, grey);
   }
   // Boards found as planes inside a refused cluster: their points' cells.
   const std::vector<int32_t>& point_cell = image.point_cell();
@@ -93,12 +103,9 @@ cv::Mat RangeImagePicture(const LidarDetector& detector, const LidarDetections& 
     for (int k = b.first_point; k < b.first_point + b.num_points; ++k) {
       const int32_t i = lidar.point_indices[static_cast<size_t>(k)];
       if (i >= 0 && static_cast<size_t>(i) < point_cell.size() && point_cell[i] >= 0)
-        paint(point_cell[i], kBoard.bgr());
+        paint_swatch(point_cell[i], kBoard);
     }
-  return picture;
 }
-
-}  // namespace
 
 const char* FrameDebugPictureLegend() {
   static const std::string legend = [] {
@@ -151,7 +158,7 @@ std::string FrameDebugJson(const FrameDebugInput& in) {
                                  {"attached_fraction", r.attached_fraction},
                                  {"descriptor_score", r.score}});
   }
-  if (in.lidar_detector) {
+  if (in.picture) {
     char picture[32];
     std::snprintf(picture, sizeof(picture), "pair_%06d.png", in.pair_index);
     lidar["picture"] = {{"file", picture}, {"colours", FrameDebugPictureLegend()}};
@@ -164,14 +171,14 @@ bool WriteFrameDebug(const std::string& dir, const FrameDebugInput& in, std::str
   char name[32];
   std::snprintf(name, sizeof(name), "/pair_%06d.json", in.pair_index);
   if (!WriteFileAtomic(dir + name, FrameDebugJson(in), error)) return false;
-  if (!in.lidar_detector) return true;
-  std::vector<uint8_t> png;
+  if (!in.picture) return true;
+  std::string png, why;
   std::snprintf(name, sizeof(name), "/pair_%06d.png", in.pair_index);
-  if (!cv::imencode(".png", RangeImagePicture(*in.lidar_detector, *in.lidar), png)) {
-    if (error) *error = dir + name + ": cannot encode the picture";
+  if (!EncodePngRgb(in.picture->rgb.data(), in.picture->width, in.picture->height, &png, &why)) {
+    if (error) *error = dir + name + ": " + why;
     return false;
   }
-  return WriteFileAtomic(dir + name, std::string(png.begin(), png.end()), error);
+  return WriteFileAtomic(dir + name, png, error);
 }
 
-}  // namespace calibd::tools
+}  // namespace calibd
