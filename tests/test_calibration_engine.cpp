@@ -87,6 +87,25 @@ TEST(CalibrationEngineTest, OnlyFarFramesAreRejectedForTheirPrecision) {
       << out.reason << ": " << out.detail;
 }
 
+TEST(CalibrationEngineTest, ARefusalForItsSigmaSaysHowManyBoardsWouldDo) {
+  // The default drive, with the rotation sigma gate set to half of what it achieves: four times
+  // the boards would halve the sigma, and the refusal says so.
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  auto r = Drive(o);
+  const CalibrationOutcome first = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  ASSERT_TRUE(first.solved) << first.reason << ": " << first.detail;
+  EngineConfig strict;
+  strict.verdict.max_rotation_sigma_deg = first.quality.rotation_sigma_deg / 2.0;
+  const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, strict);
+  EXPECT_EQ(out.reason, "poor_observability") << out.detail;
+  const int boards = out.quality.boards_used;
+  EXPECT_NE(out.detail.find(std::to_string(boards) + " boards; about " +
+                            std::to_string(4 * boards) + " like them"),
+            std::string::npos)
+      << out.detail;
+}
+
 // Calibrate's optional per-correspondence errors (for reports): one per correspondence, and
 // they are the quality figure's own (each board's 4 corners: the mean of the means is the mean).
 TEST(CalibrationEngineTest, PerCorrespondenceReprojectionErrorsAreTheQualityFigures) {

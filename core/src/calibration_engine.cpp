@@ -336,12 +336,22 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       Fmt(q.plane_conditioning, 6) + " below " + Fmt(v.min_plane_conditioning, 6) +
                       "): boards too few or all parallel");
   if (q.rotation_sigma_deg > v.max_rotation_sigma_deg ||
-      q.translation_sigma_m > v.max_translation_sigma_m)
+      q.translation_sigma_m > v.max_translation_sigma_m) {
+    // A formal sigma falls with the square root of the number of like boards: how many would
+    // bring it under the gate, for the user to act on.
+    const double ratio = std::max(q.rotation_sigma_deg / v.max_rotation_sigma_deg,
+                                  q.translation_sigma_m / v.max_translation_sigma_m);
+    const double needed = std::ceil(q.boards_used * ratio * ratio);
     return Reject(out, "poor_observability",
                   "formal sigma " + Fmt(q.rotation_sigma_deg, 4) + " deg / " +
                       Fmt(q.translation_sigma_m, 4) + " m above " +
                       Fmt(v.max_rotation_sigma_deg, 4) + " deg / " +
-                      Fmt(v.max_translation_sigma_m, 4) + " m: boards too few or too alike");
+                      Fmt(v.max_translation_sigma_m, 4) + " m: boards too few or too alike (" +
+                      std::to_string(q.boards_used) + " boards; about " +
+                      (std::isfinite(needed) && needed < 1e6 ? Fmt(needed, 0) : "many more") +
+                      " like them, or fewer at closer range and more varied angles, where the "
+                      "LiDAR puts more points on each)");
+  }
   if (q.rotation_spread_deg > v.max_rotation_spread_deg ||
       q.translation_spread_m > v.max_translation_spread_m)
     return Reject(out, "unstable_solution",
