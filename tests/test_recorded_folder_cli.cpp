@@ -393,6 +393,25 @@ TEST(RecordedFolderCliTest, StillPosesRecordedAsAStreamByARosetteCalibrateNearTh
   EXPECT_EQ(report["verdict"].get<std::string>(), "updated") << report["detail"];
   EXPECT_LT(report["error_vs_truth"]["rotation_deg"].get<double>(), 0.1);
   EXPECT_LT(report["error_vs_truth"]["translation_m"].get<double>(), 0.01);
+  // Single sweeps missed in a stream are no reason for a hint: other sweeps found the board.
+  EXPECT_FALSE(report.contains("hint")) << report["hint"];
+
+  // One sweep per pose of a sparser Mid-360-like sensor: the LiDAR misses many of the boards
+  // the camera saw, and the report says what to record instead.
+  const std::string stills = dir.file("stills");
+  ASSERT_EQ(RunCommand(std::string(CALIBD_SIM_EXE) +
+                       " --quiet --lidar mid360 --trajectory stills --rate 0.5 --frames 12"
+                       " --still-distance 3,6 --boards 1 --board-size 0.9 --tag-size 0.7"
+                       " --width 1920 --height 1200 --fx 1100 --fy 1100 --folder " +
+                       stills + " --config-out " + dir.file("m.yaml")),
+            0);
+  RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --quiet --folder " + stills + " --config " +
+             dir.file("m.yaml") + " --report " + dir.file("m.json"));
+  const auto single = ReadJson(dir.file("m.json"));
+  ASSERT_TRUE(single.contains("hint")) << single["frames"];
+  EXPECT_NE(single["hint"].get<std::string>().find("record about a second of sweeps per pose"),
+            std::string::npos)
+      << single["hint"];
 }
 
 }  // namespace

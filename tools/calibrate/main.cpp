@@ -153,6 +153,34 @@ std::vector<int> OverlayFrames(const ObservationSet& corr) {
   return frames;
 }
 
+// A hint when the LiDAR gave no board for more than a fifth of the camera boards taking part in
+// the solve (the grid search pairs each camera board with a LiDAR board in its predicted region);
+// empty otherwise, and for a non-repetitive LiDAR's stream (frames under 0.25 s apart), whose
+// sweeps each cover part of a still board: the others find it.
+std::string LidarMissHint(const SessionObservations& session, const ObservationSet& corr,
+                          int max_solve_frames, const LidarModel& model) {
+  std::vector<int64_t> gaps;
+  for (size_t f = 1; f < session.frame_times.size(); ++f)
+    gaps.push_back(session.frame_times[f].camera_utime - session.frame_times[f - 1].camera_utime);
+  std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2),
+                   gaps.end());
+  const bool stream = !gaps.empty() && gaps[gaps.size() / 2] < 250000;
+  if (model.non_repetitive && stream) return "";
+  int camera_boards = 0;
+  for (const auto& c : session.camera)
+    camera_boards += SpreadFrameSelected(c.frame, session.num_frames, max_solve_frames) ? 1 : 0;
+  const int missed = camera_boards - static_cast<int>(corr.observations.size());
+  if (camera_boards == 0 || 5 * missed <= camera_boards) return "";
+  return "the LiDAR gave no board for " + std::to_string(missed) + " of " +
+         std::to_string(camera_boards) +
+         " camera boards (--debug DIR shows the gate that stopped each cluster); " +
+         (model.non_repetitive
+              ? "one sweep of a non-repetitive LiDAR covers only part of a board: record about a "
+                "second of sweeps per pose (each paired with its image), or clouds integrated "
+                "over it"
+              : "closer or larger boards put more of the LiDAR's scan lines on each");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -366,11 +394,13 @@ int main(int argc, char** argv) {
     out.detail = no_pairs;
   }
   const auto& q = out.quality;
+  const std::string lidar_hint = LidarMissHint(session, corr, engine.max_solve_frames, lidar_model);
 
   nlohmann::json report;
   report["verdict"] = VerdictName(out.verdict);
   report["reason"] = out.reason;
   report["detail"] = out.detail;
+  if (!lidar_hint.empty()) report["hint"] = lidar_hint;
   report["method"] = method;
   report["extract_planes"] = read_options.lidar.extract_planes;
   report["solved"] = out.solved;  // false: T_camera_lidar is only the prior or grid candidate
@@ -436,7 +466,8 @@ int main(int argc, char** argv) {
                       {"unmatched_images", stats.unmatched_images},
                       {"over_capacity", stats.frames_over_capacity},
                       {"camera_boards", session.camera.size()},
-                      {"lidar_boards", session.lidar.size()}};
+                      {"lidar_boards", session.lidar.size()},
+                      {"correspondences", corr.observations.size()}};
   report["timing_ms"] = {{"read_and_detect_total", read_s * 1000.0},
                          {"camera_detection_total", Sum(stats.camera_ms)},
                          {"camera_detection_median", Median(stats.camera_ms)},
@@ -581,6 +612,7 @@ int main(int argc, char** argv) {
               << "T_camera_lidar xyz [m]: " << xyz.transpose() << "\n"
               << "change vs prior: " << out.delta_rotation_deg << " deg, "
               << out.delta_translation_m << " m\n";
+    if (!lidar_hint.empty()) std::cout << "hint: " << lidar_hint << "\n";
     if (truth_rot >= 0.0)
       std::cout << "error vs truth: " << truth_rot << " deg, " << truth_trans << " m\n";
     std::cout << std::setprecision(2) << "quality: reprojection " << q.reprojection_mean_px
