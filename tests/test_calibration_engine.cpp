@@ -87,6 +87,36 @@ TEST(CalibrationEngineTest, OnlyFarFramesAreRejectedForTheirPrecision) {
       << out.reason << ": " << out.detail;
 }
 
+TEST(CalibrationEngineTest, ClustersThatAreNotOnTheirBoardAreDroppedBeforeTheFinalSolve) {
+  // Every tenth LiDAR board of the default drive moved 0.45 m sideways (horizontally, across its
+  // line of sight), as furniture beside a board: still overlapping its predicted region (the
+  // grid search pairs it), but mostly off the board. The solve drops those correspondences and
+  // its answer stays that of the clean drive.
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  auto r = Drive(o);
+  const Pose truth = r->session.T_camera_lidar();
+  int moved = 0;
+  for (size_t j = 0; j < r->obs.lidar.size(); j += 10, ++moved) {
+    const auto& c = r->obs.lidar[j];
+    const Eigen::Vector3f ray = r->obs.points[static_cast<size_t>(c.first_point)];
+    const Eigen::Vector3f across = 0.45f * Eigen::Vector3f(-ray.y(), ray.x(), 0.0f).normalized();
+    for (int k = c.first_point; k < c.first_point + c.num_points; ++k)
+      r->obs.points[static_cast<size_t>(k)] += across;
+  }
+  const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  ASSERT_TRUE(out.solved) << out.reason << ": " << out.detail;
+  std::printf("moved %d clusters: %d correspondences dropped, error %.4f deg, %.4f m\n", moved,
+              out.dropped_correspondences,
+              RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg,
+              (out.T_camera_lidar.translation() - truth.translation()).norm());
+  EXPECT_GE(out.dropped_correspondences, moved * 8 / 10);
+  EXPECT_LE(out.dropped_correspondences, moved * 12 / 10);
+  EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kUpdated) << out.reason << ": " << out.detail;
+  EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg, 0.1);
+  EXPECT_LT((out.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
+}
+
 TEST(CalibrationEngineTest, ARefusalForItsSigmaSaysHowManyBoardsWouldDo) {
   // The default drive, with the rotation sigma gate set to half of what it achieves: four times
   // the boards would halve the sigma, and the refusal says so.

@@ -131,6 +131,7 @@ TEST(IntrinsicsFileTest, RationalPolynomialWithZeroRationalTermsIsRadTan) {
   ros.replace(ros.find("plumb_bob"), 9, "rational_polynomial");
   ros.replace(ros.find(List(Dist(c))), List(Dist(c)).size(),
               List({c.k1, c.k2, c.p1, c.p2, c.k3, 0, 0, 0}));
+  ros.replace(ros.find("rows: 1\n  cols: 5"), 17, "rows: 1\n  cols: 8");
   CameraIntrinsics read;
   std::string error;
   ASSERT_TRUE(ParseIntrinsics(ros, "r.yaml", &read, &error)) << error;
@@ -219,9 +220,30 @@ TEST(IntrinsicsFileTest, WhateverTheParserThrowsTheFileIsRefused) {
       "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: !!opencv-matrix\n"
       "   rows: 100000\n   cols: 100000\n   dt: d\n   data: [ 1., 2., 3. ]\n";
   EXPECT_FALSE(ParseIntrinsics(huge, "huge.yaml", &intrinsics, &error));
-  EXPECT_NE(error.find("camera_matrix: an !!opencv-matrix needs rows and cols of 0-16"),
-            std::string::npos)
+  EXPECT_NE(error.find("camera_matrix: a matrix needs rows and cols of 0-16"), std::string::npos)
       << error;
+  // ... or fewer numbers than it declares.
+  const std::string short_data =
+      "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: !!opencv-matrix\n"
+      "   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 2., 3. ]\n";
+  EXPECT_FALSE(ParseIntrinsics(short_data, "short.yaml", &intrinsics, &error));
+  EXPECT_NE(error.find("camera_matrix: a 3x3 matrix needs 9 numbers, got 3"), std::string::npos)
+      << error;
+}
+
+// fuzz_intrinsics found OpenCV's YAML reader looping forever on this %YAML file
+// (tests/fuzz/corpus/intrinsics/hang-opencv-yaml-parser: a key without its colon before an
+// indented map): such files are read by yaml-cpp now, and refused at once.
+TEST(IntrinsicsFileTest, AMalformedOpenCvFileIsRefusedNotHungOn) {
+  std::ifstream in(
+      std::string(CALIBD_SOURCE_DIR) + "/tests/fuzz/corpus/intrinsics/hang-opencv-yaml-parser",
+      std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(text.size(), 188u);
+  CameraIntrinsics intrinsics;
+  std::string error;
+  EXPECT_FALSE(ParseIntrinsics(text, "hang.yaml", &intrinsics, &error));
+  EXPECT_EQ(error.rfind("hang.yaml: ", 0), 0u) << error;
 }
 
 }  // namespace

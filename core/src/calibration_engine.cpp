@@ -114,6 +114,70 @@ void FormalSigmas(const Eigen::Matrix<double, 6, 6>& info, double residual_rms, 
   q->rotation_sigma_deg = std::sqrt(std::max(0.0, er.eigenvalues()(2))) * kRad2Deg;
 }
 
+// A correspondence is not its board's when, at the solution, the centroid of its LiDAR points
+// lies outside the board's outline or farther from its plane than kFitSigmas range noise sigmas:
+// the grid search paired the camera's board with furniture in its predicted region. The centroid,
+// not each point: a far board's edge returns spill beyond its outline by a beam footprint.
+constexpr double kFitSigmas = 3.0;
+// Drop-and-solve rounds at most.
+constexpr int kMaxDropRounds = 3;
+
+// Per observation, whether its points' centroid fits its board (above) with the extrinsic and
+// board poses of `direct`. The noise sigma is the median over the boards of their points' RMS
+// distance to their plane: most boards are right, a wrong one does not move the median.
+std::vector<char> BoardsThatFit(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
+                                const DirectResult& direct) {
+  const size_t n = set.observations.size();
+  std::vector<char> fits(n, 1);
+  if (direct.T_camera_board.size() != n) return fits;
+  std::vector<double> rms(n, 0.0);
+  std::vector<Eigen::Vector3d> centroid(n, Eigen::Vector3d::Zero());
+  for (size_t i = 0; i < n; ++i) {
+    const BoardObservation& o = set.observations[i];
+    if (o.num_points == 0) continue;
+    const Pose T_board_lidar = direct.T_camera_board[i].inverse() * direct.T_camera_lidar;
+    double sum = 0.0;
+    for (int k = o.first_point; k < o.first_point + o.num_points; ++k) {
+      const Eigen::Vector3d q = T_board_lidar * set.points[static_cast<size_t>(k)].cast<double>();
+      centroid[i] += q;
+      sum += q.z() * q.z();
+    }
+    centroid[i] /= o.num_points;
+    rms[i] = std::sqrt(sum / o.num_points);
+  }
+  std::vector<double> sorted = rms;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(n / 2),
+                   sorted.end());
+  const double max_z = kFitSigmas * std::max(n > 0 ? sorted[n / 2] : 0.0, 0.005);
+  for (size_t i = 0; i < n; ++i) {
+    const BoardGeometry& g = boards[static_cast<size_t>(set.observations[i].board_index)];
+    const Eigen::Vector3d& c = centroid[i];
+    fits[i] = std::fabs(c.z()) <= max_z && std::fabs(c.x()) <= 0.5 * g.width_m &&
+              std::fabs(c.y()) <= 0.5 * g.height_m;
+  }
+  return fits;
+}
+
+// Drops from `set` the observations whose points do not fit their board (BoardsThatFit) at
+// `direct`'s solution; returns how many.
+int DropBoardsThatDoNotFit(const std::vector<BoardGeometry>& boards, const DirectResult& direct,
+                           ObservationSet* set) {
+  const std::vector<char> fits = BoardsThatFit(boards, *set, direct);
+  const int dropped = static_cast<int>(std::count(fits.begin(), fits.end(), 0));
+  if (dropped == 0) return 0;
+  ObservationSet kept;
+  kept.Reserve(static_cast<int>(set->observations.size()), static_cast<int>(set->points.size()));
+  for (size_t i = 0; i < fits.size(); ++i) {
+    if (!fits[i]) continue;
+    const BoardObservation& o = set->observations[i];
+    const auto first = static_cast<size_t>(o.first_point);
+    kept.Add(o, set->points.data() + first, set->point_dt.data() + first, o.num_points);
+  }
+  kept.motion_compensated = set->motion_compensated;
+  *set = std::move(kept);
+  return dropped;
+}
+
 }  // namespace
 
 bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeometry>& boards,
@@ -239,6 +303,28 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     direct = OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr,
                             true, &camera);
     if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
+    // A board paired with a cluster that is not on it pulls the solution: dropped, then solved
+    // again without it, until none is dropped (a pulled solution can hide some at first).
+    for (int round = 0; round < kMaxDropRounds; ++round) {
+      const int dropped = DropBoardsThatDoNotFit(config.boards, direct, &corr);
+      if (dropped == 0) break;
+      out.dropped_correspondences += dropped;
+      CoverageFigures(config, corr, &q);
+      if (q.boards_used < v.min_boards)
+        return Reject(out, "too_few_boards",
+                      std::to_string(q.boards_used) + " board correspondences once " +
+                          std::to_string(out.dropped_correspondences) +
+                          " whose LiDAR points did not lie on their board were dropped, " +
+                          std::to_string(v.min_boards) + " needed");
+      if (q.frames_used < v.min_frames)
+        return Reject(out, "too_few_frames",
+                      std::to_string(q.frames_used) + " frame pairs with a correspondence once " +
+                          std::to_string(out.dropped_correspondences) + " were dropped, " +
+                          std::to_string(v.min_frames) + " needed");
+      direct = OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr,
+                              true, &camera);
+      if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
+    }
   }
   out.optimise_ms = Ms(t_opt);
   out.T_camera_lidar = direct.T_camera_lidar;

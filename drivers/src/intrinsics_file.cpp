@@ -2,9 +2,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
 #include <optional>
 #include <vector>
 
@@ -33,82 +33,30 @@ constexpr const char* kDKeys[] = {"distortion_coefficients", "D", "dist_coeffs"}
 constexpr const char* kWidthKeys[] = {"image_width", "width"};
 constexpr const char* kHeightKeys[] = {"image_height", "height"};
 
-// --- OpenCV FileStorage ---
-
-void CvNumbers(const cv::FileNode& n, const std::string& key, std::vector<double>* out) {
-  if (n.isMap()) {
-    // !!opencv-matrix, or a ROS-style {rows, cols, data} map.
-    if (n["dt"].isString() && n["data"].isSeq()) {
-      // OpenCV allocates rows x cols before reading the data: bound them first (a camera
-      // matrix is 3x3, distortion at most 1x14; found by fuzz_intrinsics, 48 GB asked for).
-      const cv::FileNode rows = n["rows"], cols = n["cols"];
-      if (!rows.isInt() || !cols.isInt() || static_cast<int>(rows) < 0 ||
-          static_cast<int>(cols) < 0 || static_cast<int>(rows) > 16 || static_cast<int>(cols) > 16)
-        throw KeyError{key, "an !!opencv-matrix needs rows and cols of 0-16"};
-      cv::Mat m;
-      n >> m;
-      cv::Mat d;
-      m.convertTo(d, CV_64F);
-      for (int r = 0; r < d.rows; ++r)
-        for (int c = 0; c < d.cols; ++c) out->push_back(d.at<double>(r, c));
-      return;
-    }
-    if (n["data"].isSeq()) return CvNumbers(n["data"], key + ".data", out);
-    throw KeyError{key, "a mapping without data"};
-  }
-  if (n.isSeq()) {
-    for (const auto& e : n) CvNumbers(e, key, out);
-    return;
-  }
-  if (n.isInt() || n.isReal()) {
-    out->push_back(static_cast<double>(n));
-    return;
-  }
-  throw KeyError{key, "must be numbers"};
-}
-
-void ReadOpenCv(const std::string& text, RawIntrinsics* raw) {
-  cv::FileStorage fs(
-      text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-  if (!fs.isOpened()) throw KeyError{"<file>", "cv::FileStorage cannot read it"};
-  const cv::FileNode root = fs.root();
-  for (const char* k : kKKeys)
-    if (!raw->K && !root[k].empty()) {
-      raw->K.emplace();
-      raw->k_key = k;
-      CvNumbers(root[k], k, &*raw->K);
-    }
-  for (const char* k : kDKeys)
-    if (!raw->D && !root[k].empty()) {
-      raw->D.emplace();
-      raw->d_key = k;
-      CvNumbers(root[k], k, &*raw->D);
-    }
-  auto number = [&](const char* const* keys, size_t n, std::optional<double>* v,
-                    std::string* used) {
-    for (size_t i = 0; i < n && !*v; ++i) {
-      const cv::FileNode node = root[keys[i]];
-      if (node.empty()) continue;
-      *used = keys[i];
-      if (!node.isInt() && !node.isReal()) throw KeyError{keys[i], "must be a number"};
-      *v = static_cast<double>(node);
-    }
-  };
-  number(kWidthKeys, 2, &raw->width, &raw->width_key);
-  number(kHeightKeys, 2, &raw->height, &raw->height_key);
-  const cv::FileNode model = root["distortion_model"];
-  if (!model.empty()) {
-    if (!model.isString()) throw KeyError{"distortion_model", "must be a string"};
-    raw->model = static_cast<std::string>(model);
-  }
-}
-
 // --- plain YAML (ROS camera_info) ---
 
 void YamlNumbers(const YAML::Node& n, const std::string& key, std::vector<double>* out) {
   if (n.IsMap()) {
+    // A ROS {rows, cols, data} map or an OpenCV !!opencv-matrix (rows, cols, dt, data).
     if (!n["data"]) throw KeyError{key, "a mapping without data"};
-    return YamlNumbers(n["data"], key + ".data", out);
+    const size_t first = out->size();
+    YamlNumbers(n["data"], key + ".data", out);
+    if (n["rows"] || n["cols"]) {
+      int rows = -1, cols = -1;
+      try {
+        rows = n["rows"].as<int>();
+        cols = n["cols"].as<int>();
+      } catch (const YAML::Exception&) {
+        throw KeyError{key, "a matrix needs rows and cols of 0-16"};
+      }
+      if (rows < 0 || cols < 0 || rows > 16 || cols > 16)
+        throw KeyError{key, "a matrix needs rows and cols of 0-16"};
+      if (out->size() - first != static_cast<size_t>(rows * cols))
+        throw KeyError{key, "a " + std::to_string(rows) + "x" + std::to_string(cols) +
+                                " matrix needs " + std::to_string(rows * cols) + " numbers, got " +
+                                std::to_string(out->size() - first)};
+    }
+    return;
   }
   if (n.IsSequence()) {
     for (const auto& e : n) YamlNumbers(e, key, out);
@@ -289,7 +237,11 @@ bool ParseIntrinsics(const std::string& text, const std::string& name, CameraInt
     if (json)
       ReadJson(text, &raw);
     else if (opencv)
-      ReadOpenCv(text, &raw);
+      // OpenCV's FileStorage YAML: a %YAML:1.0 line (not YAML's own directive) before a YAML
+      // document whose matrices are !!opencv-matrix maps, read here by yaml-cpp like any YAML.
+      // OpenCV's own reader looped forever, threw std::length_error or asked for 80 GB on
+      // malformed text (fuzz_intrinsics; tests/fuzz/corpus/intrinsics).
+      ReadYaml(text.substr(std::min(text.size(), text.find('\n', first))), &raw);
     else
       ReadYaml(text, &raw);
     Finish(raw, intrinsics);
@@ -302,12 +254,8 @@ bool ParseIntrinsics(const std::string& text, const std::string& name, CameraInt
   } catch (const YAML::Exception& e) {
     if (error) *error = name + ": YAML syntax: " + e.what();
     return false;
-  } catch (const cv::Exception& e) {
-    if (error) *error = name + ": OpenCV FileStorage: " + e.what();
-    return false;
   } catch (const std::exception& e) {
-    // OpenCV's YAML reader lets a std::length_error out of some malformed text (found by
-    // fuzz_intrinsics); whatever a parser throws, the file is refused, never fatal.
+    // Whatever a parser throws, the file is refused, never fatal.
     if (error) *error = name + ": cannot parse (" + e.what() + ")";
     return false;
   }

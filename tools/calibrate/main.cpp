@@ -450,6 +450,10 @@ int main(int argc, char** argv) {
                                                {"ok", lidar_estimate.ok},
                                                {"error", lidar_estimate.error},
                                                {"warning", lidar_estimate.warning}};
+  // LiDAR clusters the engine set aside: standing still while the boards moved (furniture), or
+  // paired with a camera board they did not lie on at the solution.
+  report["lidar_clusters_dropped"] = {{"static_scenery", out.static_scenery_clusters},
+                                      {"not_on_their_board", out.dropped_correspondences}};
   report["board_pose_refinement"] = {{"refined_boards", out.refined_boards},
                                      {"mean_rotation_change_deg", out.board_rotation_change_deg},
                                      {"mean_translation_change_m", out.board_translation_change_m}};

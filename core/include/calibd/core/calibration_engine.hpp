@@ -108,6 +108,10 @@ struct CalibrationOutcome {
   double delta_rotation_deg = 0.0, delta_translation_m = 0.0;
   QualityFigures quality;
   int static_scenery_clusters = 0;  ///< LiDAR clusters dropped as static scenery
+  /// Correspondences dropped before the final solve: the grid search had paired the camera's
+  /// board with a cluster whose points do not lie on that board at the solution (furniture in
+  /// its predicted region). See DropBoardsThatDoNotFit in calibration_engine.cpp.
+  int dropped_correspondences = 0;
   GridSearchResult grid;
   MotionCompensationStats motion;
   /// Board-pose refinement (DirectOptimizerConfig::refine_board_poses): boards refined and the

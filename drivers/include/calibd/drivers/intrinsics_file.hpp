@@ -2,13 +2,15 @@
 /// \file
 /// Camera intrinsics from the files other tools write, to override the calibration config's:
 ///  - OpenCV FileStorage YAML (`%YAML:1.0`, as cv::FileStorage and OpenCV's calibration samples
-///    write it), read with cv::FileStorage: `camera_matrix` or `K` (3x3 !!opencv-matrix),
+///    write it), read with yaml-cpp after its `%YAML:1.0` line (OpenCV's own reader hangs on
+///    some malformed files): `camera_matrix` or `K` (3x3 !!opencv-matrix),
 ///    `distortion_coefficients`, `D` or `dist_coeffs`, `image_width`/`image_height` (or
 ///    `width`/`height`), optional `distortion_model`;
-///  - ROS `camera_info` YAML (camera_calibration's ost.yaml; plain YAML without the `%YAML`
-///    header cv::FileStorage insists on, so read with yaml-cpp like the config):
+///  - ROS `camera_info` YAML (camera_calibration's ost.yaml; plain YAML, read with yaml-cpp
+///    like the config):
 ///    `camera_matrix.data` (9 numbers), `distortion_coefficients.data`, `distortion_model`,
-///    `image_width`, `image_height`; the same keys as plain lists are accepted too;
+///    `image_width`, `image_height`; the same keys as plain lists are accepted too. A matrix
+///    map's `rows` x `cols` (at most 16 each) must match its data;
 ///  - JSON (first character `{`): {"K": 3x3 or 9 numbers, "D": [...], "width", "height",
 ///    optional "distortion_model"} (`camera_matrix`, `image_width`... accepted as aliases).
 ///
