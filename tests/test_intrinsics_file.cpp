@@ -5,12 +5,11 @@
 
 #include <gtest/gtest.h>
 
-#include <fstream>
 #include <iomanip>
-#include <iterator>
 #include <opencv2/core.hpp>
 #include <sstream>
 
+#include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 
 namespace calibd {
@@ -200,19 +199,26 @@ TEST(IntrinsicsFileTest, BadFilesNameTheKey) {
   EXPECT_NE(error.find("/nonexistent/cam.yaml"), std::string::npos);
 }
 
+// An input fuzz_intrinsics found (tests/fuzz/corpus/intrinsics/`name`, `size` bytes): refused
+// with a message naming the file.
+void ExpectCorpusFileRefused(const std::string& name, size_t size) {
+  std::string text, error;
+  ASSERT_TRUE(ReadWholeFile(
+      std::string(CALIBD_SOURCE_DIR) + "/tests/fuzz/corpus/intrinsics/" + name, &text, &error))
+      << error;
+  ASSERT_EQ(text.size(), size);
+  CameraIntrinsics intrinsics;
+  EXPECT_FALSE(ParseIntrinsics(text, name, &intrinsics, &error));
+  EXPECT_EQ(error.rfind(name + ": ", 0), 0u) << error;
+}
+
 // fuzz_intrinsics found OpenCV's YAML reader throwing std::length_error (not a cv::Exception) on
 // this malformed %YAML file (tests/fuzz/corpus/intrinsics/crash-opencv-length-error): refused
 // with a message naming the file, not a crash.
 TEST(IntrinsicsFileTest, WhateverTheParserThrowsTheFileIsRefused) {
-  std::ifstream in(
-      std::string(CALIBD_SOURCE_DIR) + "/tests/fuzz/corpus/intrinsics/crash-opencv-length-error",
-      std::ios::binary);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  ASSERT_EQ(text.size(), 284u);
+  ExpectCorpusFileRefused("crash-opencv-length-error", 284);
   CameraIntrinsics intrinsics;
   std::string error;
-  EXPECT_FALSE(ParseIntrinsics(text, "bad.yaml", &intrinsics, &error));
-  EXPECT_EQ(error.rfind("bad.yaml: ", 0), 0u) << error;
 
   // An !!opencv-matrix declaring 100000 x 100000: OpenCV would allocate 80 GB before reading
   // the data (fuzz_intrinsics ran out of memory); the size is checked first.
@@ -235,15 +241,7 @@ TEST(IntrinsicsFileTest, WhateverTheParserThrowsTheFileIsRefused) {
 // (tests/fuzz/corpus/intrinsics/hang-opencv-yaml-parser: a key without its colon before an
 // indented map): such files are read by yaml-cpp now, and refused at once.
 TEST(IntrinsicsFileTest, AMalformedOpenCvFileIsRefusedNotHungOn) {
-  std::ifstream in(
-      std::string(CALIBD_SOURCE_DIR) + "/tests/fuzz/corpus/intrinsics/hang-opencv-yaml-parser",
-      std::ios::binary);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  ASSERT_EQ(text.size(), 188u);
-  CameraIntrinsics intrinsics;
-  std::string error;
-  EXPECT_FALSE(ParseIntrinsics(text, "hang.yaml", &intrinsics, &error));
-  EXPECT_EQ(error.rfind("hang.yaml: ", 0), 0u) << error;
+  ExpectCorpusFileRefused("hang-opencv-yaml-parser", 188);
 }
 
 }  // namespace

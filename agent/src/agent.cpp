@@ -12,7 +12,6 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
-#include <filesystem>
 #include <iostream>
 
 #include "calibd/agent/session_marker.hpp"
@@ -167,10 +166,8 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
   intake_.SetReadyEvent(&wake_);
   IntakeConfig intake = IntakeConfigFrom(config_);
   if (!options.debug_dir.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(options.debug_dir, ec);
-    if (ec) {
-      if (error) *error = "--debug: cannot create '" + options.debug_dir + "': " + ec.message();
+    if (!CreateDirectories(options.debug_dir, error)) {
+      if (error) *error = "--debug: " + *error;
       return false;
     }
     intake.debug_dir = options.debug_dir;

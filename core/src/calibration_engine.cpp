@@ -145,10 +145,7 @@ std::vector<char> BoardsThatFit(const std::vector<BoardGeometry>& boards, const 
     centroid[i] /= o.num_points;
     rms[i] = std::sqrt(sum / o.num_points);
   }
-  std::vector<double> sorted = rms;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(n / 2),
-                   sorted.end());
-  const double max_z = kFitSigmas * std::max(n > 0 ? sorted[n / 2] : 0.0, 0.005);
+  const double max_z = kFitSigmas * std::max(Median(rms), 0.005);
   for (size_t i = 0; i < n; ++i) {
     const BoardGeometry& g = boards[static_cast<size_t>(set.observations[i].board_index)];
     const Eigen::Vector3d& c = centroid[i];
@@ -156,6 +153,23 @@ std::vector<char> BoardsThatFit(const std::vector<BoardGeometry>& boards, const 
               std::fabs(c.y()) <= 0.5 * g.height_m;
   }
   return fits;
+}
+
+// The verdict's count gates on the correspondences: a rejection when too few frame pairs or
+// boards have one, `after` telling when they were counted; null otherwise.
+const char* TooFewCorrespondences(const QualityFigures& q, const VerdictConfig& v,
+                                  const std::string& after, std::string* detail) {
+  if (q.frames_used < v.min_frames) {
+    *detail = std::to_string(q.frames_used) + " frame pairs with a correspondence" + after + ", " +
+              std::to_string(v.min_frames) + " needed";
+    return "too_few_frames";
+  }
+  if (q.boards_used < v.min_boards) {
+    *detail = std::to_string(q.boards_used) + " board correspondences" + after + ", " +
+              std::to_string(v.min_boards) + " needed";
+    return "too_few_boards";
+  }
+  return nullptr;
 }
 
 // Drops from `set` the observations whose points do not fit their board (BoardsThatFit) at
@@ -281,14 +295,8 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   out.motion = CompensateBoardMotion(session, out.grid.T_camera_lidar, engine.motion, &corr);
   CoverageFigures(config, corr, &out.quality);
   QualityFigures& q = out.quality;
-  if (q.frames_used < v.min_frames)
-    return Reject(out, "too_few_frames",
-                  std::to_string(q.frames_used) + " frame pairs with a correspondence, " +
-                      std::to_string(v.min_frames) + " needed");
-  if (q.boards_used < v.min_boards)
-    return Reject(out, "too_few_boards",
-                  std::to_string(q.boards_used) + " board correspondences, " +
-                      std::to_string(v.min_boards) + " needed");
+  std::string few;
+  if (const char* reason = TooFewCorrespondences(q, v, "", &few)) return Reject(out, reason, few);
 
   const CameraModel camera(config.camera);
   const auto t_opt = Clock::now();
@@ -310,17 +318,10 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
       if (dropped == 0) break;
       out.dropped_correspondences += dropped;
       CoverageFigures(config, corr, &q);
-      if (q.boards_used < v.min_boards)
-        return Reject(out, "too_few_boards",
-                      std::to_string(q.boards_used) + " board correspondences once " +
-                          std::to_string(out.dropped_correspondences) +
-                          " whose LiDAR points did not lie on their board were dropped, " +
-                          std::to_string(v.min_boards) + " needed");
-      if (q.frames_used < v.min_frames)
-        return Reject(out, "too_few_frames",
-                      std::to_string(q.frames_used) + " frame pairs with a correspondence once " +
-                          std::to_string(out.dropped_correspondences) + " were dropped, " +
-                          std::to_string(v.min_frames) + " needed");
+      const std::string after = " once " + std::to_string(out.dropped_correspondences) +
+                                " whose LiDAR points did not lie on their board were dropped";
+      if (const char* reason = TooFewCorrespondences(q, v, after, &few))
+        return Reject(out, reason, few);
       direct = OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr,
                               true, &camera);
       if (!direct.usable) return Reject(out, "solver_failed", direct.reason);

@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -95,6 +96,12 @@ bool ReadWholeFile(const std::string& path, std::string* contents, std::string* 
   if (in.bad()) return Fail(error, "cannot read", path, errno);
   *contents = ss.str();
   return true;
+}
+
+bool CreateDirectories(const std::string& path, std::string* error) {
+  std::error_code ec;
+  std::filesystem::create_directories(path, ec);
+  return !ec || Fail(error, "cannot create directory", path, ec.value());
 }
 
 }  // namespace calibd

@@ -159,12 +159,11 @@ std::vector<int> OverlayFrames(const ObservationSet& corr) {
 // sweeps each cover part of a still board: the others find it.
 std::string LidarMissHint(const SessionObservations& session, const ObservationSet& corr,
                           int max_solve_frames, const LidarModel& model) {
-  std::vector<int64_t> gaps;
+  std::vector<double> gaps_us;
   for (size_t f = 1; f < session.frame_times.size(); ++f)
-    gaps.push_back(session.frame_times[f].camera_utime - session.frame_times[f - 1].camera_utime);
-  std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2),
-                   gaps.end());
-  const bool stream = !gaps.empty() && gaps[gaps.size() / 2] < 250000;
+    gaps_us.push_back(static_cast<double>(session.frame_times[f].camera_utime -
+                                          session.frame_times[f - 1].camera_utime));
+  const bool stream = !gaps_us.empty() && Median(gaps_us) < 250000.0;
   if (model.non_repetitive && stream) return "";
   int camera_boards = 0;
   for (const auto& c : session.camera)
@@ -343,14 +342,9 @@ int main(int argc, char** argv) {
   read_options.lidar_model = lidar_model;
   if (!quiet && lidar_model.kind == LidarKind::kGeneric)
     std::cerr << "calibd-calibrate: " << DescribeGenericLidar(lidar_model, &lidar_estimate) << "\n";
-  if (!read_options.debug_dir.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(read_options.debug_dir, ec);
-    if (ec) {
-      std::cerr << "calibd-calibrate: --debug: cannot create " << read_options.debug_dir << ": "
-                << ec.message() << "\n";
-      return 2;
-    }
+  if (!read_options.debug_dir.empty() && !CreateDirectories(read_options.debug_dir, &error)) {
+    std::cerr << "calibd-calibrate: --debug: " << error << "\n";
+    return 2;
   }
   const auto t_start = std::chrono::steady_clock::now();
   SessionObservations session;

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <iomanip>
 #include <opencv2/imgcodecs.hpp>
 #include <ostream>
@@ -93,13 +92,9 @@ bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, Sim
   // Open the outputs first: a bad path fails at once, before the expensive set-up.
   LcmLogWriter log;
   if (!outputs.log_path.empty() && !log.Open(outputs.log_path, error)) return false;
-  if (!outputs.folder_path.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(outputs.folder_path, ec);
-    if (ec) {
-      if (error) *error = "--folder: cannot create " + outputs.folder_path + ": " + ec.message();
-      return false;
-    }
+  if (!outputs.folder_path.empty() && !CreateDirectories(outputs.folder_path, error)) {
+    if (error) *error = "--folder: " + *error;
+    return false;
   }
   std::string csv = "time_us,sensor,file\n";
   SessionSimulator session;

@@ -15,4 +15,8 @@ bool WriteFileAtomic(const std::string& path, std::string_view contents, std::st
 /// Reads a whole file; false with `error` naming the path when it cannot be read.
 bool ReadWholeFile(const std::string& path, std::string* contents, std::string* error);
 
+/// Creates directory `path` and its missing parents (an existing one is fine); false with `error`
+/// naming the path and the system error.
+bool CreateDirectories(const std::string& path, std::string* error);
+
 }  // namespace calibd
