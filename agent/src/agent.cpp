@@ -304,9 +304,9 @@ RequestReply Agent::Start(const StartRequest& request) {
   has_outcome_ = result_published_ = false;
   last_error_.clear();
   intake_.SetActive(true);
-  Log("session " + std::to_string(machine_.session()) + " started by '" + request.requester + "'");
   // Kept until the session ends: found at the next start-up, it tells of a run that died
   // mid-session. Not written (read-only store): the session runs, only that report is lost.
+  // Written before the log line, so that whoever reads "started" finds the marker on disk.
   SessionMarker marker;
   marker.session = machine_.session();
   marker.trigger = request.requester;
@@ -316,6 +316,7 @@ RequestReply Agent::Start(const StartRequest& request) {
     marker_session_ = marker.session;
   else
     Log("session marker not written: " + error);
+  Log("session " + std::to_string(machine_.session()) + " started by '" + request.requester + "'");
   return reply;
 }
 
