@@ -117,6 +117,36 @@ TEST(M2dpTest, InPlaneRectangleIsTheBoardWhateverItsTurnInItsPlane) {
   }
 }
 
+TEST(M2dpTest, TheMostPointsWindowIsTheBoardBesideAStripAlongItsEdgeAndBelowIt) {
+  // A 0.8 x 0.6 grid turned 25 deg in its plane 6 m ahead, with an 8 cm wide strip of another
+  // surface along its short edge and running on 0.2 m below it (a body crossing the board's plane,
+  // 12 % of the points): the 0.8 x 0.6 window holds the board and none of the strip, and
+  // Contains says which points.
+  const double turn = 25.0 * M_PI / 180.0;
+  auto at = [&](double u, double v) {
+    return Eigen::Vector3f(6.0f, static_cast<float>(std::cos(turn) * u - std::sin(turn) * v),
+                           static_cast<float>(std::sin(turn) * u + std::cos(turn) * v));
+  };
+  std::vector<Eigen::Vector3f> points;
+  int board = 0;
+  for (double u = -0.4 + 0.01; u < 0.4; u += 0.02)
+    for (double v = -0.3 + 0.01; v < 0.3; v += 0.02, ++board) points.push_back(at(u, v));
+  for (double u = -0.4 - 0.015; u > -0.49; u -= 0.02)
+    for (double v = -0.5 + 0.01; v < 0.3; v += 0.02) points.push_back(at(u, v));
+  const int n = static_cast<int>(points.size());
+  ASSERT_LT(n - board, 0.15 * n);
+  ClusterPca pca;
+  ComputeClusterPca(points.data(), n, &pca);
+  std::vector<std::pair<float, float>> scratch(n);
+  const PlaneWindow w = MostPointsWindow(pca, points.data(), n, 0.8, 0.6, scratch.data());
+  int inside_board = 0, inside_strip = 0;
+  for (int i = 0; i < n; ++i)
+    (i < board ? inside_board : inside_strip) += w.Contains(pca, points[i]);
+  EXPECT_EQ(w.count, inside_board + inside_strip);
+  EXPECT_GE(inside_board, 0.99 * board);  // a corner point or so, for a turn a tenth of a step off
+  EXPECT_EQ(inside_strip, 0);
+}
+
 TEST(M2dpTest, AWeightCountsLikeThatManyCopiesOfAPoint) {
   std::mt19937 rng(7);
   const std::vector<Eigen::Vector3f> cluster = AsymmetricCluster(&rng);

@@ -4,6 +4,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 
 namespace calibd {
 
@@ -87,6 +89,124 @@ Eigen::Vector2d InPlaneRectangle(const ClusterPca& pca, const Eigen::Vector3f* p
     }
   }
   return best;
+}
+
+namespace {
+
+// Start of the window of length `side` over the values sorted[0..n).first (ascending) holding the
+// most of them; `count` receives how many.
+float BestWindowStart(const std::pair<float, float>* sorted, int n, float side, int* count) {
+  int best = 0, best_start = 0;
+  for (int lo = 0, hi = 0; lo < n; ++lo) {
+    while (hi < n && sorted[hi].first <= sorted[lo].first + side) ++hi;
+    if (hi - lo > best) {
+      best = hi - lo;
+      best_start = lo;
+    }
+  }
+  *count = best;
+  return n > 0 ? sorted[best_start].first : 0.0f;
+}
+
+// The window's first (second: its second) side in the principal plane, turned by `angle`.
+Eigen::Vector2f InPlaneAxis(double angle, bool second) {
+  const float ca = static_cast<float>(std::cos(angle)), sa = static_cast<float>(std::sin(angle));
+  return second ? Eigen::Vector2f(-sa, ca) : Eigen::Vector2f(ca, sa);
+}
+
+}  // namespace
+
+bool PlaneWindow::Contains(const ClusterPca& pca, const Eigen::Vector3f& point) const {
+  // As MostPointsWindow projects: the same arithmetic puts a point on the same side of an edge.
+  const Eigen::Vector3f d =
+      pca.axes.transpose().cast<float>() * (point - pca.centroid.cast<float>());
+  const float u = InPlaneAxis(angle_rad, false).dot(d.head<2>());
+  const float v = InPlaneAxis(angle_rad, true).dot(d.head<2>());
+  return u >= u0 && u <= u0 + side_u && v >= v0 && v <= v0 + side_v;
+}
+
+PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* points, int n, double w,
+                             double h, std::pair<float, float>* scratch, int num_angles) {
+  PlaneWindow best, result;
+  if (n <= 0 || num_angles < 1) return best;
+  const Eigen::Matrix3f Rt = pca.axes.transpose().cast<float>();
+  const Eigen::Vector3f c = pca.centroid.cast<float>();
+  // The count-best window at `angle` into `best` when it holds more than `best` does.
+  auto try_angle = [&](double angle) {
+    const Eigen::Vector2f eu = InPlaneAxis(angle, false), ev = InPlaneAxis(angle, true);
+    for (int turn = 0; turn < (w == h ? 1 : 2); ++turn) {
+      const float side_u = static_cast<float>(turn == 0 ? w : h);
+      const float side_v = static_cast<float>(turn == 0 ? h : w);
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector3f d = Rt * (points[i] - c);
+        scratch[i] = {eu.dot(d.head<2>()), ev.dot(d.head<2>())};
+      }
+      std::sort(scratch, scratch + n);
+      int count_u = 0;
+      const float u0 = BestWindowStart(scratch, n, side_u, &count_u);
+      if (count_u <= best.count) continue;  // the second side can only lose points
+      // The window's points by their v.
+      int m = 0;
+      for (int i = 0; i < n; ++i)
+        if (scratch[i].first >= u0 && scratch[i].first <= u0 + side_u)
+          scratch[m++] = {scratch[i].second, 0.0f};
+      std::sort(scratch, scratch + m);
+      int count = 0;
+      const float v0 = BestWindowStart(scratch, m, side_v, &count);
+      if (count > best.count) best = PlaneWindow{angle, side_u, side_v, u0, v0, count};
+    }
+  };
+  // Coarse turns by the count alone.
+  const double step = (M_PI / 2.0) / num_angles;
+  for (int a = 0; a < num_angles; ++a) try_angle(step * a);
+  if (best.count == 0) return best;
+  // A window of the board's own size loses a wedge of it when turned a little off (2 cm along a
+  // 0.8 m side per 1.5 deg), and a strip as dense as the board along its edge ties with it on the
+  // count: a window shifted onto the strip by a column holds as many points. The board's own
+  // window cuts through nothing. Around the coarse turn (to a tenth of its step) and its
+  // count-best place (by kShiftM steps), the window kept has the most of
+  // 2 x inside - in_u_band - in_v_band: points inside, less those beside it in its row and column
+  // bands (inside its u range but not its v range, or the reverse).
+  static constexpr int kTurnSteps = 5, kShiftSteps = 5;
+  static constexpr float kShiftM = 0.005f;
+  const PlaneWindow coarse = best;
+  int best_score = std::numeric_limits<int>::min();
+  for (int k = -kTurnSteps; k <= kTurnSteps; ++k) {
+    best = PlaneWindow{};
+    best.angle_rad = coarse.angle_rad + 0.1 * step * k;
+    try_angle(best.angle_rad);
+    if (best.count == 0) continue;
+    const PlaneWindow centre = best;
+    const Eigen::Vector2f eu = InPlaneAxis(centre.angle_rad, false);
+    const Eigen::Vector2f ev = InPlaneAxis(centre.angle_rad, true);
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3f d = Rt * (points[i] - c);
+      scratch[i] = {eu.dot(d.head<2>()), ev.dot(d.head<2>())};
+    }
+    for (int a = -kShiftSteps; a <= kShiftSteps; ++a) {
+      for (int b = -kShiftSteps; b <= kShiftSteps; ++b) {
+        PlaneWindow shifted = centre;
+        shifted.u0 += static_cast<float>(a) * kShiftM;
+        shifted.v0 += static_cast<float>(b) * kShiftM;
+        int inside = 0, in_u = 0, in_v = 0;
+        for (int i = 0; i < n; ++i) {
+          const float u = scratch[i].first, v = scratch[i].second;
+          const bool iu = u >= shifted.u0 && u <= shifted.u0 + shifted.side_u;
+          const bool iv = v >= shifted.v0 && v <= shifted.v0 + shifted.side_v;
+          in_u += iu;
+          in_v += iv;
+          inside += iu && iv;
+        }
+        shifted.count = inside;
+        const int score = 2 * inside - in_u - in_v;
+        if (score > best_score) {
+          best_score = score;
+          result = shifted;
+        }
+      }
+    }
+  }
+  return result;
 }
 
 void AlignToPrincipalAxes(const ClusterPca& pca, const Eigen::Vector3f* points, int n,

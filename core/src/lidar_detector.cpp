@@ -70,6 +70,8 @@ bool LidarDetectorConfig::IsValid(std::string* error) const {
     return fail("plane_distance_sigmas: must be in (0, 10]");
   if (!(max_attached_fraction >= 0.0 && max_attached_fraction <= 1.0))
     return fail("max_attached_fraction: must be in [0, 1]");
+  if (!(max_trimmed_fraction >= 0.0 && max_trimmed_fraction <= 0.5))
+    return fail("max_trimmed_fraction: must be in [0, 0.5]");
   if (min_cluster_points < 3) return fail("min_cluster_points: must be >= 3");
   if (!(min_board_clearance_m >= 0.0)) return fail("min_board_clearance_m: must be >= 0");
   if (!(extent_tolerance >= 0.0 && extent_tolerance < 1.0))
@@ -152,6 +154,10 @@ struct LidarDetector::Impl {
   std::vector<Eigen::Vector3f> region_points;
   std::vector<int32_t> region_cells;
   std::vector<float> cluster_weights;
+  // A cluster cut to its board-sized window (TrimToBoard) and the window search's scratch.
+  std::vector<Eigen::Vector3f> trim_points;
+  std::vector<int32_t> trim_cells;
+  std::vector<std::pair<float, float>> window_scratch;
   std::vector<double> row_gap_sum;  // per range-image row, for RowWeights()
   std::vector<int> row_cells;
   Eigen::VectorXf scores;
@@ -320,12 +326,37 @@ struct LidarDetector::Impl {
     }
   }
 
+  // The cells of a cluster (n `cells` with their `points`) inside the board-sized window that
+  // holds most of them, into trim_cells and trim_points: their count, or 0 when more than
+  // max_trimmed_fraction of the cells lie outside every board's window. The window is the board's
+  // own size, without the rectangle gate's allowance for the beam footprint: a strip running
+  // along the board would fill that allowance, while the board's own points beyond its edges are
+  // few (and leaving some out biases nothing: the box cost of Eq. 4 asks points to be inside).
+  int TrimToBoard(const ClusterPca& pca, const int32_t* cells, const Eigen::Vector3f* points,
+                  int n) {
+    PlaneWindow best;
+    for (const BoardGeometry& g : boards) {
+      const PlaneWindow w =
+          MostPointsWindow(pca, points, n, g.width_m, g.height_m, window_scratch.data());
+      if (w.count > best.count) best = w;
+    }
+    if (best.count == n || n - best.count > config.max_trimmed_fraction * n) return 0;
+    int m = 0;
+    for (int k = 0; k < n; ++k) {
+      if (!best.Contains(pca, points[k])) continue;
+      trim_cells[m] = cells[k];
+      trim_points[m++] = points[k];
+    }
+    return m;
+  }
+
   // Gates, descriptor and output of one cluster not too large to be a board: n range-image cells
   // `cells` with their points (FillPoints), the cells c with mark[c] == id (the segmenter's
-  // labels, or a plane's).
+  // labels, or a plane's). With `may_trim`, a cluster too long for a board is cut to its
+  // board-sized window (TrimToBoard) and evaluated again.
   ClusterGate Evaluate(const PointCloudView& cloud, const int32_t* cells,
                        const Eigen::Vector3f* points, int n, const int32_t* mark, int32_t id,
-                       LidarClusterReport* report, LidarDetections* out) {
+                       LidarClusterReport* report, LidarDetections* out, bool may_trim = true) {
     const LidarDetectorConfig& c = config;
     const int32_t* next_point = image.next_point().data();
     double spacing_sum = 0.0;
@@ -341,6 +372,16 @@ struct LidarDetector::Impl {
     report->centroid = pca.centroid;
     ClusterGate gate = Gates(pca, points, n, beam_spacing, c.report_clusters, report);
     if (on_ground) gate = ClusterGate::kOnGround;
+    if (gate == ClusterGate::kRectangle && may_trim && c.extract_planes &&
+        c.max_trimmed_fraction > 0.0) {
+      const int m = TrimToBoard(pca, cells, points, n);
+      if (m > 0) {
+        report->trimmed_cells = n - m;
+        // Once: the nested call does not trim, so trim_* stay as they are.
+        return Evaluate(cloud, trim_cells.data(), trim_points.data(), m, mark, id, report, out,
+                        false);
+      }
+    }
     if (gate != ClusterGate::kBoard) {
       Report(gate, report, out);
       return gate;
@@ -534,6 +575,9 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   // Every input point is a cell's nearest or in one chain: a cluster has at most max_points.
   d.cluster_indices.resize(max_points);
   d.cluster_weights.resize(d.cluster_points.size());
+  d.trim_points.resize(d.cluster_points.size());
+  d.trim_cells.resize(d.cluster_points.size());
+  d.window_scratch.resize(d.cluster_points.size());
   d.describer = Describer(Impl::M2dpOf(config), config.max_descriptor_points);
   d.BuildReferences();
   if (d.num_references == 0) {

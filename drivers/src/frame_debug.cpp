@@ -156,6 +156,7 @@ std::string FrameDebugJson(const FrameDebugInput& in) {
                                  {"planarity", r.planarity},
                                  {"tilt_deg", r.tilt_deg},
                                  {"attached_fraction", r.attached_fraction},
+                                 {"trimmed_cells", r.trimmed_cells},
                                  {"descriptor_score", r.score}});
   }
   if (in.picture) {

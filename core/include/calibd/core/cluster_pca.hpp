@@ -6,6 +6,7 @@
 /// cluster is and how it is turned.
 
 #include <Eigen/Core>
+#include <utility>
 
 namespace calibd {
 
@@ -36,6 +37,27 @@ void ComputeClusterPca(const Eigen::Vector3f* points, int n, ClusterPca* pca,
 /// square run along any direction (its two in-plane variances are equal) and reach its diagonal.
 Eigen::Vector2d InPlaneRectangle(const ClusterPca& pca, const Eigen::Vector3f* points, int n,
                                  int num_angles = 18);
+
+/// A side_u x side_v rectangle in a cluster's principal plane, turned by `angle_rad` from the first
+/// axis: points whose (u, v) lie in [u0, u0 + side_u] x [v0, v0 + side_v].
+struct PlaneWindow {
+  double angle_rad = 0.0;
+  float side_u = 0.0f, side_v = 0.0f;
+  float u0 = 0.0f, v0 = 0.0f;
+  int count = 0;  ///< cluster points inside
+  bool Contains(const ClusterPca& pca, const Eigen::Vector3f& point) const;
+};
+
+/// The w x h rectangle in the cluster's plane (either side along either axis) that holds the most
+/// of its points and cuts through the fewest: the board among a strip of another surface crossing
+/// its plane beside it, which the plane's outline would otherwise include. Searched over
+/// `num_angles` turns in [0, 90) degrees, refined to a tenth of that step; per turn the window
+/// along the first side is placed where it holds the most points, then the one along the second
+/// among those; then shifted by up to 5 cm to where it leaves the fewest points in its row and
+/// column bands (a strip as dense as the board ties with it on the count alone). `scratch` holds
+/// n entries.
+PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* points, int n, double w,
+                             double h, std::pair<float, float>* scratch, int num_angles = 30);
 
 /// Writes axes^T (p - centroid) of each point: the cluster in its principal frame.
 void AlignToPrincipalAxes(const ClusterPca& pca, const Eigen::Vector3f* points, int n,

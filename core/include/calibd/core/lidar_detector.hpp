@@ -58,6 +58,13 @@ struct LidarDetectorConfig {
   /// rest of its segment near its plane (PlaneRegion::attached_fraction): hands and stands touch
   /// a board's edge in places; a patch of a wall or of a curved surface is attached all round.
   double max_attached_fraction = 0.5;
+  /// With extract_planes: a cluster or plane whose rectangle is too long for a board is cut to the
+  /// board-sized window that holds most of its cells (MostPointsWindow) when at most this share
+  /// of its cells lie outside it, and gated again: a body or a wall crossing a tilted board's
+  /// plane beside it (a person holding it, a board in a corner) leaves a strip within the plane's
+  /// noise band that joins the board. A uniform panel that long would already pass the rectangle
+  /// gate (max_side_tolerance), so no larger objects get through. 0 disables.
+  double max_trimmed_fraction = 0.15;
   // Cheap gates before the descriptor.
   /// Boards stand on stands: a cluster whose lower edge has the ground right below it, within
   /// this height, for at least half its length is an object standing on the floor (crates,
@@ -179,6 +186,9 @@ struct LidarClusterReport {
   int plane = -1;
   /// A plane's share of edge where the segment goes on near it (PlaneRegion); 0 for a segment
   double attached_fraction = 0.0;
+  /// Cells cut away as outside the board-sized window (max_trimmed_fraction); its figures are
+  /// those of the rest
+  int trimmed_cells = 0;
   Eigen::Vector2d rectangle = Eigen::Vector2d::Zero();  ///< long, short side in its plane, m
   double size_m = 0.0;                                  ///< RMS size sqrt(lambda1 + lambda2)
   double planarity = 0.0;                               ///< sqrt(lambda3 / lambda2)
