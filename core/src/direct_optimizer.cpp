@@ -130,6 +130,7 @@ bool DirectOptimizerConfig::IsValid(std::string* error) const {
 
 // What a solve with the board poses held is for.
 enum class HeldSolve {
+  kStart,    ///< to convergence before the first board-pose refinement, half the points
   kRound,    ///< a few steps between board-pose refinements, half the points
   kFinal,    ///< to convergence, then residual statistics and information
   kResolve,  ///< to convergence, no statistics (stability re-solves)
@@ -157,9 +158,9 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
 
   // A solve between board-pose refinements only steers the alternation: half the points do.
   const bool statistics = mode == HeldSolve::kFinal;
-  const int points_per_observation = mode != HeldSolve::kRound
-                                         ? config.max_points_per_observation
-                                         : std::max(3, config.max_points_per_observation / 2);
+  const bool steering = mode == HeldSolve::kStart || mode == HeldSolve::kRound;
+  const int points_per_observation = steering ? std::max(3, config.max_points_per_observation / 2)
+                                              : config.max_points_per_observation;
   // The observations' box costs in compressed form (compressed_box_cost.hpp), a few chunks so
   // that Ceres evaluates them on its threads.
   std::vector<BoxTerm> terms;
@@ -199,8 +200,8 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
     result.iterations += static_cast<int>(summary.iterations.size());
     result.final_cost = summary.final_cost;
     result.T_camera_lidar = PoseFromParameters(params);
-    result.usable = summary.IsSolutionUsable() &&
-                    (summary.termination_type == ceres::CONVERGENCE || mode == HeldSolve::kRound);
+    result.usable =
+        summary.IsSolutionUsable() && (summary.termination_type == ceres::CONVERGENCE || steering);
     if (!result.usable) result.reason = "solver: " + summary.message;
   } else {
     result.usable = true;
@@ -250,10 +251,13 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
   const bool joint = solve && config.refine_board_poses && camera != nullptr;
   if (joint) {
     // Alternation: extrinsic with the board poses held, then each board's pose with the
-    // extrinsic held; the final solve below starts from the last extrinsic.
+    // extrinsic held; the final solve below starts from the last extrinsic. The first extrinsic
+    // solve runs to convergence: board poses refined against an extrinsic still degrees off
+    // (a grid search's step at close range) move to fit it, and the alternation then settles in
+    // a minimum beside the right one.
     for (int round = 0; round < config.refine_rounds; ++round) {
       SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start, true,
-                          HeldSolve::kRound, &result);
+                          round == 0 ? HeldSolve::kStart : HeldSolve::kRound, &result);
       if (!result.usable) return result;
       T_start = result.T_camera_lidar;
       const size_t n = set.observations.size();
