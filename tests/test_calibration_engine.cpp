@@ -136,6 +136,31 @@ TEST(CalibrationEngineTest, ARefusalForItsSigmaSaysHowManyBoardsWouldDo) {
       << out.detail;
 }
 
+// The start checks solve again from starts 3 deg / 5 cm off the solution: on the default drive
+// they end on it (a few hundredths of a degree apart: half the points each), inside the gate;
+// a gate below that refuses as unstable and says what the solves did; 0 checks skip them.
+TEST(CalibrationEngineTest, SolvesFromOtherStartsEndOnTheSolutionOrTheVerdictRefuses) {
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  auto r = Drive(o);
+  const CalibrationOutcome first = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  ASSERT_EQ(first.verdict, CalibrationOutcome::Verdict::kUpdated) << first.reason << first.detail;
+  EXPECT_GT(first.quality.start_rotation_deg, 0.0);
+  EXPECT_LT(first.quality.start_rotation_deg, 0.5 * VerdictConfig{}.max_start_rotation_deg);
+  EXPECT_LT(first.quality.start_translation_m, 0.5 * VerdictConfig{}.max_start_translation_m);
+  EngineConfig strict;
+  strict.verdict.max_start_rotation_deg = first.quality.start_rotation_deg / 2.0;
+  const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, strict);
+  EXPECT_EQ(out.reason, "unstable_solution") << out.detail;
+  EXPECT_NE(out.detail.find("solves started 3 deg / 0.05 m away end"), std::string::npos)
+      << out.detail;
+  EngineConfig none;
+  none.start_checks = 0;
+  const CalibrationOutcome skipped = Calibrate(r->config, r->obs, r->projection, none);
+  EXPECT_EQ(skipped.verdict, CalibrationOutcome::Verdict::kUpdated) << skipped.detail;
+  EXPECT_EQ(skipped.quality.start_rotation_deg, 0.0);
+}
+
 // Calibrate's optional per-correspondence errors (for reports): one per correspondence, and
 // they are the quality figure's own (each board's 4 corners: the mean of the means is the mean).
 TEST(CalibrationEngineTest, PerCorrespondenceReprojectionErrorsAreTheQualityFigures) {

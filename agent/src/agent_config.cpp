@@ -165,6 +165,7 @@ bool EngineKeysValid(const EngineConfig& e, std::string* error) {
   std::string why;
   if (!IntIn("engine.solver_threads", e.direct.threads, 1, 64, error)) return false;
   if (!IntIn("engine.stability_runs", e.stability_runs, 0, 32, error)) return false;
+  if (!IntIn("engine.start_checks", e.start_checks, 0, 4, error)) return false;
   if (!IntIn("engine.max_solve_frames", e.max_solve_frames, 0, 100000, error)) return false;
   if (!DoubleIn("engine.grid.range_deg", e.grid.range_deg, 0.0, 30.0, error)) return false;
   if (!PositiveUpTo("engine.grid.step_deg", e.grid.step_deg, 10.0, error)) return false;
@@ -195,6 +196,10 @@ bool EngineKeysValid(const EngineConfig& e, std::string* error) {
   if (!PositiveUpTo(k + "max_rotation_spread_deg", v.max_rotation_spread_deg, 10.0, error))
     return false;
   if (!PositiveUpTo(k + "max_translation_spread_m", v.max_translation_spread_m, 1.0, error))
+    return false;
+  if (!PositiveUpTo(k + "max_start_rotation_deg", v.max_start_rotation_deg, 10.0, error))
+    return false;
+  if (!PositiveUpTo(k + "max_start_translation_m", v.max_start_translation_m, 1.0, error))
     return false;
   if (!PositiveUpTo(k + "max_reprojection_mean_px", v.max_reprojection_mean_px, 1000.0, error))
     return false;
@@ -434,6 +439,7 @@ void ParseEngineSection(const YAML::Node& node, EngineConfig* e) {
   s.Read("board_pose_refinement", &e->direct.refine_board_poses);
   s.Read("solver_threads", &e->direct.threads);
   s.Read("stability_runs", &e->stability_runs);
+  s.Read("start_checks", &e->start_checks);
   s.Read("max_solve_frames", &e->max_solve_frames);
   Section grid = s.Child("grid");
   grid.Read("range_deg", &e->grid.range_deg);
@@ -451,6 +457,8 @@ void ParseEngineSection(const YAML::Node& node, EngineConfig* e) {
   v.Read("min_plane_conditioning", &e->verdict.min_plane_conditioning);
   v.Read("max_rotation_spread_deg", &e->verdict.max_rotation_spread_deg);
   v.Read("max_translation_spread_m", &e->verdict.max_translation_spread_m);
+  v.Read("max_start_rotation_deg", &e->verdict.max_start_rotation_deg);
+  v.Read("max_start_translation_m", &e->verdict.max_start_translation_m);
   v.Read("max_reprojection_mean_px", &e->verdict.max_reprojection_mean_px);
   v.Read("max_residual_rms_m", &e->verdict.max_residual_rms_m);
   v.RejectUnknown();

@@ -122,6 +122,23 @@ constexpr double kFitSigmas = 3.0;
 // Drop-and-solve rounds at most.
 constexpr int kMaxDropRounds = 3;
 
+// How far the start checks (EngineConfig::start_checks) start from the solution: two grid-search
+// steps and a mounting tolerance's worth, within the optimiser's basin when the data leave one.
+constexpr double kStartCheckRotationDeg = 3.0;
+constexpr double kStartCheckTranslationM = 0.05;
+
+// Start `k` of the start checks: the solution turned by kStartCheckRotationDeg and moved by
+// kStartCheckTranslationM along fixed directions that differ from check to check.
+Pose StartCheckPose(const Pose& T_camera_lidar, int k) {
+  static const Eigen::Vector3d kAxes[] = {{1, 1, 0}, {0, -1, 1}, {-1, 0, 1}, {1, -1, -1}};
+  const Eigen::Vector3d axis = kAxes[k % 4].normalized();
+  Pose start = T_camera_lidar;
+  start.linear() =
+      RotationFromAxisAngle(axis, kStartCheckRotationDeg / kRad2Deg) * T_camera_lidar.linear();
+  start.translation() += kStartCheckTranslationM * Eigen::Vector3d(axis.z(), axis.x(), axis.y());
+  return start;
+}
+
 // Per observation, whether its points' centroid fits its board (above) with the extrinsic and
 // board poses of `direct`. The noise sigma is the median over the boards of their points' RMS
 // distance to their plane: most boards are right, a wrong one does not move the median.
@@ -361,6 +378,8 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   for (auto& u : use)
     for (auto& b : u) b = static_cast<char>(rng() & 1u);
   std::vector<DirectResult> half(runs);
+  const int starts = engine.method == EngineConfig::Method::kDirect ? engine.start_checks : 0;
+  std::vector<DirectResult> started(static_cast<size_t>(std::max(0, starts)));
   DirectOptimizerConfig one = engine.direct;
   one.threads = 1;
   // Re-solves on random halves need the spread of the extrinsic over board subsets, not every
@@ -374,14 +393,21 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   std::atomic<int> next{0};
   // Tasks [0, runs): re-solves on random halves (deterministic seed) from the full solution with
   // its board poses held, i.e. how far the extrinsic moves when half the boards are left out;
-  // tasks [runs, runs + chunks): reprojection errors of a slice of the observations.
+  // tasks [runs, runs + starts): solves of every board from other starts, board poses refined
+  // again from the camera's (does the solve end in the same minimum?); then
+  // [runs + starts, runs + starts + chunks): reprojection errors of a slice of the observations.
   auto work = [&] {
-    for (int task = next++; task < runs + chunks; task = next++) {
+    for (int task = next++; task < runs + starts + chunks; task = next++) {
       if (task < runs) {
         half[task] = ResolveWithHeldBoards(config.boards, corr, out.T_camera_lidar, one,
                                            direct.T_camera_board, &use[task]);
+      } else if (task < runs + starts) {
+        const int k = task - runs;
+        started[static_cast<size_t>(k)] =
+            OptimizeDirect(config.boards, corr, StartCheckPose(out.T_camera_lidar, k), one, nullptr,
+                           true, &camera);
       } else {
-        const size_t c = static_cast<size_t>(task - runs);
+        const size_t c = static_cast<size_t>(task - runs - starts);
         ReprojectionErrors(config, camera, corr, out.T_camera_lidar, engine.direct,
                            direct.T_camera_board, n * c / chunks, n * (c + 1) / chunks,
                            errors_px.data());
@@ -415,6 +441,14 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
         std::max(q.translation_spread_m,
                  (h.T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm());
   }
+  for (const DirectResult& r : started) {
+    // A solve that did not converge from there ended nowhere near: as far as its start.
+    const Pose& end = r.usable ? r.T_camera_lidar : StartCheckPose(out.T_camera_lidar, 0);
+    q.start_rotation_deg = std::max(
+        q.start_rotation_deg, RotationAngle(end.linear(), out.T_camera_lidar.linear()) * kRad2Deg);
+    q.start_translation_m = std::max(q.start_translation_m,
+                                     (end.translation() - out.T_camera_lidar.translation()).norm());
+  }
   out.quality_ms = Ms(t_q);
 
   if (q.plane_conditioning < v.min_plane_conditioning)
@@ -444,6 +478,14 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     return Reject(out, "unstable_solution",
                   "half-data re-solves move it by " + Fmt(q.rotation_spread_deg) + " deg / " +
                       Fmt(q.translation_spread_m) + " m");
+  if (q.start_rotation_deg > v.max_start_rotation_deg ||
+      q.start_translation_m > v.max_start_translation_m)
+    return Reject(out, "unstable_solution",
+                  "solves started " + Fmt(kStartCheckRotationDeg, 0) + " deg / " +
+                      Fmt(kStartCheckTranslationM, 2) + " m away end " + Fmt(q.start_rotation_deg) +
+                      " deg / " + Fmt(q.start_translation_m) +
+                      " m from it: the cost has more than one minimum (boards too few or too "
+                      "alike, or paired with the wrong LiDAR cluster); record more, varied poses");
   if (q.reprojection_mean_px > v.max_reprojection_mean_px)
     return Reject(out, "high_reprojection_error",
                   "mean " + Fmt(q.reprojection_mean_px, 2) + " px above " +

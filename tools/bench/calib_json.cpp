@@ -16,6 +16,7 @@ nlohmann::json RunJson(const ScoredRun& r) {
   const bool e = r.has_estimate;
   return {{"verdict", r.verdict},
           {"reason", r.reason},
+          {"detail", r.detail},
           {"has_estimate", e},
           {"rotation_error_deg", Optional(e, r.rotation_error_deg)},
           {"translation_error_m", Optional(e, r.translation_error_m)},

@@ -476,6 +476,12 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += Row("half-data translation spread [m]", Num(q.translation_spread_m, 4),
            "<= " + Num(v.max_translation_spread_m, 4),
            check(q.translation_spread_m <= v.max_translation_spread_m));
+  s += Row("solves from other starts, rotation [deg]", Num(q.start_rotation_deg, 4),
+           "<= " + Num(v.max_start_rotation_deg, 4),
+           check(q.start_rotation_deg <= v.max_start_rotation_deg));
+  s += Row("solves from other starts, translation [m]", Num(q.start_translation_m, 4),
+           "<= " + Num(v.max_start_translation_m, 4),
+           check(q.start_translation_m <= v.max_start_translation_m));
   s += Row("reprojection error mean [px] (p95 " + Num(q.reprojection_p95_px, 2) + ")",
            Num(q.reprojection_mean_px, 2), "<= " + Num(v.max_reprojection_mean_px, 2),
            check(q.reprojection_mean_px <= v.max_reprojection_mean_px));
@@ -523,6 +529,9 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += InfoRow("min board-plane conditioning", Sci(v.min_plane_conditioning));
   s += InfoRow("max half-data spread", Num(v.max_rotation_spread_deg, 4) + " deg, " +
                                            Num(v.max_translation_spread_m, 4) + " m");
+  s += InfoRow(
+      "max distance of solves from other starts",
+      Num(v.max_start_rotation_deg, 4) + " deg, " + Num(v.max_start_translation_m, 4) + " m");
   s += InfoRow("max reprojection error mean", Num(v.max_reprojection_mean_px, 2) + " px");
   s += InfoRow("max LiDAR residual RMS", Num(v.max_residual_rms_m, 4) + " m");
   s += "</table></section>\n";

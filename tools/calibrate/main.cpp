@@ -418,7 +418,9 @@ int main(int argc, char** argv) {
                        {"rotation_sigma_deg", q.rotation_sigma_deg},
                        {"translation_sigma_m", q.translation_sigma_m},
                        {"rotation_spread_deg", q.rotation_spread_deg},
-                       {"translation_spread_m", q.translation_spread_m}};
+                       {"translation_spread_m", q.translation_spread_m},
+                       {"start_rotation_deg", q.start_rotation_deg},
+                       {"start_translation_m", q.start_translation_m}};
   report["grid_search"] = {{"perturbation_rpy_deg",
                             {out.grid.perturbation_rpy_deg.x(), out.grid.perturbation_rpy_deg.y(),
                              out.grid.perturbation_rpy_deg.z()}},

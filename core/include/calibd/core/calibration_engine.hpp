@@ -58,6 +58,13 @@ struct VerdictConfig {
       1e-5;  // measured: 3 spread boards 9e-5, one board 1e-6, parallel 2e-8
   double max_rotation_spread_deg = 0.25;  ///< half-data re-solve gates (stability)
   double max_translation_spread_m = 0.03;
+  /// Start gates (stability): the solves from EngineConfig::start_checks other starts must end
+  /// this close to the solution; farther, the cost has another minimum there. Within one minimum
+  /// they end a few hundredths of a degree apart (half the points each, and the board-pose
+  /// alternation stops short of the joint optimum); a minimum closer than two thirds of the
+  /// verification tolerance would not change what the verdict means.
+  double max_start_rotation_deg = 0.1;
+  double max_start_translation_m = 0.01;
   /// Paper Table I metric. It measures each board's own LiDAR fit as much as the extrinsic:
   /// measured means over 5 simulated drives (calibd-bench calib) 3.1 px ot128, 4.9 px m1,
   /// 2.4 px falcon with correct results; a rotation error of 0.1 deg adds about 6 px at
@@ -75,6 +82,11 @@ struct EngineConfig {
   IndirectOptimizerConfig indirect;
   VerdictConfig verdict;
   int stability_runs = 4;  ///< re-solves on random halves of the correspondences (0: skip)
+  /// Solves of all correspondences from starts kStartCheckRotationDeg / kStartCheckTranslationM
+  /// (calibration_engine.cpp) off the solution, with the board poses from the camera again: the
+  /// half-data re-solves start from the solution and cannot see that the solve ended in a
+  /// minimum beside the right one (0: skip).
+  int start_checks = 2;
   /// The solve uses the correspondences of at most this many frame pairs, spread evenly over the
   /// session (0: all). Bounds the solve's time and memory whatever the session's length: a
   /// 2000-pair session solves like a 200-pair one drawn from all of it (motion compensation
@@ -93,6 +105,7 @@ struct QualityFigures {
   double rotation_sigma_deg = 0.0, translation_sigma_m = 0.0;  ///< formal, from J^T J
   double plane_conditioning = 0.0;  ///< see VerdictConfig::min_plane_conditioning
   double rotation_spread_deg = 0.0, translation_spread_m = 0.0;  ///< half-data re-solves
+  double start_rotation_deg = 0.0, start_translation_m = 0.0;    ///< solves from other starts
 };
 
 struct CalibrationOutcome {
