@@ -86,7 +86,7 @@ struct EngineConfig {
   /// (calibration_engine.cpp) off the solution, with the board poses from the camera again: the
   /// half-data re-solves start from the solution and cannot see that the solve ended in a
   /// minimum beside the right one (0: skip).
-  int start_checks = 2;
+  int start_checks = 1;
   /// The solve uses the correspondences of at most this many frame pairs, spread evenly over the
   /// session (0: all). Bounds the solve's time and memory whatever the session's length: a
   /// 2000-pair session solves like a 200-pair one drawn from all of it (motion compensation
