@@ -107,7 +107,11 @@ INSTANTIATE_TEST_SUITE_P(
                       // fuzz_calib_config: an id that ConfigToYaml could not write back.
                       BadCase{"id: front", "id: \"front \\x01\"", "camera.id"},
                       BadCase{"id: roof", "id: \"roof \"", "lidar.id"},
-                      BadCase{"id: roof", "id: \"\"", "lidar.id"}));
+                      BadCase{"id: roof", "id: \"\"", "lidar.id"},
+                      // fuzz_calib_config: a family with a NUL before its name did not round-trip
+                      // (crash-tag-family-nul); any family the detector does not know is refused.
+                      BadCase{"tag_family: tag36h11", "tag_family: \"\\0tag36h11\"", "boards[0]"},
+                      BadCase{"tag_family: tag36h11", "tag_family: tag36h12", "boards[0]"}));
 
 TEST(ConfigFileTest, FrameIdsRoundTripAndDefault) {
   CalibConfig c = Example();

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "apriltag_families.hpp"
+
 namespace calibd {
 
 bool BoardGeometry::IsValid(std::string* error) const {
@@ -17,8 +19,10 @@ bool BoardGeometry::IsValid(std::string* error) const {
       why << "board " << board_id << ": the tag's black square does not fit on the board";
     else if (tag_id < 0)
       why << "board " << board_id << ": tag_id must be >= 0";
-    else if (tag_family.empty())
-      why << "board " << board_id << ": tag_family is empty";
+    else if (internal::FindAprilTagFamily(tag_family) == nullptr)
+      why << "board " << board_id << ": unknown tag_family '" << tag_family
+          << "' (tag36h11, tag36h10, tag25h9, tag16h5, tagStandard41h12, tagCircle21h7, "
+             "tagCircle49h12, tagCustom48h12)";
   } else if (pattern == PatternKind::kCheckerboard) {
     // Fewer than 2 inner corners along a side gives no grid for findChessboardCornersSB.
     if (checker_inner_rows < 2 || checker_inner_cols < 2)
