@@ -441,9 +441,11 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
         std::max(q.translation_spread_m,
                  (h.T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm());
   }
-  for (const DirectResult& r : started) {
+  for (size_t k = 0; k < started.size(); ++k) {
     // A solve that did not converge from there ended nowhere near: as far as its start.
-    const Pose& end = r.usable ? r.T_camera_lidar : StartCheckPose(out.T_camera_lidar, 0);
+    const DirectResult& r = started[k];
+    const Pose end =
+        r.usable ? r.T_camera_lidar : StartCheckPose(out.T_camera_lidar, static_cast<int>(k));
     q.start_rotation_deg = std::max(
         q.start_rotation_deg, RotationAngle(end.linear(), out.T_camera_lidar.linear()) * kRad2Deg);
     q.start_translation_m = std::max(q.start_translation_m,

@@ -108,39 +108,42 @@ float BestWindowStart(const std::pair<float, float>* sorted, int n, float side, 
   return n > 0 ? sorted[best_start].first : 0.0f;
 }
 
-// The window's first (second: its second) side in the principal plane, turned by `angle`.
-Eigen::Vector2f InPlaneAxis(double angle, bool second) {
+// (u, v) of each of n points along a window's sides, turned by `angle` in the cluster's principal
+// plane, into uv: one arithmetic for the search and for Contains, so that a point falls on the
+// same side of an edge in both.
+void WindowCoordinates(const ClusterPca& pca, double angle, const Eigen::Vector3f* points, int n,
+                       std::pair<float, float>* uv) {
+  const Eigen::Matrix3f Rt = pca.axes.transpose().cast<float>();
+  const Eigen::Vector3f c = pca.centroid.cast<float>();
   const float ca = static_cast<float>(std::cos(angle)), sa = static_cast<float>(std::sin(angle));
-  return second ? Eigen::Vector2f(-sa, ca) : Eigen::Vector2f(ca, sa);
+  const Eigen::Vector2f eu(ca, sa), ev(-sa, ca);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3f d = Rt * (points[i] - c);
+    uv[i] = {eu.dot(d.head<2>()), ev.dot(d.head<2>())};
+  }
 }
+
+// x within the span [lo, lo + side].
+bool InSpan(float x, float lo, float side) { return x >= lo && x <= lo + side; }
 
 }  // namespace
 
 bool PlaneWindow::Contains(const ClusterPca& pca, const Eigen::Vector3f& point) const {
-  // As MostPointsWindow projects: the same arithmetic puts a point on the same side of an edge.
-  const Eigen::Vector3f d =
-      pca.axes.transpose().cast<float>() * (point - pca.centroid.cast<float>());
-  const float u = InPlaneAxis(angle_rad, false).dot(d.head<2>());
-  const float v = InPlaneAxis(angle_rad, true).dot(d.head<2>());
-  return u >= u0 && u <= u0 + side_u && v >= v0 && v <= v0 + side_v;
+  std::pair<float, float> uv;
+  WindowCoordinates(pca, angle_rad, &point, 1, &uv);
+  return InSpan(uv.first, u0, side_u) && InSpan(uv.second, v0, side_v);
 }
 
 PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* points, int n, double w,
                              double h, std::pair<float, float>* scratch, int num_angles) {
   PlaneWindow best, result;
   if (n <= 0 || num_angles < 1) return best;
-  const Eigen::Matrix3f Rt = pca.axes.transpose().cast<float>();
-  const Eigen::Vector3f c = pca.centroid.cast<float>();
   // The count-best window at `angle` into `best` when it holds more than `best` does.
   auto try_angle = [&](double angle) {
-    const Eigen::Vector2f eu = InPlaneAxis(angle, false), ev = InPlaneAxis(angle, true);
     for (int turn = 0; turn < (w == h ? 1 : 2); ++turn) {
       const float side_u = static_cast<float>(turn == 0 ? w : h);
       const float side_v = static_cast<float>(turn == 0 ? h : w);
-      for (int i = 0; i < n; ++i) {
-        const Eigen::Vector3f d = Rt * (points[i] - c);
-        scratch[i] = {eu.dot(d.head<2>()), ev.dot(d.head<2>())};
-      }
+      WindowCoordinates(pca, angle, points, n, scratch);
       std::sort(scratch, scratch + n);
       int count_u = 0;
       const float u0 = BestWindowStart(scratch, n, side_u, &count_u);
@@ -148,8 +151,7 @@ PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* point
       // The window's points by their v.
       int m = 0;
       for (int i = 0; i < n; ++i)
-        if (scratch[i].first >= u0 && scratch[i].first <= u0 + side_u)
-          scratch[m++] = {scratch[i].second, 0.0f};
+        if (InSpan(scratch[i].first, u0, side_u)) scratch[m++] = {scratch[i].second, 0.0f};
       std::sort(scratch, scratch + m);
       int count = 0;
       const float v0 = BestWindowStart(scratch, m, side_v, &count);
@@ -173,16 +175,10 @@ PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* point
   int best_score = std::numeric_limits<int>::min();
   for (int k = -kTurnSteps; k <= kTurnSteps; ++k) {
     best = PlaneWindow{};
-    best.angle_rad = coarse.angle_rad + 0.1 * step * k;
-    try_angle(best.angle_rad);
+    try_angle(coarse.angle_rad + 0.1 * step * k);
     if (best.count == 0) continue;
     const PlaneWindow centre = best;
-    const Eigen::Vector2f eu = InPlaneAxis(centre.angle_rad, false);
-    const Eigen::Vector2f ev = InPlaneAxis(centre.angle_rad, true);
-    for (int i = 0; i < n; ++i) {
-      const Eigen::Vector3f d = Rt * (points[i] - c);
-      scratch[i] = {eu.dot(d.head<2>()), ev.dot(d.head<2>())};
-    }
+    WindowCoordinates(pca, centre.angle_rad, points, n, scratch);
     for (int a = -kShiftSteps; a <= kShiftSteps; ++a) {
       for (int b = -kShiftSteps; b <= kShiftSteps; ++b) {
         PlaneWindow shifted = centre;
@@ -190,9 +186,8 @@ PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* point
         shifted.v0 += static_cast<float>(b) * kShiftM;
         int inside = 0, in_u = 0, in_v = 0;
         for (int i = 0; i < n; ++i) {
-          const float u = scratch[i].first, v = scratch[i].second;
-          const bool iu = u >= shifted.u0 && u <= shifted.u0 + shifted.side_u;
-          const bool iv = v >= shifted.v0 && v <= shifted.v0 + shifted.side_v;
+          const bool iu = InSpan(scratch[i].first, shifted.u0, shifted.side_u);
+          const bool iv = InSpan(scratch[i].second, shifted.v0, shifted.side_v);
           in_u += iu;
           in_v += iv;
           inside += iu && iv;

@@ -454,6 +454,11 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   // the calibration stopped before it.
   const Gate solved = out.solved ? Gate::kPass : Gate::kNotReached;
   auto check = [&](bool ok) { return out.solved ? (ok ? Gate::kPass : Gate::kFail) : solved; };
+  // A figure with an upper gate, each with its own number of decimals.
+  auto at_most = [&](const std::string& name, double value, int value_digits, double max,
+                     int max_digits) {
+    return Row(name, Num(value, value_digits), "<= " + Num(max, max_digits), check(value <= max));
+  };
   s += "<section id=\"quality\"><h2>Quality</h2>\n<table><tr><th>figure</th><th>value</th>"
        "<th>gate</th><th>result</th></tr>";
   s += Row("frame pairs used", std::to_string(q.frames_used), ">= " + std::to_string(v.min_frames),
@@ -464,34 +469,23 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += Row("board-plane conditioning", Sci(q.plane_conditioning),
            ">= " + Sci(v.min_plane_conditioning),
            check(q.plane_conditioning >= v.min_plane_conditioning));
-  s += Row("formal rotation sigma [deg]", Num(q.rotation_sigma_deg, 4),
-           "<= " + Num(v.max_rotation_sigma_deg, 4),
-           check(q.rotation_sigma_deg <= v.max_rotation_sigma_deg));
-  s += Row("formal translation sigma [m]", Num(q.translation_sigma_m, 4),
-           "<= " + Num(v.max_translation_sigma_m, 4),
-           check(q.translation_sigma_m <= v.max_translation_sigma_m));
-  s += Row("half-data rotation spread [deg]", Num(q.rotation_spread_deg, 4),
-           "<= " + Num(v.max_rotation_spread_deg, 4),
-           check(q.rotation_spread_deg <= v.max_rotation_spread_deg));
-  s += Row("half-data translation spread [m]", Num(q.translation_spread_m, 4),
-           "<= " + Num(v.max_translation_spread_m, 4),
-           check(q.translation_spread_m <= v.max_translation_spread_m));
-  s += Row("solves from other starts, rotation [deg]", Num(q.start_rotation_deg, 4),
-           "<= " + Num(v.max_start_rotation_deg, 4),
-           check(q.start_rotation_deg <= v.max_start_rotation_deg));
-  s += Row("solves from other starts, translation [m]", Num(q.start_translation_m, 4),
-           "<= " + Num(v.max_start_translation_m, 4),
-           check(q.start_translation_m <= v.max_start_translation_m));
-  s += Row("reprojection error mean [px] (p95 " + Num(q.reprojection_p95_px, 2) + ")",
-           Num(q.reprojection_mean_px, 2), "<= " + Num(v.max_reprojection_mean_px, 2),
-           check(q.reprojection_mean_px <= v.max_reprojection_mean_px));
-  s += Row("LiDAR residual RMS [m]", Num(q.residual_rms_m, 4), "<= " + Num(v.max_residual_rms_m, 4),
-           check(q.residual_rms_m <= v.max_residual_rms_m));
-  s += Row("change vs prior, rotation [deg]", Num(out.delta_rotation_deg, 4),
-           "<= " + Num(v.max_rotation_deg, 2), check(out.delta_rotation_deg <= v.max_rotation_deg));
-  s += Row("change vs prior, translation [m]", Num(out.delta_translation_m, 4),
-           "<= " + Num(v.max_translation_m, 3),
-           check(out.delta_translation_m <= v.max_translation_m));
+  s += at_most("formal rotation sigma [deg]", q.rotation_sigma_deg, 4, v.max_rotation_sigma_deg, 4);
+  s += at_most("formal translation sigma [m]", q.translation_sigma_m, 4, v.max_translation_sigma_m,
+               4);
+  s += at_most("half-data rotation spread [deg]", q.rotation_spread_deg, 4,
+               v.max_rotation_spread_deg, 4);
+  s += at_most("half-data translation spread [m]", q.translation_spread_m, 4,
+               v.max_translation_spread_m, 4);
+  s += at_most("solves from other starts, rotation [deg]", q.start_rotation_deg, 4,
+               v.max_start_rotation_deg, 4);
+  s += at_most("solves from other starts, translation [m]", q.start_translation_m, 4,
+               v.max_start_translation_m, 4);
+  s += at_most("reprojection error mean [px] (p95 " + Num(q.reprojection_p95_px, 2) + ")",
+               q.reprojection_mean_px, 2, v.max_reprojection_mean_px, 2);
+  s += at_most("LiDAR residual RMS [m]", q.residual_rms_m, 4, v.max_residual_rms_m, 4);
+  s += at_most("change vs prior, rotation [deg]", out.delta_rotation_deg, 4, v.max_rotation_deg, 2);
+  s += at_most("change vs prior, translation [m]", out.delta_translation_m, 4, v.max_translation_m,
+               3);
   s += "</table>\n<table>";
   s += InfoRow("camera-to-board distances [m]",
                Num(q.min_distance_m, 2) + " to " + Num(q.max_distance_m, 2));
