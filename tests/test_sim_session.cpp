@@ -84,6 +84,43 @@ TEST(SessionTest, BoardsVisibleToBothSensorsAcrossTheDrive) {
   }
 }
 
+// The faults calibd-bench verdicts injects: a range bias moves every return along its beam by the
+// bias; a late camera sees the scene (and is stamped) later, the LiDAR's sweep keeps its time.
+TEST(SessionTest, RangeBiasAndCameraDelayAreWhatTheTruthSays) {
+  SessionOptions o = SmallCamera(SessionOptions{});
+  o.lidar_model = "vlp16";
+  o.lidar_noise = LidarNoise{};
+  o.lidar_noise.range_sigma_m = 0.0;
+  o.lidar_noise.angular_jitter_deg = 0.0;
+  o.lidar_noise.dropout_probability = 0.0;
+  o.lidar_noise.mixed_point_probability = 0.0;
+  SessionOptions faulty = o;
+  faulty.lidar_noise.range_bias_m = 0.04;
+  faulty.camera_delay_us = 30000;
+  SessionSimulator clean_sim, faulty_sim;
+  std::string error;
+  ASSERT_TRUE(clean_sim.Init(o, &error)) << error;
+  ASSERT_TRUE(faulty_sim.Init(faulty, &error)) << error;
+  LidarScan clean_scan, faulty_scan;
+  FrameTruth clean, late;
+  clean_sim.SimulateFrame(20, nullptr, &clean_scan, &clean);
+  faulty_sim.SimulateFrame(20, nullptr, &faulty_scan, &late);
+  EXPECT_EQ(late.lidar_utime, clean.lidar_utime);
+  EXPECT_EQ(late.camera_utime, clean.camera_utime + 30000);
+  // Driving: the camera's view of a board 30 ms later differs by the vehicle's motion.
+  const double moved =
+      (late.boards[0].T_camera_board.translation() - clean.boards[0].T_camera_board.translation())
+          .norm();
+  EXPECT_GT(moved, 0.01);
+  ASSERT_EQ(faulty_scan.size(), clean_scan.size());
+  ASSERT_GT(clean_scan.size(), 1000u);
+  for (size_t i = 0; i < clean_scan.size(); i += 97) {
+    const Eigen::Vector3d a(clean_scan.x[i], clean_scan.y[i], clean_scan.z[i]);
+    const Eigen::Vector3d b(faulty_scan.x[i], faulty_scan.y[i], faulty_scan.z[i]);
+    EXPECT_NEAR(b.norm() - a.norm(), 0.04, 2e-3) << "point " << i;
+  }
+}
+
 TEST(SessionTest, BadOptionsAreRejectedWithTheirName) {
   std::string error;
   SessionOptions o;

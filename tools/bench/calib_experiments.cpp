@@ -70,13 +70,14 @@ void ScoreLidar(const FrameDetections& frame, std::vector<int>* board_of_point,
 }  // namespace
 
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
-                 const LidarDetectorConfig& lidar, const LidarModel* model) {
+                 const LidarDetectorConfig& lidar, const LidarModel* model,
+                 const RecordingFaults& faults) {
   const auto t0 = std::chrono::steady_clock::now();
   DetectedSession detected;
-  if (!detected.Init(options, error, lidar, model)) return false;
+  if (!detected.Init(options, error, lidar, model, faults.config)) return false;
   const sim::SessionSimulator& session = detected.session();
   drive->seed = options.seed;
-  drive->config = session.UserConfig();
+  drive->config = faults.config ? *faults.config : session.UserConfig();
   drive->T_camera_lidar = session.T_camera_lidar();
   const auto& boards = drive->config.boards;
   const int frames = session.num_frames();
@@ -94,7 +95,10 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
   for (int k = 0; k < frames; ++k) {
     detected.Detect(k, true, &frame);
     ScoreLidar(frame, &board_of_point, drive);
-    const FrameTimes times{frame.truth.camera_utime, frame.truth.lidar_utime};
+    const FrameTimes times =
+        faults.no_times ? FrameTimes{}
+                        : FrameTimes{frame.truth.camera_utime + faults.camera_stamp_shift_us,
+                                     frame.truth.lidar_utime};
     if (!drive->observations.AddFrame(frame.camera, frame.lidar, boards, times))
       ++drive->incomplete_frames;
     drive->vehicle_positions.push_back(frame.truth.T_world_vehicle.translation());

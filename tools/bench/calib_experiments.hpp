@@ -47,12 +47,21 @@ struct RecordedDrive {
 /// A board with fewer LiDAR points is not counted as missed (too far or hidden to be a plane).
 inline constexpr int kVisibleBoardPoints = 30;
 
+/// Where a recording differs from the simulated truth (the fault campaign, calibd-bench verdicts).
+struct RecordingFaults {
+  /// The user's config (wrong sizes, intrinsics or prior): the detectors and the engine use it.
+  /// Null: the simulator's UserConfig().
+  const CalibConfig* config = nullptr;
+  int64_t camera_stamp_shift_us = 0;  ///< added to every camera stamp (a wrong clock)
+  bool no_times = false;              ///< frame pairs without capture times (paired by file name)
+};
+
 /// Simulates every frame pair of a drive and runs the real detectors on it into
 /// `drive->observations`, the way tests/recorded_session.hpp does; the LiDAR detector with
 /// `model` when given (DetectedSession::Init).
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
                  const LidarDetectorConfig& lidar = LidarDetectorConfig{},
-                 const LidarModel* model = nullptr);
+                 const LidarModel* model = nullptr, const RecordingFaults& faults = {});
 
 /// Board observations at camera-to-board distances in (min_m, max_m) only (paper Table II: close
 /// < 8.5 m, far > 25 m). Camera boards are kept by their PnP distance. A LiDAR cluster's board is

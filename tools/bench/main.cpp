@@ -13,6 +13,7 @@
 #include "recordings_bench.hpp"
 #include "resolution_bench.hpp"
 #include "soak_bench.hpp"
+#include "verdicts_bench.hpp"
 
 namespace {
 
@@ -26,6 +27,7 @@ Usage: calibd-bench detect [options]
        calibd-bench resolution [--repeat N]
        calibd-bench soak --drive LOG --calib-yaml FILE [options]
        calibd-bench recordings [options]
+       calibd-bench verdicts [options]
 
 detect   camera and LiDAR board detection over the default simulated session (3 boards, clutter,
          driving 6-30 m): precision, recall (a LiDAR detection is a true positive within 0.2 m of
@@ -140,6 +142,21 @@ recordings
                       extract_planes; default on, as calibd-calibrate)
   --json FILE         also write the figures as JSON
 
+verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-14 m and still
+         poses at 1.5-8 m, 1-3 boards, a 1920 x 1200 camera), each clean or with one fault drawn at
+         a random size: the camera 0-100 ms late with wrong stamps or no capture times, board or
+         tag size 1-5 % off, focal length 0.5-3 % off, principal point 5-20 px off, LiDAR ranges
+         2-5 cm biased, a prior beyond the grid search's reach. Each is detected and calibrated
+         by the real detectors and engine; per fault and overall: accepted within tolerance,
+         false accepts (`updated` or `verified` beyond twice the verification tolerance, 0.3 deg
+         or 3 cm), false rejects (clean sessions refused), refusals and their reason codes.
+         Deterministic per seed. Fails on any false accept.
+  --sessions N        sessions (default 400; 2000 for the issue's campaign)
+  --quick             shorter sessions (40-frame drives, 14 poses; the CI subset)
+  --seed N            simulation seed (default 1)
+  --threads N         sessions at once (default 2)
+  --json FILE         also write every session as JSON
+
 Exit codes: 0 done, 1 failed, 2 bad option.
 )";
 
@@ -186,7 +203,8 @@ int main(int argc, char** argv) {
   const bool pipeline = command == "pipeline";
   const bool soak = command == "soak";
   const bool recordings = command == "recordings";
-  if (command != "detect" && !calib && !memory && !pipeline && !soak && !recordings) {
+  const bool verdicts = command == "verdicts";
+  if (command != "detect" && !calib && !memory && !pipeline && !soak && !recordings && !verdicts) {
     std::cerr << "calibd-bench: unknown command '" << command << "' (see --help)\n";
     return 2;
   }
@@ -198,6 +216,7 @@ int main(int argc, char** argv) {
   p.agent_path = CALIBD_AGENT_EXE;
   calibd::bench::SoakBenchOptions k;
   calibd::bench::RecordingsBenchOptions r;
+  calibd::bench::VerdictsBenchOptions v;
   k.agent_path = CALIBD_AGENT_EXE;
   k.sim_path = CALIBD_SIM_EXE;
   for (int i = 2; i < argc; ++i) {
@@ -206,6 +225,10 @@ int main(int argc, char** argv) {
       std::cout << kHelp;
       return 0;
     }
+    if (verdicts && arg == "--quick") {
+      v.quick = true;
+      continue;
+    }
     if (i + 1 >= argc) {
       std::cerr << "calibd-bench: option " << arg << " needs a value (see --help)\n";
       return 2;
@@ -213,6 +236,20 @@ int main(int argc, char** argv) {
     const std::string value = argv[++i];
     long long n = 0;
     double x = 0;
+    if (verdicts) {
+      if (arg == "--sessions" && ParseInt(value, 1, 1000000, &n)) {
+        v.sessions = static_cast<int>(n);
+      } else if (arg == "--seed" && ParseInt(value, 0, 1LL << 53, &n)) {
+        v.seed = static_cast<unsigned long long>(n);
+      } else if (arg == "--threads" && ParseInt(value, 1, 64, &n)) {
+        v.threads = static_cast<int>(n);
+      } else if (arg == "--json") {
+        v.json_path = value;
+      } else {
+        return BadOption(arg, value);
+      }
+      continue;
+    }
     if (recordings) {
       if (arg == "--scenario") {
         std::stringstream ss(value);
@@ -338,8 +375,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::string error;
-  const bool ok = recordings ? calibd::bench::RunRecordingsBench(r, std::cout, &std::cerr, &error)
-                  : soak     ? calibd::bench::RunSoakBench(k, std::cout, &std::cerr, &error)
+  const bool ok = verdicts     ? calibd::bench::RunVerdictsBench(v, std::cout, &std::cerr, &error)
+                  : recordings ? calibd::bench::RunRecordingsBench(r, std::cout, &std::cerr, &error)
+                  : soak       ? calibd::bench::RunSoakBench(k, std::cout, &std::cerr, &error)
                   : memory   ? calibd::bench::RunAgentMemoryBench(m, std::cout, &std::cerr, &error)
                   : pipeline ? calibd::bench::RunPipelineBench(p, std::cout, &std::cerr, &error)
                   : calib    ? calibd::bench::RunCalibBench(c, std::cout, &std::cerr, &error)

@@ -59,35 +59,6 @@ constexpr Scenario kScenarios[] = {
      10.0, 0.9, 0.9, false, false, false, 0.95, 0.99, 0.3, 0.03},
 };
 
-// A 1920 x 1200 machine-vision camera with a 6 mm-class lens (~82 deg across), or a fisheye of
-// ~190 deg on 1600 x 1200 (Kannala-Brandt, as cv::fisheye calibrates it).
-CameraIntrinsics ScenarioCamera(bool fisheye) {
-  CameraIntrinsics k;
-  if (fisheye) {
-    k.width = 1600;
-    k.height = 1200;
-    k.fx = k.fy = 420.0;
-    k.model = DistortionModel::kKannalaBrandt;
-    k.k1 = 0.02;
-    k.k2 = -0.01;
-    k.p1 = k.p2 = 0.0;
-    k.k3 = 0.002;
-    k.k4 = -0.0005;
-  } else {
-    k.width = 1920;
-    k.height = 1200;
-    k.fx = k.fy = 1100.0;
-    k.k1 = -0.12;
-    k.k2 = 0.05;
-    k.p1 = 0.0004;
-    k.p2 = -0.0002;
-    k.k3 = -0.008;
-  }
-  k.cx = (k.width - 1) / 2.0 + 7.0;
-  k.cy = (k.height - 1) / 2.0 - 5.0;
-  return k;
-}
-
 sim::SessionOptions ScenarioSession(const Scenario& s, unsigned long long seed) {
   sim::SessionOptions o;
   o.seed = seed;
@@ -159,6 +130,35 @@ double PoseRecall(const RecordedDrive& drive, int frames_per_pose) {
 }
 
 }  // namespace
+
+// A 1920 x 1200 machine-vision camera with a 6 mm-class lens (~82 deg across), or a fisheye of
+// ~190 deg on 1600 x 1200 (Kannala-Brandt, as cv::fisheye calibrates it).
+CameraIntrinsics ScenarioCamera(bool fisheye) {
+  CameraIntrinsics k;
+  if (fisheye) {
+    k.width = 1600;
+    k.height = 1200;
+    k.fx = k.fy = 420.0;
+    k.model = DistortionModel::kKannalaBrandt;
+    k.k1 = 0.02;
+    k.k2 = -0.01;
+    k.p1 = k.p2 = 0.0;
+    k.k3 = 0.002;
+    k.k4 = -0.0005;
+  } else {
+    k.width = 1920;
+    k.height = 1200;
+    k.fx = k.fy = 1100.0;
+    k.k1 = -0.12;
+    k.k2 = 0.05;
+    k.p1 = 0.0004;
+    k.p2 = -0.0002;
+    k.k3 = -0.008;
+  }
+  k.cx = (k.width - 1) / 2.0 + 7.0;
+  k.cy = (k.height - 1) / 2.0 - 5.0;
+  return k;
+}
 
 std::string RecordingScenarioNames() {
   std::string out;

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "calibd/core/config.hpp"
+
 namespace calibd::bench {
 
 struct RecordingsBenchOptions {
@@ -21,6 +23,10 @@ struct RecordingsBenchOptions {
   bool extract_planes = true;  ///< LidarDetectorConfig::extract_planes (calibd-calibrate's default)
   std::string json_path;
 };
+
+/// A 1920 x 1200 machine-vision camera with a 6 mm-class lens, or a ~190 deg fisheye on 1600 x
+/// 1200: the cameras of the scenarios (and of calibd-bench verdicts).
+CameraIntrinsics ScenarioCamera(bool fisheye);
 
 /// Every scenario's name, comma-separated (for --help and errors).
 std::string RecordingScenarioNames();

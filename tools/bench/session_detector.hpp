@@ -39,9 +39,11 @@ class DetectedSession {
   /// the workshop's boards); the LiDAR detector with `model` when given (e.g. a generic model
   /// estimated from the sweeps), else the simulated sensor's. False with `error` saying what
   /// failed.
+  /// With `user`, both detectors take the board geometry and the camera's intrinsics from that
+  /// config instead of the simulator's (a user's config with wrong figures: the fault campaign).
   bool Init(const sim::SessionOptions& options, std::string* error,
             const LidarDetectorConfig& lidar = LidarDetectorConfig{},
-            const LidarModel* model = nullptr);
+            const LidarModel* model = nullptr, const CalibConfig* user = nullptr);
 
   const sim::SessionSimulator& session() const { return session_; }
   const LidarDetectorConfig& lidar_config() const { return lidar_config_; }

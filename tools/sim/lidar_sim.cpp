@@ -549,6 +549,7 @@ void LidarSimulator::FinishBeams(const Scene& scene, const Pose& T_world_lidar_s
     }
 
     if (noise_.range_sigma_m > 0.0) range += noise_.range_sigma_m * normal(rng);
+    range += noise_.range_bias_m;
     if (model_.range_quantization_m > 0.0)
       range = std::round(range / model_.range_quantization_m) * model_.range_quantization_m;
     if (range <= 0.0) continue;

@@ -21,6 +21,9 @@ struct LidarNoise {
   /// 0 disables mixed points; the footprint still picks the nearest surface at edges.
   double mixed_point_probability = 0.5;
   double mixed_point_min_gap_m = 0.3;  ///< depth gap within a footprint that can give a mixed point
+  /// Constant added to every range (a miscalibrated range offset; real 16-ring units are often
+  /// 2-3 cm off): a fault to inject, 0 on a healthy sensor.
+  double range_bias_m = 0.0;
 };
 
 struct PatternShape;  // lidar_sim.cpp: which beams neighbour which in a scan pattern

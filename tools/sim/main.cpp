@@ -85,8 +85,11 @@ LiDAR noise:
   --angular-jitter DEG     beam direction sigma, deg (default 0.01)
   --dropout P              probability a return is lost (default 0.02)
   --beam-divergence MRAD   beam footprint for mixed edge points, mrad (default 2)
+  --range-bias M           fault: constant added to every range, m (default 0)
 Camera:
   --width PX --height PX   image size (default 3840 x 1920)
+  --camera-delay-us US     fault: the camera exposes this long after its trigger; the LiDAR
+                           keeps its phase (a camera running behind; default 0)
   --fx PX --fy PX          focal lengths (default 3325)
   --cx PX --cy PX          principal point (default image centre)
   --distortion K1,K2,P1,P2,K3   radial-tangential coefficients (default -0.08,0.03,0.0005,-0.0003,-0.005)
@@ -243,6 +246,8 @@ int main(int argc, char** argv) {
       {"--angular-jitter", number(&o.lidar_noise.angular_jitter_deg, 0, 1)},
       {"--dropout", number(&o.lidar_noise.dropout_probability, 0, 0.99)},
       {"--beam-divergence", number(&o.lidar_noise.beam_divergence_mrad, 0, 20)},
+      {"--range-bias", number(&o.lidar_noise.range_bias_m, -1, 1)},
+      {"--camera-delay-us", integer(&o.camera_delay_us, -1e6, 1e6)},
       {"--width", integer(&o.camera.width, 16, 16384)},
       {"--height", integer(&o.camera.height, 16, 16384)},
       {"--fx", number(&o.camera.fx, 1, 1e5)},

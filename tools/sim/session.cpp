@@ -72,6 +72,9 @@ bool SessionOptions::IsValid(std::string* error) const {
   if (!(std::abs(prior_trans_m) <= 0.5)) return fail("--prior-trans-m must be within +-0.5 m");
   if (!(lidar_noise.range_sigma_m >= 0.0 && lidar_noise.range_sigma_m <= 0.5))
     return fail("--range-noise must be in [0, 0.5] m");
+  if (!(std::abs(lidar_noise.range_bias_m) <= 1.0))
+    return fail("--range-bias must be within +-1 m");
+  if (!(std::abs(camera_delay_us) <= 1000000)) return fail("--camera-delay must be within +-1 s");
   if (!(lidar_noise.dropout_probability >= 0.0 && lidar_noise.dropout_probability < 1.0))
     return fail("--dropout must be in [0, 1)");
   if (!(imaging.noise_sigma >= 0.0 && imaging.blur_sigma_px >= 0.0))
@@ -162,9 +165,10 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
   const int64_t frame_period_us = static_cast<int64_t>(std::llround(1e6 / traj.rate_hz));
   const int64_t sweep_period_us =
       static_cast<int64_t>(std::llround(1e6 / lidar_->model().frame_rate_hz));
-  const int64_t camera_utime =
+  const int64_t trigger_utime =
       options_.start_utime + (k / per_pose) * frame_period_us + (k % per_pose) * sweep_period_us;
-  const int64_t lidar_utime = camera_utime - camera_phase_us_;
+  const int64_t lidar_utime = trigger_utime - camera_phase_us_;
+  const int64_t camera_utime = trigger_utime + options_.camera_delay_us;
   const double sweep_s = 1.0 / lidar_->model().frame_rate_hz;
   auto seconds = [&](int64_t utime) {
     return static_cast<double>(utime - options_.start_utime) * 1e-6;

@@ -44,6 +44,10 @@ struct SessionOptions {
   double prior_rot_deg = 5.0;
   Eigen::Vector3d prior_rot_axis = Eigen::Vector3d::Zero();
   double prior_trans_m = 0.05;
+  /// The camera exposes this long after its trigger (a camera running behind the LiDAR): the
+  /// image shows the scene then, and FrameTruth::camera_utime is that true capture time. A fault
+  /// to inject; the LiDAR's sweep keeps its phase to the trigger.
+  int64_t camera_delay_us = 0;
   int64_t start_utime = 1767225600000000;  ///< 2026-01-01T00:00:00Z, microseconds
   std::string camera_id = "front";
   std::string lidar_id = "roof";

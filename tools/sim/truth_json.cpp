@@ -50,7 +50,9 @@ TruthWriter::TruthWriter(const SessionSimulator& s) {
   doc_["lidar_noise"] = {{"range_sigma_m", o.lidar_noise.range_sigma_m},
                          {"angular_jitter_deg", o.lidar_noise.angular_jitter_deg},
                          {"dropout_probability", o.lidar_noise.dropout_probability},
-                         {"beam_divergence_mrad", o.lidar_noise.beam_divergence_mrad}};
+                         {"beam_divergence_mrad", o.lidar_noise.beam_divergence_mrad},
+                         {"range_bias_m", o.lidar_noise.range_bias_m}};
+  doc_["camera_delay_us"] = o.camera_delay_us;
   nlohmann::json boards = nlohmann::json::array();
   const auto& w = s.workshop();
   for (size_t b = 0; b < w.scene.boards.size(); ++b) {

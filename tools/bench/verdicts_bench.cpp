@@ -1,0 +1,346 @@
+#include "verdicts_bench.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <thread>
+
+#include "calib_experiments.hpp"
+#include "calibd/core/geometry.hpp"
+#include "calibd/core/grid_search.hpp"
+#include "calibd/core/lidar_model.hpp"
+#include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/config_file.hpp"
+#include "recordings_bench.hpp"
+
+namespace calibd::bench {
+
+namespace {
+
+constexpr const char* kLidars[] = {"ot128",  "m1",     "falcon", "vlp16",
+                                   "vlp32c", "os1-64", "avia",   "mid360"};
+
+/// One session of the campaign: what is simulated, and what the recording and config say.
+struct Session {
+  int index = 0;
+  std::string fault = "none";
+  std::string magnitude;  ///< the fault's drawn size, in words (for the JSON)
+  sim::SessionOptions sim;
+  /// Applied to the simulator's UserConfig() (the user's config with a wrong figure).
+  std::function<void(CalibConfig*)> edit_config;
+  RecordingFaults recording;
+};
+
+using Rng = std::mt19937_64;
+
+double Draw(Rng* rng, double lo, double hi) {
+  return std::uniform_real_distribution<double>(lo, hi)(*rng);
+}
+double Sign(Rng* rng) { return (*rng)() & 1u ? 1.0 : -1.0; }
+std::string Num(double v, int decimals) { return FixedDecimal(v, decimals); }
+
+/// The catalogue (issue 21 §1): each fault draws its magnitude and changes the session.
+struct Fault {
+  const char* name;
+  const char* what;
+  void (*apply)(Rng* rng, Session* s);
+};
+
+constexpr Fault kFaults[] = {
+    {"none", "clean session", [](Rng*, Session*) {}},
+    {"camera_delay_stamped",
+     "the camera exposes 0-100 ms after its trigger; its stamps say the trigger time",
+     [](Rng* rng, Session* s) {
+       const int64_t delay = std::llround(Draw(rng, 0.0, 100e3));
+       s->sim.camera_delay_us = delay;
+       s->recording.camera_stamp_shift_us = -delay;
+       s->magnitude = Num(static_cast<double>(delay) * 1e-3, 1) + " ms";
+     }},
+    {"camera_delay_no_times",
+     "the camera exposes 0-100 ms after its trigger; pairs carry no capture times",
+     [](Rng* rng, Session* s) {
+       const int64_t delay = std::llround(Draw(rng, 0.0, 100e3));
+       s->sim.camera_delay_us = delay;
+       s->recording.no_times = true;
+       s->magnitude = Num(static_cast<double>(delay) * 1e-3, 1) + " ms";
+     }},
+    {"board_size", "the config's board width and height 1-5 % off",
+     [](Rng* rng, Session* s) {
+       const double f = 1.0 + Sign(rng) * Draw(rng, 0.01, 0.05);
+       s->magnitude = Num((f - 1.0) * 100.0, 2) + " %";
+       s->edit_config = [f](CalibConfig* c) {
+         for (auto& b : c->boards) {
+           b.width_m *= f;
+           b.height_m *= f;
+         }
+       };
+     }},
+    {"tag_size", "the config's tag size 1-5 % off",
+     [](Rng* rng, Session* s) {
+       const double f = 1.0 + Sign(rng) * Draw(rng, 0.01, 0.05);
+       s->magnitude = Num((f - 1.0) * 100.0, 2) + " %";
+       s->edit_config = [f](CalibConfig* c) {
+         for (auto& b : c->boards) {
+           b.tag_size_m *= f;
+           b.checker_square_size_m *= f;
+         }
+       };
+     }},
+    {"focal_length", "the config's fx and fy 0.5-3 % off",
+     [](Rng* rng, Session* s) {
+       const double f = 1.0 + Sign(rng) * Draw(rng, 0.005, 0.03);
+       s->magnitude = Num((f - 1.0) * 100.0, 2) + " %";
+       s->edit_config = [f](CalibConfig* c) {
+         c->camera.fx *= f;
+         c->camera.fy *= f;
+       };
+     }},
+    {"principal_point", "the config's principal point 5-20 px off",
+     [](Rng* rng, Session* s) {
+       const double r = Draw(rng, 5.0, 20.0), a = Draw(rng, 0.0, 2.0 * M_PI);
+       s->magnitude = Num(r, 1) + " px";
+       s->edit_config = [r, a](CalibConfig* c) {
+         c->camera.cx += r * std::cos(a);
+         c->camera.cy += r * std::sin(a);
+       };
+     }},
+    {"range_bias", "every LiDAR range 2-5 cm long or short",
+     [](Rng* rng, Session* s) {
+       s->sim.lidar_noise.range_bias_m = Sign(rng) * Draw(rng, 0.02, 0.05);
+       s->magnitude = Num(s->sim.lidar_noise.range_bias_m * 100.0, 1) + " cm";
+     }},
+    {"prior_far", "the prior 12-20 deg off (beyond the grid search's 10 deg)",
+     [](Rng* rng, Session* s) {
+       const double deg = Draw(rng, 12.0, 20.0);
+       Eigen::Vector3d axis(Draw(rng, -1, 1), Draw(rng, -1, 1), Draw(rng, -1, 1));
+       axis.normalize();
+       s->magnitude = Num(deg, 1) + " deg";
+       s->edit_config = [deg, axis](CalibConfig* c) {
+         c->prior_T_camera_lidar.linear() =
+             c->prior_T_camera_lidar.linear() *
+             Eigen::AngleAxisd(deg * M_PI / 180.0, axis).toRotationMatrix();
+       };
+     }},
+};
+constexpr int kNumFaults = static_cast<int>(std::size(kFaults));
+
+// Session i: fault i mod F; over the rounds i / F, drives and stills alternate, then the LiDAR
+// model and the number of boards cycle, so that every fault meets every model in both modes.
+Session MakeSession(int i, unsigned long long seed, bool quick) {
+  Session s;
+  s.index = i;
+  Rng rng(seed * 1000003ULL + static_cast<unsigned long long>(i));
+  const Fault& fault = kFaults[i % kNumFaults];
+  const int round = i / kNumFaults;
+  const int lidars = static_cast<int>(std::size(kLidars));
+  const bool stills = round % 2 == 1;
+  sim::SessionOptions& o = s.sim;
+  o.seed = seed * 7919ULL + static_cast<unsigned long long>(i);
+  o.lidar_model = kLidars[(round / 2) % lidars];
+  o.camera = ScenarioCamera(false);
+  o.imaging.num_threads = 1;
+  // Still poses of 1-3 boards; drives past 2-3 (one board along a straight drive leaves its
+  // plane's rotation unobservable).
+  const int variant = (round / (2 * lidars)) % 3;
+  o.workshop.num_boards = stills ? 1 + variant : 2 + variant % 2;
+  o.prior_rot_deg = Draw(&rng, 2.0, 8.0);
+  o.prior_trans_m = Draw(&rng, 0.03, 0.15);
+  if (stills) {
+    o.trajectory.mode = "stills";
+    o.trajectory.rate_hz = 0.5;
+    o.trajectory.duration_s = (quick ? 14 : 20) / o.trajectory.rate_hz;
+    o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
+    o.workshop.tag_size_m = 0.702;
+    o.stills.min_distance_m = 1.5;
+    o.stills.max_distance_m = 8.0;
+  } else {
+    // A slow drive past the boards at 4-14 m: the 1920 px camera sees a 0.6 m board's tag there.
+    o.trajectory.mode = "drive";
+    o.trajectory.min_distance_m = 4.0;
+    o.trajectory.max_distance_m = 14.0;
+    o.trajectory.duration_s = (quick ? 40 : 80) / o.trajectory.rate_hz;
+  }
+  s.fault = fault.name;
+  fault.apply(&rng, &s);
+  return s;
+}
+
+struct SessionResult {
+  Session session;
+  ScoredRun run;
+  double seconds = 0.0, detect_seconds = 0.0;
+  std::string error;  ///< the session could not be simulated
+  bool accepted() const { return run.verdict == "updated" || run.verdict == "verified"; }
+};
+
+bool RunSession(const Session& s, SessionResult* out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  out->session = s;
+  std::string error;
+  sim::SessionSimulator sim;
+  if (!sim.Init(s.sim, &error)) {
+    out->error = error;
+    return false;
+  }
+  CalibConfig user = sim.UserConfig();
+  if (s.edit_config) s.edit_config(&user);
+  RecordingFaults faults = s.recording;
+  faults.config = &user;
+  RecordedDrive drive;
+  if (!RecordDrive(s.sim, &drive, &error, LidarDetectorConfig{}, nullptr, faults)) {
+    out->error = error;
+    return false;
+  }
+  RangeImage projection;  // as calibd-calibrate configures it
+  LidarKind kind;
+  LidarKindFromName(s.sim.lidar_model, &kind, nullptr);
+  projection.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
+  EngineConfig engine;
+  engine.direct.threads = 1;
+  out->detect_seconds = drive.detect_s;
+  out->run = RunEngine(drive.config, drive.observations, projection, engine, drive.T_camera_lidar);
+  out->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return true;
+}
+
+/// Counts of one table row.
+struct Tally {
+  int sessions = 0, accepted_ok = 0, false_accepts = 0, false_rejects = 0, rejections = 0;
+  std::map<std::string, int> reasons;
+  double worst_accepted_deg = 0.0, worst_accepted_m = 0.0;
+};
+
+}  // namespace
+
+std::string VerdictFaultNames() {
+  std::string out;
+  for (const Fault& f : kFaults) out += (out.empty() ? "" : ", ") + std::string(f.name);
+  return out;
+}
+
+bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ostream* progress,
+                      std::string* error) {
+  const VerdictConfig tolerance;  // a false accept: beyond twice the verification tolerance
+  const double max_deg = 2.0 * tolerance.verify_rotation_deg;
+  const double max_m = 2.0 * tolerance.verify_translation_m;
+  std::vector<SessionResult> results(static_cast<size_t>(o.sessions));
+  std::atomic<int> next{0}, done{0};
+  std::mutex progress_mutex;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto work = [&] {
+    for (int i = next++; i < o.sessions; i = next++) {
+      SessionResult& r = results[static_cast<size_t>(i)];
+      RunSession(MakeSession(i, o.seed, o.quick), &r);
+      const int n = ++done;
+      if (progress && (n % 10 == 0 || n == o.sessions)) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        *progress
+            << "calibd-bench verdicts: " << n << "/" << o.sessions << " sessions, "
+            << std::lround(
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
+            << " s\n"
+            << std::flush;
+      }
+    }
+  };
+  std::vector<std::thread> workers;
+  for (int t = 1; t < std::max(1, o.threads); ++t) workers.emplace_back(work);
+  work();
+  for (auto& w : workers) w.join();
+
+  std::map<std::string, Tally> by_fault;
+  Tally all;
+  nlohmann::json doc;
+  doc["seed"] = o.seed;
+  doc["quick"] = o.quick;
+  doc["false_accept_rotation_deg"] = max_deg;
+  doc["false_accept_translation_m"] = max_m;
+  for (const SessionResult& r : results) {
+    if (!r.error.empty()) {
+      if (error)
+        *error = "session " + std::to_string(r.session.index) + " (" + r.session.sim.lidar_model +
+                 ", " + r.session.fault + "): " + r.error;
+      return false;
+    }
+    const bool within = r.run.has_estimate && r.run.rotation_error_deg <= max_deg &&
+                        r.run.translation_error_m <= max_m;
+    for (Tally* t : {&by_fault[r.session.fault], &all}) {
+      ++t->sessions;
+      if (r.accepted()) {
+        (within ? t->accepted_ok : t->false_accepts) += 1;
+        t->worst_accepted_deg = std::max(t->worst_accepted_deg, r.run.rotation_error_deg);
+        t->worst_accepted_m = std::max(t->worst_accepted_m, r.run.translation_error_m);
+      } else {
+        (r.session.fault == std::string("none") ? t->false_rejects : t->rejections) += 1;
+        ++t->reasons[r.run.reason.empty() ? r.run.verdict : r.run.reason];
+      }
+    }
+    nlohmann::json j;
+    j["index"] = r.session.index;
+    j["lidar"] = r.session.sim.lidar_model;
+    j["mode"] = r.session.sim.trajectory.mode;
+    j["boards"] = r.session.sim.workshop.num_boards;
+    j["fault"] = r.session.fault;
+    j["magnitude"] = r.session.magnitude;
+    j["verdict"] = r.run.verdict;
+    j["reason"] = r.run.reason;
+    j["detail"] = r.run.detail;
+    j["camera_boards"] = r.run.camera_boards;
+    j["boards_used"] = r.run.boards_used;
+    if (r.run.has_estimate) {
+      j["rotation_error_deg"] = r.run.rotation_error_deg;
+      j["translation_error_m"] = r.run.translation_error_m;
+    }
+    j["false_accept"] = r.accepted() && !within;
+    j["seconds"] = r.seconds;
+    j["detect_seconds"] = r.detect_seconds;
+    doc["sessions"].push_back(j);
+  }
+
+  out << "Fault campaign: " << o.sessions << " sessions (" << (o.quick ? "quick" : "full")
+      << ", seed " << o.seed << "), LiDARs";
+  for (const char* l : kLidars) out << " " << l;
+  out << "; drives at 4-14 m and still poses at 1.5-8 m, 1-3 boards, a 1920 x 1200 camera.\n"
+      << "A false accept is `updated` or `verified` with an error above " << Num(max_deg, 2)
+      << " deg or " << Num(max_m * 100.0, 1)
+      << " cm (twice the verification tolerance); a false reject, a clean session refused.\n\n"
+      << "| fault | what | sessions | accepted within tolerance | false accepts | false rejects | "
+         "refused (faulty) | worst accepted error | reasons of the refusals |\n"
+      << "|---|---|---|---|---|---|---|---|---|\n";
+  auto row = [&](const std::string& name, const char* what, const Tally& t) {
+    std::string reasons;
+    for (const auto& [reason, n] : t.reasons)
+      reasons += (reasons.empty() ? "" : ", ") + reason + " " + std::to_string(n);
+    out << "| " << name << " | " << what << " | " << t.sessions << " | " << t.accepted_ok << " | "
+        << t.false_accepts << " | " << t.false_rejects << " | " << t.rejections << " | "
+        << Num(t.worst_accepted_deg, 3) << " deg / " << Num(t.worst_accepted_m * 100.0, 1)
+        << " cm | " << (reasons.empty() ? "-" : reasons) << " |\n";
+  };
+  for (const Fault& f : kFaults)
+    if (by_fault.count(f.name)) row(f.name, f.what, by_fault[f.name]);
+  row("**all**", "", all);
+  const double clean = by_fault.count("none") ? by_fault["none"].sessions : 0;
+  out << "\nFalse accepts: " << all.false_accepts
+      << " (target 0); false rejects: " << all.false_rejects << " of " << clean
+      << " clean sessions (" << Num(clean > 0 ? 100.0 * all.false_rejects / clean : 0.0, 1)
+      << " %, target <= 5 %); "
+      << Num(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 60.0, 1)
+      << " min.\n";
+  doc["false_accepts"] = all.false_accepts;
+  doc["false_rejects"] = all.false_rejects;
+  if (!o.json_path.empty() && !WriteFileAtomic(o.json_path, doc.dump(2) + "\n", error))
+    return false;
+  if (all.false_accepts > 0) {
+    if (error) *error = std::to_string(all.false_accepts) + " false accepts (see the table)";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace calibd::bench

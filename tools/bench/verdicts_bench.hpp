@@ -1,0 +1,32 @@
+#pragma once
+/// \file
+/// `calibd-bench verdicts`: the fault campaign. Simulated sessions (every LiDAR model, drives and
+/// still poses, 1-3 boards), each clean or with one fault from a catalogue (wrong clocks, wrong
+/// sizes or intrinsics in the config, a biased LiDAR, a prior beyond the grid search's reach) at a
+/// random magnitude, detected and calibrated by the real detectors and engine. Per fault family
+/// and overall: how often the verdict is right, and above all how often it accepts a wrong answer.
+
+#include <ostream>
+#include <string>
+
+namespace calibd::bench {
+
+struct VerdictsBenchOptions {
+  int sessions = 400;  ///< drawn round-robin over the fault families, LiDAR models and modes
+  unsigned long long seed = 1;
+  /// The CI subset: fewer sessions, short drives and few poses (minutes, not half an hour).
+  bool quick = false;
+  int threads = 2;  ///< sessions calibrated at once
+  std::string json_path;
+};
+
+/// The fault families' names, comma-separated (for --help).
+std::string VerdictFaultNames();
+
+/// Runs the campaign and prints the tables; false with `error` when a session could not be
+/// simulated, or when any session was a false accept (an accepted answer beyond 2x the
+/// verification tolerance).
+bool RunVerdictsBench(const VerdictsBenchOptions& options, std::ostream& out,
+                      std::ostream* progress, std::string* error);
+
+}  // namespace calibd::bench
