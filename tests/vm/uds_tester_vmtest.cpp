@@ -238,6 +238,24 @@ TEST_F(UdsTesterVm, RejectedVerdictExitsThree) {
   EXPECT_EQ(r.err, "");  // --quiet: no progress
 }
 
+// verify answering `updated`: the stored calibration is out of tolerance. A station script must
+// not read it as a pass, and verify's result cannot be committed: exit 8 and the next step.
+TEST_F(UdsTesterVm, VerifyOutOfToleranceIsNoPass) {
+  server_->final_verdict = uds::RoutineVerdict::kUpdated;
+  server_->Start();
+  TesterRun r = Tester("--secret " + Secret() + " --quiet verify");
+  EXPECT_EQ(r.code, 8) << r.err;
+  EXPECT_HAS(r.out, "verdict: updated\n");
+  EXPECT_HAS(r.out, "out of tolerance");
+  EXPECT_HAS(r.out, "calibrate, then commit");
+  EXPECT_EQ(r.out.find("commit it with"), std::string::npos) << r.out;
+  r = Tester("results verify");
+  EXPECT_EQ(r.code, 8) << r.err;
+  EXPECT_HAS(r.out, "out of tolerance");
+  server_->Stop();
+  EXPECT_TRUE(server_->backend.last_options.verify_only);
+}
+
 TEST_F(UdsTesterVm, StartWithoutWaitingThenStop) {
   server_->step_us = 60 * kSecondUs;  // stays active until stopped
   server_->Start();

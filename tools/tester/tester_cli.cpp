@@ -59,9 +59,10 @@ Options:
   --quiet              no progress on stderr
   --help               this text
 
-Exit codes: 0 done (calibrate/verify: verified or updated), 1 other failure, 2 bad command line,
-3 rejected, 4 failed or aborted, 5 negative response from the ECU, 6 timeout, 7 CAN interface
-missing or down, or an ISO-TP transfer failed.
+Exit codes: 0 done (calibrate: verified or updated; verify: verified), 1 other failure, 2 bad
+command line, 3 rejected, 4 failed or aborted, 5 negative response from the ECU, 6 timeout, 7 CAN
+interface missing or down, or an ISO-TP transfer failed, 8 verify: out of tolerance (the stored
+calibration differs from the measurement; recalibrate and commit).
 )";
 
 namespace {
@@ -228,15 +229,28 @@ void PrintResults(const Results& r, std::ostream& out) {
   out << line;
 }
 
-/// Exit code of a finished routine.
-int VerdictExit(const Results& r) {
+/// Exit code of a finished routine. `updated` from verify is no pass: the stored calibration is
+/// out of tolerance (and verify's result cannot be committed).
+int VerdictExit(const Results& r, bool verify) {
   if (r.status == static_cast<uint8_t>(uds::RoutineStatus::kSuccess)) {
-    if (r.verdict == static_cast<uint8_t>(uds::RoutineVerdict::kVerified) ||
-        r.verdict == static_cast<uint8_t>(uds::RoutineVerdict::kUpdated))
-      return kExitOk;
+    if (r.verdict == static_cast<uint8_t>(uds::RoutineVerdict::kVerified)) return kExitOk;
+    if (r.verdict == static_cast<uint8_t>(uds::RoutineVerdict::kUpdated))
+      return verify ? kExitOutOfTolerance : kExitOk;
     if (r.verdict == static_cast<uint8_t>(uds::RoutineVerdict::kRejected)) return kExitRejected;
   }
   return kExitAborted;
+}
+
+/// What to do after an `updated`: commit a calibration's; recalibrate after a verify's.
+void PrintNextStep(const Results& r, bool verify, std::ostream& out) {
+  if (r.status != static_cast<uint8_t>(uds::RoutineStatus::kSuccess) ||
+      r.verdict != static_cast<uint8_t>(uds::RoutineVerdict::kUpdated))
+    return;
+  if (verify)
+    out << "out of tolerance: the stored calibration differs from this measurement; recalibrate "
+           "with: calibd-tester --secret FILE calibrate, then commit\n";
+  else
+    out << "commit it with: calibd-tester --secret FILE commit\n";
 }
 
 void ShowProgress(const Results& r, bool tty, int* last_shown, std::ostream& err) {
@@ -325,10 +339,8 @@ int RunRoutine(UdsClient& client, const TesterOptions& o, std::ostream& out, std
   }
   if (tty) err << "\n";
   PrintResults(r, out);
-  if (rid == uds::kRoutineCalibrate &&
-      r.verdict == static_cast<uint8_t>(uds::RoutineVerdict::kUpdated))
-    out << "commit it with: calibd-tester --secret FILE commit\n";
-  return VerdictExit(r);
+  PrintNextStep(r, rid == uds::kRoutineVerify, out);
+  return VerdictExit(r, rid == uds::kRoutineVerify);
 }
 
 int RunRead(UdsClient& client, const TesterOptions& o, std::ostream& out, std::ostream& err) {
@@ -439,7 +451,8 @@ int RunCommand(UdsClient& client, const TesterOptions& o, std::ostream& out, std
     if (r.status == static_cast<uint8_t>(uds::RoutineStatus::kActive) ||
         r.status == static_cast<uint8_t>(uds::RoutineStatus::kIdle))
       return kExitOk;
-    return VerdictExit(r);
+    PrintNextStep(r, verify, out);
+    return VerdictExit(r, verify);
   }
 
   if (IsRoutineCommand(c)) return RunRoutine(client, o, out, err);

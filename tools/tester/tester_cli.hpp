@@ -15,7 +15,7 @@ namespace calibd::tester {
 
 /// Exit codes (also in the --help text).
 enum ExitCode : int {
-  kExitOk = 0,         ///< done; calibrate/verify: verdict verified or updated
+  kExitOk = 0,         ///< done; calibrate: verified or updated; verify: verified
   kExitFailure = 1,    ///< unexpected response, secret file unreadable, ...
   kExitUsage = 2,      ///< bad command line
   kExitRejected = 3,   ///< calibrate/verify: verdict rejected
@@ -23,6 +23,9 @@ enum ExitCode : int {
   kExitNegative = 5,   ///< the ECU answered with a negative response
   kExitTimeout = 6,    ///< no response within P2 / P2*, or the routine outlived its limit
   kExitInterface = 7,  ///< the CAN interface is missing or down, or ISO-TP failed
+  /// verify: the car's stored calibration is out of tolerance (the routine answered `updated`):
+  /// not a pass; recalibrate and commit.
+  kExitOutOfTolerance = 8,
 };
 
 struct TesterOptions {
