@@ -161,6 +161,29 @@ TEST(CalibrationEngineTest, SolvesFromOtherStartsEndOnTheSolutionOrTheVerdictRef
   EXPECT_EQ(skipped.quality.start_rotation_deg, 0.0);
 }
 
+// A tag size (or focal length) wrong by 2 % makes every PnP distance 2 % long: the camera and the
+// LiDAR disagree on the boards' distances in proportion to them, which no extrinsic explains.
+// The correct session measures well under the gate; the scaled one is refused and says by how
+// much and what to check.
+TEST(CalibrationEngineTest, ACameraScaleErrorIsRefusedAsAScaleMismatch) {
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  auto r = Drive(o);
+  const CalibrationOutcome good = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  ASSERT_EQ(good.verdict, CalibrationOutcome::Verdict::kUpdated) << good.reason << good.detail;
+  ASSERT_TRUE(std::isfinite(good.quality.camera_scale_error));
+  EXPECT_LT(std::fabs(good.quality.camera_scale_error),
+            0.5 * VerdictConfig{}.max_camera_scale_error)
+      << "sigma " << good.quality.camera_scale_sigma;
+  SessionObservations scaled = r->obs;
+  for (auto& c : scaled.camera) c.T_camera_board.translation() *= 1.02;
+  const CalibrationOutcome out = Calibrate(r->config, scaled, r->projection, EngineConfig{});
+  EXPECT_EQ(out.reason, "camera_scale_mismatch") << out.detail;
+  EXPECT_NEAR(out.quality.camera_scale_error, good.quality.camera_scale_error + 0.02, 0.003);
+  EXPECT_NE(out.detail.find("longer than the LiDAR's"), std::string::npos) << out.detail;
+  EXPECT_NE(out.detail.find("tag size"), std::string::npos) << out.detail;
+}
+
 // Calibrate's optional per-correspondence errors (for reports): one per correspondence, and
 // they are the quality figure's own (each board's 4 corners: the mean of the means is the mean).
 TEST(CalibrationEngineTest, PerCorrespondenceReprojectionErrorsAreTheQualityFigures) {

@@ -211,6 +211,57 @@ int DropBoardsThatDoNotFit(const std::vector<BoardGeometry>& boards, const Direc
 
 }  // namespace
 
+// Camera-LiDAR scale agreement. Per board: the camera's distance to its plane along the plane's
+// normal n (PnP, d = n . t) and the LiDAR's (the median of n . p over its points in the camera
+// frame under the solution). A tag size or focal length wrong by a factor s makes every camera
+// distance s d; a translation error c adds n . c. The least-squares fit of
+// d_camera - d_lidar = e d_camera + n . c over the boards gives e (the scale error, what a
+// translation cannot explain) and its standard deviation from the fit's residuals.
+void CameraScaleFigures(const ObservationSet& set, const Pose& T_camera_lidar, QualityFigures* q) {
+  constexpr int kMinPoints = 10;
+  std::vector<Eigen::Vector4d> rows;
+  std::vector<double> y, along;
+  for (const BoardObservation& o : set.observations) {
+    if (o.num_points < kMinPoints) continue;
+    Eigen::Vector3d n = o.T_camera_board.linear().col(2);
+    double d_camera = n.dot(o.T_camera_board.translation());
+    if (d_camera < 0.0) {
+      n = -n;
+      d_camera = -d_camera;
+    }
+    along.clear();
+    for (int p = 0; p < o.num_points; ++p)
+      along.push_back(n.dot(T_camera_lidar *
+                            set.points[static_cast<size_t>(o.first_point + p)].cast<double>()));
+    const double d_lidar = Quantile(along, 0.5);
+    rows.push_back(Eigen::Vector4d(d_camera, n.x(), n.y(), n.z()));
+    y.push_back(d_camera - d_lidar);
+  }
+  const int m = static_cast<int>(rows.size());
+  if (m < kMinScaleBoards) return;
+  // A scale shows only over a spread of distances: boards all at one distance leave it to the
+  // translation (the fit would be noise).
+  double near = rows[0](0), far = rows[0](0);
+  for (const auto& r : rows) {
+    near = std::min(near, r(0));
+    far = std::max(far, r(0));
+  }
+  if (far - near < kMinScaleDistanceSpread * far) return;
+  Eigen::MatrixXd A(m, 4);
+  Eigen::VectorXd b(m);
+  for (int i = 0; i < m; ++i) {
+    A.row(i) = rows[static_cast<size_t>(i)].transpose();
+    b(i) = y[static_cast<size_t>(i)];
+  }
+  const Eigen::Matrix4d AtA = A.transpose() * A;
+  const Eigen::FullPivLU<Eigen::Matrix4d> lu(AtA);
+  if (!lu.isInvertible()) return;
+  const Eigen::Vector4d x = lu.solve(A.transpose() * b);
+  const double s2 = (A * x - b).squaredNorm() / (m - 4);
+  q->camera_scale_error = x(0);
+  q->camera_scale_sigma = std::sqrt(std::max(0.0, s2 * lu.inverse()(0, 0)));
+}
+
 bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeometry>& boards,
                         const ObservationSet& set, const BoardObservation& o, const Pose& T_cl,
                         const DirectOptimizerConfig& direct, std::array<Eigen::Vector2d, 4>* px,
@@ -360,6 +411,7 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   q.information = direct.information;
   q.min_information_eigenvalue = direct.min_information_eigenvalue;
   FormalSigmas(direct.information, direct.residual_rms_m, &q);
+  CameraScaleFigures(corr, out.T_camera_lidar, &q);
   {
     Eigen::Matrix<double, 6, 1> scale;
     scale << 1.0, 1.0, 1.0, 10.0, 10.0, 10.0;  // rad -> m at a 10 m lever arm
@@ -475,6 +527,16 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       " like them, or fewer at closer range and more varied angles, where the "
                       "LiDAR puts more points on each)");
   }
+  if (std::fabs(q.camera_scale_error) > v.max_camera_scale_error &&
+      std::fabs(q.camera_scale_error) > kScaleSigmas * q.camera_scale_sigma)
+    return Reject(out, "camera_scale_mismatch",
+                  "the camera's board distances are " +
+                      Fmt(std::fabs(q.camera_scale_error) * 100.0, 2) + " % (+-" +
+                      Fmt(q.camera_scale_sigma * 100.0, 2) + ") " +
+                      (q.camera_scale_error > 0.0 ? "longer" : "shorter") +
+                      " than the LiDAR's, more than " + Fmt(v.max_camera_scale_error * 100.0, 2) +
+                      " %: the tag size (or checkerboard square) or the camera's focal length in "
+                      "the configuration is wrong by about as much");
   if (q.rotation_spread_deg > v.max_rotation_spread_deg ||
       q.translation_spread_m > v.max_translation_spread_m)
     return Reject(out, "unstable_solution",

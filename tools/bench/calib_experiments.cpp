@@ -185,6 +185,8 @@ ScoredRun RunEngine(const CalibConfig& config, const SessionObservations& s,
   r.frames = s.num_frames;
   r.camera_boards = static_cast<int>(s.camera.size());
   r.boards_used = outcome.quality.boards_used;
+  r.quality = outcome.quality;
+  r.board_translation_change_m = outcome.board_translation_change_m;
   if (!r.has_estimate) return r;
   const Pose& T_est = outcome.T_camera_lidar;
   const Eigen::AngleAxisd delta(T_camera_lidar_true.linear().transpose() * T_est.linear());

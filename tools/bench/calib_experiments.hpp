@@ -101,7 +101,9 @@ struct ScoredRun {
   double translation_error_m = 0.0;
   /// log(R_true^T R_est) on the LiDAR's axes, deg: x forward (roll), y (pitch), z (yaw).
   Eigen::Vector3d error_rpy_deg = Eigen::Vector3d::Zero();
-  double reprojection_mean_px = 0.0;  ///< paper Table I metric
+  double reprojection_mean_px = 0.0;        ///< paper Table I metric
+  QualityFigures quality;                   ///< the outcome's (calibd-bench verdicts prints them)
+  double board_translation_change_m = 0.0;  ///< board-pose refinement's mean change
   double grid_ms = 0.0, optimise_ms = 0.0;
   int frames = 0;         ///< frame pairs in the (sub)session
   int camera_boards = 0;  ///< camera board detections in the (sub)session

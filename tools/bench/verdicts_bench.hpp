@@ -8,6 +8,7 @@
 
 #include <ostream>
 #include <string>
+#include <vector>
 
 namespace calibd::bench {
 
@@ -17,6 +18,9 @@ struct VerdictsBenchOptions {
   /// The CI subset: fewer sessions, short drives and few poses (minutes, not half an hour).
   bool quick = false;
   int threads = 2;  ///< sessions calibrated at once
+  /// Only these sessions (indices of a full run with the same seed and mode): to look again at
+  /// one. Empty: sessions 0 .. sessions - 1.
+  std::vector<int> only;
   std::string json_path;
 };
 

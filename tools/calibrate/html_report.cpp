@@ -480,6 +480,10 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
                v.max_start_rotation_deg, 4);
   s += at_most("solves from other starts, translation [m]", q.start_translation_m, 4,
                v.max_start_translation_m, 4);
+  if (std::isfinite(q.camera_scale_error))
+    s += at_most(
+        "camera vs LiDAR scale error [%] (sigma " + Num(q.camera_scale_sigma * 100.0, 3) + ")",
+        std::fabs(q.camera_scale_error) * 100.0, 3, v.max_camera_scale_error * 100.0, 3);
   s += at_most("reprojection error mean [px] (p95 " + Num(q.reprojection_p95_px, 2) + ")",
                q.reprojection_mean_px, 2, v.max_reprojection_mean_px, 2);
   s += at_most("LiDAR residual RMS [m]", q.residual_rms_m, 4, v.max_residual_rms_m, 4);

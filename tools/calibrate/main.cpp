@@ -420,7 +420,9 @@ int main(int argc, char** argv) {
                        {"rotation_spread_deg", q.rotation_spread_deg},
                        {"translation_spread_m", q.translation_spread_m},
                        {"start_rotation_deg", q.start_rotation_deg},
-                       {"start_translation_m", q.start_translation_m}};
+                       {"start_translation_m", q.start_translation_m},
+                       {"camera_scale_error", q.camera_scale_error},
+                       {"camera_scale_sigma", q.camera_scale_sigma}};
   report["grid_search"] = {{"perturbation_rpy_deg",
                             {out.grid.perturbation_rpy_deg.x(), out.grid.perturbation_rpy_deg.y(),
                              out.grid.perturbation_rpy_deg.z()}},

@@ -415,7 +415,8 @@ const char* RoutineReasonName(uint8_t reason) {
                                            "ecu_reset",
                                            "lidar_timeout",
                                            "camera_timeout",
-                                           "no_pairs"};
+                                           "no_pairs",
+                                           "camera_scale_mismatch"};
   if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
   return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
 }

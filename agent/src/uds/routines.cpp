@@ -26,7 +26,8 @@ RoutineReason RoutineReasonCode(std::string_view reason) {
                 {"ecu_reset", R::kEcuReset},
                 {"lidar_timeout", R::kLidarTimeout},
                 {"camera_timeout", R::kCameraTimeout},
-                {"no_pairs", R::kNoPairs}};
+                {"no_pairs", R::kNoPairs},
+                {"camera_scale_mismatch", R::kCameraScaleMismatch}};
   if (reason.empty()) return R::kNone;
   for (const auto& c : kCodes)
     if (reason == c.text) return c.code;

@@ -15,10 +15,13 @@
 /// - `poor_observability`: the boards constrain some direction too weakly (one board, parallel
 ///   boards...): the formal standard deviation of rotation or translation is above its gate.
 /// - `unstable_solution`: re-solving on halves of the data moves the result beyond its gate.
+/// - `camera_scale_mismatch`: the camera's board distances disagree with the LiDAR's in
+///   proportion to the distance (a wrong tag size or focal length in the configuration).
 /// - `high_reprojection_error`: LiDAR-fitted tag corners miss the camera corners (paper Table I).
 /// - `high_residual`: LiDAR board points sit far from their boards under the solution.
 /// - `delta_beyond_tolerance`: the change from the prior exceeds the mechanical tolerance.
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -65,6 +68,11 @@ struct VerdictConfig {
   /// verification tolerance would not change what the verdict means.
   double max_start_rotation_deg = 0.1;
   double max_start_translation_m = 0.01;
+  /// Scale gate (QualityFigures::camera_scale_error): the camera's board distances may differ
+  /// from the LiDAR's by at most this share, unless the difference is within kScaleSigmas of its
+  /// own sigma. A tag size or focal length 1 % off moves the extrinsic by several centimetres
+  /// at 4-14 m (calibd-bench verdicts); correct sessions measured up to 0.44 % (+-0.14).
+  double max_camera_scale_error = 0.006;
   /// Paper Table I metric. It measures each board's own LiDAR fit as much as the extrinsic:
   /// measured means over 5 simulated drives (calibd-bench calib) 3.1 px ot128, 4.9 px m1,
   /// 2.4 px falcon with correct results; a rotation error of 0.1 deg adds about 6 px at
@@ -94,6 +102,13 @@ struct EngineConfig {
   int max_solve_frames = 200;
 };
 
+/// Boards the camera-LiDAR scale fit needs (4 unknowns and a residual to measure), and the
+/// spread of their distances, as a share of the farthest.
+inline constexpr int kMinScaleBoards = 8;
+inline constexpr double kMinScaleDistanceSpread = 0.3;
+/// A scale error counts only beyond this many of its standard deviations.
+inline constexpr double kScaleSigmas = 3.0;
+
 struct QualityFigures {
   double reprojection_mean_px = 0.0, reprojection_p95_px = 0.0;  ///< paper Table I metric
   double residual_rms_m = 0.0;
@@ -106,6 +121,12 @@ struct QualityFigures {
   double plane_conditioning = 0.0;  ///< see VerdictConfig::min_plane_conditioning
   double rotation_spread_deg = 0.0, translation_spread_m = 0.0;  ///< half-data re-solves
   double start_rotation_deg = 0.0, start_translation_m = 0.0;    ///< solves from other starts
+  /// Camera-LiDAR scale agreement (CameraScaleFigures): the relative error of the camera's board
+  /// distances against the LiDAR's, fitted over the boards with what a translation explains
+  /// taken out, and its standard deviation; NaN with fewer than kMinScaleBoards boards. A wrong
+  /// tag size or focal length scales every PnP distance; a translation cannot absorb that.
+  double camera_scale_error = std::numeric_limits<double>::quiet_NaN();
+  double camera_scale_sigma = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct CalibrationOutcome {
@@ -135,6 +156,11 @@ struct CalibrationOutcome {
 };
 
 const char* VerdictName(CalibrationOutcome::Verdict v);
+
+/// Fills QualityFigures::camera_scale_error and camera_scale_sigma from the correspondences'
+/// camera board poses and LiDAR points under `T_camera_lidar` (left NaN with fewer than
+/// kMinScaleBoards boards of enough points).
+void CameraScaleFigures(const ObservationSet& set, const Pose& T_camera_lidar, QualityFigures* q);
 
 /// The image coverage grid (QualityFigures::image_coverage, the agent's coverage gate): the image
 /// in kImageGridSide x kImageGridSide cells.

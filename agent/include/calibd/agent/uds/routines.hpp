@@ -99,6 +99,7 @@ enum class RoutineReason : uint8_t {
   kLidarTimeout = 0x12,           ///< "lidar_timeout": no LiDAR frame for sensor_timeout_s
   kCameraTimeout = 0x13,          ///< "camera_timeout": no camera frame for sensor_timeout_s
   kNoPairs = 0x14,                ///< "no_pairs": both sensors send, no frames pair in time
+  kCameraScaleMismatch = 0x15,    ///< "camera_scale_mismatch"
   kOther = 0xFF,                  ///< any other reason (the agent's log has the text)
 };
 
