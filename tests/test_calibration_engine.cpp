@@ -182,6 +182,48 @@ TEST(CalibrationEngineTest, ACameraScaleErrorIsRefusedAsAScaleMismatch) {
   EXPECT_NEAR(out.quality.camera_scale_error, good.quality.camera_scale_error + 0.02, 0.003);
   EXPECT_NE(out.detail.find("longer than the LiDAR's"), std::string::npos) << out.detail;
   EXPECT_NE(out.detail.find("tag size"), std::string::npos) << out.detail;
+  // Boards all ahead of the LiDAR cannot tell a range offset from a translation: its sigma is
+  // decimetres and the range gate cannot fire.
+  EXPECT_GT(good.quality.lidar_range_offset_sigma_m, 0.05);
+}
+
+// Still poses of two boards turned and placed across the field of view: their directions tell a
+// constant LiDAR range offset from a translation. The clean session measures no offset; every
+// range 4 cm long (a LiDAR's range calibration off) is refused, and the refusal says what to
+// check.
+TEST(CalibrationEngineTest, ALidarRangeOffsetIsRefusedWhereTheBoardsDirectionsShowIt) {
+  sim::SessionOptions o;
+  o.lidar_model = "m1";
+  o.trajectory.mode = "stills";
+  o.trajectory.rate_hz = 0.5;
+  o.trajectory.duration_s = 24 / o.trajectory.rate_hz;
+  o.workshop.num_boards = 2;
+  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
+  o.workshop.tag_size_m = 0.702;
+  o.camera.width = 1920;
+  o.camera.height = 1200;
+  o.camera.fx = o.camera.fy = 1100.0;
+  o.camera.cx = 959.5;
+  o.camera.cy = 599.5;
+  o.prior_rot_deg = 3.0;
+  auto r = testing::Record(o, 24, 1);
+  const CalibrationOutcome good = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  ASSERT_TRUE(good.solved) << good.reason << ": " << good.detail;
+  EXPECT_NE(good.reason, "lidar_range_offset") << good.detail;
+  ASSERT_TRUE(std::isfinite(good.quality.lidar_range_offset_m));
+  EXPECT_LT(good.quality.lidar_range_offset_sigma_m, 0.01);
+  EXPECT_LT(std::fabs(good.quality.lidar_range_offset_m), 0.01);
+  SessionObservations biased = r->obs;
+  for (auto& p : biased.points) p += 0.04f * p.normalized();
+  const CalibrationOutcome out = Calibrate(r->config, biased, r->projection, EngineConfig{});
+  std::printf("range offset: clean %.4f +- %.4f m (%s), 4 cm long %.4f +- %.4f m\n",
+              good.quality.lidar_range_offset_m, good.quality.lidar_range_offset_sigma_m,
+              VerdictName(good.verdict), out.quality.lidar_range_offset_m,
+              out.quality.lidar_range_offset_sigma_m);
+  EXPECT_EQ(out.reason, "lidar_range_offset") << out.detail;
+  EXPECT_GT(out.quality.lidar_range_offset_m, 0.02);
+  EXPECT_NE(out.detail.find("longer than the camera's board distances say"), std::string::npos)
+      << out.detail;
 }
 
 // Calibrate's optional per-correspondence errors (for reports): one per correspondence, and

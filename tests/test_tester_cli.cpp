@@ -240,13 +240,14 @@ TEST(RoutineReasonTest, EveryCodeRoundTripsBetweenAgentAndTester) {
     const std::string agent_text = name == "store_write_failed" ? "commit_failed" : name;
     EXPECT_EQ(static_cast<int>(uds::RoutineReasonCode(agent_text)), code) << name;
   }
-  EXPECT_EQ(named, 0x15) << "codes 0x01..0x15 each have a name";
+  EXPECT_EQ(named, 0x16) << "codes 0x01..0x16 each have a name";
   // The sensor faults of issue 9 have their own codes, not "other".
   EXPECT_EQ(uds::RoutineReasonCode("lidar_timeout"), uds::RoutineReason::kLidarTimeout);
   EXPECT_EQ(uds::RoutineReasonCode("camera_timeout"), uds::RoutineReason::kCameraTimeout);
   EXPECT_EQ(uds::RoutineReasonCode("no_pairs"), uds::RoutineReason::kNoPairs);
   EXPECT_EQ(uds::RoutineReasonCode("camera_scale_mismatch"),
             uds::RoutineReason::kCameraScaleMismatch);
+  EXPECT_EQ(uds::RoutineReasonCode("lidar_range_offset"), uds::RoutineReason::kLidarRangeOffset);
   EXPECT_EQ(uds::RoutineReasonCode(""), uds::RoutineReason::kNone);
   EXPECT_EQ(uds::RoutineReasonCode("a reason nobody coded"), uds::RoutineReason::kOther);
   EXPECT_EQ(std::string(RoutineReasonName(0xFF)), "other (see the agent's log)");

@@ -203,6 +203,8 @@ bool EngineKeysValid(const EngineConfig& e, std::string* error) {
     return false;
   if (!PositiveUpTo(k + "max_camera_scale_error", v.max_camera_scale_error, 1.0, error))
     return false;
+  if (!PositiveUpTo(k + "max_lidar_range_offset_m", v.max_lidar_range_offset_m, 1.0, error))
+    return false;
   if (!PositiveUpTo(k + "max_reprojection_mean_px", v.max_reprojection_mean_px, 1000.0, error))
     return false;
   if (!PositiveUpTo(k + "max_residual_rms_m", v.max_residual_rms_m, 1.0, error)) return false;
@@ -462,6 +464,7 @@ void ParseEngineSection(const YAML::Node& node, EngineConfig* e) {
   v.Read("max_start_rotation_deg", &e->verdict.max_start_rotation_deg);
   v.Read("max_start_translation_m", &e->verdict.max_start_translation_m);
   v.Read("max_camera_scale_error", &e->verdict.max_camera_scale_error);
+  v.Read("max_lidar_range_offset_m", &e->verdict.max_lidar_range_offset_m);
   v.Read("max_reprojection_mean_px", &e->verdict.max_reprojection_mean_px);
   v.Read("max_residual_rms_m", &e->verdict.max_residual_rms_m);
   v.RejectUnknown();

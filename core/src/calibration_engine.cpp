@@ -219,8 +219,12 @@ int DropBoardsThatDoNotFit(const std::vector<BoardGeometry>& boards, const Direc
 // translation cannot explain) and its standard deviation from the fit's residuals.
 void CameraScaleFigures(const ObservationSet& set, const Pose& T_camera_lidar, QualityFigures* q) {
   constexpr int kMinPoints = 10;
-  std::vector<Eigen::Vector4d> rows;
-  std::vector<double> y, along;
+  // Per board: d_camera, the normal n, -(n . u) with u the mean ray direction from the LiDAR to
+  // the board's points (a range offset b moves the LiDAR's plane by b (n . u)), and the
+  // difference d_camera - d_lidar.
+  std::vector<Eigen::Matrix<double, 6, 1>> rows;
+  std::vector<double> along;
+  const Eigen::Vector3d lidar_origin = T_camera_lidar.translation();
   for (const BoardObservation& o : set.observations) {
     if (o.num_points < kMinPoints) continue;
     Eigen::Vector3d n = o.T_camera_board.linear().col(2);
@@ -230,15 +234,42 @@ void CameraScaleFigures(const ObservationSet& set, const Pose& T_camera_lidar, Q
       d_camera = -d_camera;
     }
     along.clear();
-    for (int p = 0; p < o.num_points; ++p)
-      along.push_back(n.dot(T_camera_lidar *
-                            set.points[static_cast<size_t>(o.first_point + p)].cast<double>()));
+    Eigen::Vector3d ray = Eigen::Vector3d::Zero();
+    for (int p = 0; p < o.num_points; ++p) {
+      const Eigen::Vector3d p_camera =
+          T_camera_lidar * set.points[static_cast<size_t>(o.first_point + p)].cast<double>();
+      along.push_back(n.dot(p_camera));
+      ray += (p_camera - lidar_origin).normalized();
+    }
     const double d_lidar = Quantile(along, 0.5);
-    rows.push_back(Eigen::Vector4d(d_camera, n.x(), n.y(), n.z()));
-    y.push_back(d_camera - d_lidar);
+    Eigen::Matrix<double, 6, 1> row;
+    row << d_camera, n.x(), n.y(), n.z(), -n.dot(ray.normalized()), d_camera - d_lidar;
+    rows.push_back(row);
   }
   const int m = static_cast<int>(rows.size());
   if (m < kMinScaleBoards) return;
+  // Least squares of the last column on the first `k`; the first unknown's value and sigma (from
+  // the residuals), and the k-th's.
+  auto fit = [&](int k, double* first, double* first_sigma, double* last, double* last_sigma) {
+    Eigen::MatrixXd A(m, k);
+    Eigen::VectorXd y(m);
+    for (int i = 0; i < m; ++i) {
+      A.row(i) = rows[static_cast<size_t>(i)].head(k).transpose();
+      y(i) = rows[static_cast<size_t>(i)](5);
+    }
+    const Eigen::MatrixXd AtA = A.transpose() * A;
+    const Eigen::FullPivLU<Eigen::MatrixXd> lu(AtA);
+    if (!lu.isInvertible() || m <= k) return;
+    const Eigen::VectorXd x = lu.solve(A.transpose() * y);
+    const double s2 = (A * x - y).squaredNorm() / (m - k);
+    const Eigen::MatrixXd cov = lu.inverse() * s2;
+    *first = x(0);
+    *first_sigma = std::sqrt(std::max(0.0, cov(0, 0)));
+    if (last) {
+      *last = x(k - 1);
+      *last_sigma = std::sqrt(std::max(0.0, cov(k - 1, k - 1)));
+    }
+  };
   // A scale shows only over a spread of distances: boards all at one distance leave it to the
   // translation (the fit would be noise).
   double near = rows[0](0), far = rows[0](0);
@@ -246,20 +277,10 @@ void CameraScaleFigures(const ObservationSet& set, const Pose& T_camera_lidar, Q
     near = std::min(near, r(0));
     far = std::max(far, r(0));
   }
-  if (far - near < kMinScaleDistanceSpread * far) return;
-  Eigen::MatrixXd A(m, 4);
-  Eigen::VectorXd b(m);
-  for (int i = 0; i < m; ++i) {
-    A.row(i) = rows[static_cast<size_t>(i)].transpose();
-    b(i) = y[static_cast<size_t>(i)];
-  }
-  const Eigen::Matrix4d AtA = A.transpose() * A;
-  const Eigen::FullPivLU<Eigen::Matrix4d> lu(AtA);
-  if (!lu.isInvertible()) return;
-  const Eigen::Vector4d x = lu.solve(A.transpose() * b);
-  const double s2 = (A * x - b).squaredNorm() / (m - 4);
-  q->camera_scale_error = x(0);
-  q->camera_scale_sigma = std::sqrt(std::max(0.0, s2 * lu.inverse()(0, 0)));
+  if (far - near >= kMinScaleDistanceSpread * far)
+    fit(4, &q->camera_scale_error, &q->camera_scale_sigma, nullptr, nullptr);
+  double unused = 0.0, unused_sigma = 0.0;
+  fit(5, &unused, &unused_sigma, &q->lidar_range_offset_m, &q->lidar_range_offset_sigma_m);
 }
 
 bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeometry>& boards,
@@ -537,6 +558,17 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       " than the LiDAR's, more than " + Fmt(v.max_camera_scale_error * 100.0, 2) +
                       " %: the tag size (or checkerboard square) or the camera's focal length in "
                       "the configuration is wrong by about as much");
+  if (std::fabs(q.lidar_range_offset_m) > v.max_lidar_range_offset_m &&
+      std::fabs(q.lidar_range_offset_m) > kScaleSigmas * q.lidar_range_offset_sigma_m)
+    return Reject(out, "lidar_range_offset",
+                  "the LiDAR's ranges are " + Fmt(std::fabs(q.lidar_range_offset_m) * 100.0, 1) +
+                      " cm (+-" + Fmt(q.lidar_range_offset_sigma_m * 100.0, 1) + ") " +
+                      (q.lidar_range_offset_m > 0.0 ? "longer" : "shorter") +
+                      " than the camera's board distances say, more than " +
+                      Fmt(v.max_lidar_range_offset_m * 100.0, 1) +
+                      " cm: the translation would be off by about as much; have the LiDAR's range "
+                      "calibration checked (or the board thickness and tag print: the tag's face "
+                      "must be the board's front)");
   if (q.rotation_spread_deg > v.max_rotation_spread_deg ||
       q.translation_spread_m > v.max_translation_spread_m)
     return Reject(out, "unstable_solution",

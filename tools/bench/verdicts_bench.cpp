@@ -318,7 +318,9 @@ bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ost
                       {"max_distance_m", q.max_distance_m},
                       {"board_translation_change_m", r.run.board_translation_change_m},
                       {"camera_scale_error", q.camera_scale_error},
-                      {"camera_scale_sigma", q.camera_scale_sigma}};
+                      {"camera_scale_sigma", q.camera_scale_sigma},
+                      {"lidar_range_offset_m", q.lidar_range_offset_m},
+                      {"lidar_range_offset_sigma_m", q.lidar_range_offset_sigma_m}};
     }
     j["false_accept"] = r.accepted() && !within;
     j["seconds"] = r.seconds;

@@ -484,6 +484,9 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
     s += at_most(
         "camera vs LiDAR scale error [%] (sigma " + Num(q.camera_scale_sigma * 100.0, 3) + ")",
         std::fabs(q.camera_scale_error) * 100.0, 3, v.max_camera_scale_error * 100.0, 3);
+  if (std::isfinite(q.lidar_range_offset_m))
+    s += at_most("LiDAR range offset [m] (sigma " + Num(q.lidar_range_offset_sigma_m, 4) + ")",
+                 std::fabs(q.lidar_range_offset_m), 4, v.max_lidar_range_offset_m, 4);
   s += at_most("reprojection error mean [px] (p95 " + Num(q.reprojection_p95_px, 2) + ")",
                q.reprojection_mean_px, 2, v.max_reprojection_mean_px, 2);
   s += at_most("LiDAR residual RMS [m]", q.residual_rms_m, 4, v.max_residual_rms_m, 4);

@@ -422,7 +422,9 @@ int main(int argc, char** argv) {
                        {"start_rotation_deg", q.start_rotation_deg},
                        {"start_translation_m", q.start_translation_m},
                        {"camera_scale_error", q.camera_scale_error},
-                       {"camera_scale_sigma", q.camera_scale_sigma}};
+                       {"camera_scale_sigma", q.camera_scale_sigma},
+                       {"lidar_range_offset_m", q.lidar_range_offset_m},
+                       {"lidar_range_offset_sigma_m", q.lidar_range_offset_sigma_m}};
   report["grid_search"] = {{"perturbation_rpy_deg",
                             {out.grid.perturbation_rpy_deg.x(), out.grid.perturbation_rpy_deg.y(),
                              out.grid.perturbation_rpy_deg.z()}},

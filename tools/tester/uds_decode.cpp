@@ -416,7 +416,8 @@ const char* RoutineReasonName(uint8_t reason) {
                                            "lidar_timeout",
                                            "camera_timeout",
                                            "no_pairs",
-                                           "camera_scale_mismatch"};
+                                           "camera_scale_mismatch",
+                                           "lidar_range_offset"};
   if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
   return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
 }

@@ -27,7 +27,8 @@ RoutineReason RoutineReasonCode(std::string_view reason) {
                 {"lidar_timeout", R::kLidarTimeout},
                 {"camera_timeout", R::kCameraTimeout},
                 {"no_pairs", R::kNoPairs},
-                {"camera_scale_mismatch", R::kCameraScaleMismatch}};
+                {"camera_scale_mismatch", R::kCameraScaleMismatch},
+                {"lidar_range_offset", R::kLidarRangeOffset}};
   if (reason.empty()) return R::kNone;
   for (const auto& c : kCodes)
     if (reason == c.text) return c.code;

@@ -17,6 +17,8 @@
 /// - `unstable_solution`: re-solving on halves of the data moves the result beyond its gate.
 /// - `camera_scale_mismatch`: the camera's board distances disagree with the LiDAR's in
 ///   proportion to the distance (a wrong tag size or focal length in the configuration).
+/// - `lidar_range_offset`: the LiDAR's ranges are offset by a constant, told from a translation
+///   by boards in several directions.
 /// - `high_reprojection_error`: LiDAR-fitted tag corners miss the camera corners (paper Table I).
 /// - `high_residual`: LiDAR board points sit far from their boards under the solution.
 /// - `delta_beyond_tolerance`: the change from the prior exceeds the mechanical tolerance.
@@ -73,6 +75,12 @@ struct VerdictConfig {
   /// own sigma. A tag size or focal length 1 % off moves the extrinsic by several centimetres
   /// at 4-14 m (calibd-bench verdicts); correct sessions measured up to 0.44 % (+-0.14).
   double max_camera_scale_error = 0.006;
+  /// Range offset gate (QualityFigures::lidar_range_offset_m): beyond this and kScaleSigmas of its
+  /// sigma, `lidar_range_offset`. An offset moves the translation by about as much along the
+  /// boards' mean direction, so the gate is the verification tolerance; where the boards'
+  /// directions cannot tell it from a translation (sigma of decimetres: all boards in front) it
+  /// cannot fire, and the translation is only as good as the LiDAR's range calibration.
+  double max_lidar_range_offset_m = 0.015;
   /// Paper Table I metric. It measures each board's own LiDAR fit as much as the extrinsic:
   /// measured means over 5 simulated drives (calibd-bench calib) 3.1 px ot128, 4.9 px m1,
   /// 2.4 px falcon with correct results; a rotation error of 0.1 deg adds about 6 px at
@@ -127,6 +135,11 @@ struct QualityFigures {
   /// tag size or focal length scales every PnP distance; a translation cannot absorb that.
   double camera_scale_error = std::numeric_limits<double>::quiet_NaN();
   double camera_scale_sigma = std::numeric_limits<double>::quiet_NaN();
+  /// A constant LiDAR range offset fitted in the same way (with the scale and a translation),
+  /// m, and its standard deviation: large when the boards' directions cannot tell it from a
+  /// translation (all in front of the LiDAR). NaN with too few boards.
+  double lidar_range_offset_m = std::numeric_limits<double>::quiet_NaN();
+  double lidar_range_offset_sigma_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct CalibrationOutcome {

@@ -100,6 +100,7 @@ enum class RoutineReason : uint8_t {
   kCameraTimeout = 0x13,          ///< "camera_timeout": no camera frame for sensor_timeout_s
   kNoPairs = 0x14,                ///< "no_pairs": both sensors send, no frames pair in time
   kCameraScaleMismatch = 0x15,    ///< "camera_scale_mismatch"
+  kLidarRangeOffset = 0x16,       ///< "lidar_range_offset"
   kOther = 0xFF,                  ///< any other reason (the agent's log has the text)
 };
 
