@@ -559,7 +559,8 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       " %: the tag size (or checkerboard square) or the camera's focal length in "
                       "the configuration is wrong by about as much");
   if (std::fabs(q.lidar_range_offset_m) > v.max_lidar_range_offset_m &&
-      std::fabs(q.lidar_range_offset_m) > kScaleSigmas * q.lidar_range_offset_sigma_m)
+      std::fabs(q.lidar_range_offset_m) > kScaleSigmas * q.lidar_range_offset_sigma_m &&
+      q.lidar_range_offset_sigma_m <= kMeasuredRangeOffsetShare * v.max_lidar_range_offset_m)
     return Reject(out, "lidar_range_offset",
                   "the LiDAR's ranges are " + Fmt(std::fabs(q.lidar_range_offset_m) * 100.0, 1) +
                       " cm (+-" + Fmt(q.lidar_range_offset_sigma_m * 100.0, 1) + ") " +
