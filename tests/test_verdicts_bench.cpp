@@ -1,0 +1,56 @@
+// calibd-bench verdicts on a few of its sessions: a clean one is accepted within tolerance and
+// counted so, the same seed gives the same answer, and a fault drawn from the catalogue reaches
+// the engine (a tag size 3.4 % off is refused for its scale).
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "temp_dir.hpp"
+#include "verdicts_bench.hpp"
+
+namespace calibd::bench {
+namespace {
+
+nlohmann::json RunSessions(const std::vector<int>& only, const std::string& json,
+                           std::string* table, bool* ok) {
+  VerdictsBenchOptions o;
+  o.quick = true;
+  o.only = only;
+  o.json_path = json;
+  std::ostringstream out;
+  std::string error;
+  *ok = RunVerdictsBench(o, out, nullptr, &error);
+  *table = out.str();
+  std::ifstream in(json);
+  return nlohmann::json::parse(in);
+}
+
+TEST(VerdictsBenchTest, ACleanSessionIsAcceptedAndATagSizeFaultIsRefusedForItsScale) {
+  testing::TempDir dir;
+  std::string table;
+  bool ok = false;
+  // Session 9: ot128, still poses, clean. Session 4: ot128 drive, tag size 3.4 % off.
+  const nlohmann::json first = RunSessions({9, 4}, dir.file("a.json"), &table, &ok);
+  EXPECT_TRUE(ok) << table;
+  ASSERT_EQ(first["sessions"].size(), 2u);
+  const nlohmann::json& clean = first["sessions"][0];
+  EXPECT_EQ(clean["fault"], "none");
+  EXPECT_EQ(clean["verdict"], "updated") << clean["detail"];
+  EXPECT_LT(clean["rotation_error_deg"].get<double>(), 0.3);
+  EXPECT_FALSE(clean["false_accept"].get<bool>());
+  const nlohmann::json& tag = first["sessions"][1];
+  EXPECT_EQ(tag["fault"], "tag_size");
+  EXPECT_EQ(tag["reason"], "camera_scale_mismatch") << tag["detail"];
+  EXPECT_GT(std::fabs(tag["quality"]["camera_scale_error"].get<double>()), 0.01);
+  EXPECT_NE(table.find("| none | clean session | 1 | 1 | 0 | 0 | 0 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("camera_scale_mismatch 1"), std::string::npos) << table;
+  // Deterministic per seed.
+  const nlohmann::json again = RunSessions({9}, dir.file("b.json"), &table, &ok);
+  EXPECT_EQ(again["sessions"][0]["rotation_error_deg"], clean["rotation_error_deg"]);
+}
+
+}  // namespace
+}  // namespace calibd::bench
