@@ -73,8 +73,10 @@ struct VerdictConfig {
   /// Scale gate (QualityFigures::camera_scale_error): the camera's board distances may differ
   /// from the LiDAR's by at most this share, unless the difference is within kScaleSigmas of its
   /// own sigma. A tag size or focal length 1 % off moves the extrinsic by several centimetres
-  /// at 4-14 m (calibd-bench verdicts); correct sessions measured up to 0.44 % (+-0.14).
-  double max_camera_scale_error = 0.006;
+  /// at 4-14 m (calibd-bench verdicts). Correct sessions measure up to 0.5-0.7 % where far tags
+  /// are small in the image (PnP's distances then carry a bias: 13 px tags at 30 m with
+  /// fx = 831, the agent_diag_vmtest drive), so the gate is a backstop for large errors.
+  double max_camera_scale_error = 0.015;
   /// Range offset gate (QualityFigures::lidar_range_offset_m): beyond this and kScaleSigmas of its
   /// sigma, `lidar_range_offset`. An offset moves the translation by about as much along the
   /// boards' mean direction, so the gate is the verification tolerance. Where the boards'
