@@ -248,28 +248,24 @@ void CameraScaleFigures(const ObservationSet& set, const Pose& T_camera_lidar, Q
   }
   const int m = static_cast<int>(rows.size());
   if (m < kMinScaleBoards) return;
-  // Least squares of the last column on the first `k`; the first unknown's value and sigma (from
-  // the residuals), and the k-th's.
-  auto fit = [&](int k, double* first, double* first_sigma, double* last, double* last_sigma) {
+  // Least squares of the last column on the first `k`: the solution and its covariance (from
+  // the residuals); false when the boards leave it undetermined.
+  auto fit = [&](int k, Eigen::VectorXd* x, Eigen::MatrixXd* cov) {
+    if (m <= k) return false;
     Eigen::MatrixXd A(m, k);
     Eigen::VectorXd y(m);
     for (int i = 0; i < m; ++i) {
       A.row(i) = rows[static_cast<size_t>(i)].head(k).transpose();
       y(i) = rows[static_cast<size_t>(i)](5);
     }
-    const Eigen::MatrixXd AtA = A.transpose() * A;
-    const Eigen::FullPivLU<Eigen::MatrixXd> lu(AtA);
-    if (!lu.isInvertible() || m <= k) return;
-    const Eigen::VectorXd x = lu.solve(A.transpose() * y);
-    const double s2 = (A * x - y).squaredNorm() / (m - k);
-    const Eigen::MatrixXd cov = lu.inverse() * s2;
-    *first = x(0);
-    *first_sigma = std::sqrt(std::max(0.0, cov(0, 0)));
-    if (last) {
-      *last = x(k - 1);
-      *last_sigma = std::sqrt(std::max(0.0, cov(k - 1, k - 1)));
-    }
+    const Eigen::FullPivLU<Eigen::MatrixXd> lu(A.transpose() * A);
+    if (!lu.isInvertible()) return false;
+    *x = lu.solve(A.transpose() * y);
+    *cov = lu.inverse() * ((A * *x - y).squaredNorm() / (m - k));
+    return true;
   };
+  Eigen::VectorXd x;
+  Eigen::MatrixXd cov;
   // A scale shows only over a spread of distances: boards all at one distance leave it to the
   // translation (the fit would be noise).
   double near = rows[0](0), far = rows[0](0);
@@ -277,10 +273,14 @@ void CameraScaleFigures(const ObservationSet& set, const Pose& T_camera_lidar, Q
     near = std::min(near, r(0));
     far = std::max(far, r(0));
   }
-  if (far - near >= kMinScaleDistanceSpread * far)
-    fit(4, &q->camera_scale_error, &q->camera_scale_sigma, nullptr, nullptr);
-  double unused = 0.0, unused_sigma = 0.0;
-  fit(5, &unused, &unused_sigma, &q->lidar_range_offset_m, &q->lidar_range_offset_sigma_m);
+  if (far - near >= kMinScaleDistanceSpread * far && fit(4, &x, &cov)) {
+    q->camera_scale_error = x(0);
+    q->camera_scale_sigma = std::sqrt(std::max(0.0, cov(0, 0)));
+  }
+  if (fit(5, &x, &cov)) {
+    q->lidar_range_offset_m = x(4);
+    q->lidar_range_offset_sigma_m = std::sqrt(std::max(0.0, cov(4, 4)));
+  }
 }
 
 bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeometry>& boards,

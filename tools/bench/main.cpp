@@ -152,11 +152,9 @@ verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-
          or 3 cm), false rejects (clean sessions refused), refusals and their reason codes.
          Deterministic per seed. Fails on any false accept.
   --sessions N        sessions (default 400; 2000 for the issue's campaign)
-  --quick             shorter sessions (40-frame drives, 14 poses; the CI subset)
+  --quick             shorter sessions (40-frame drives, 14 poses; 144 take 4-5 minutes)
   --seed N            simulation seed (default 1)
   --threads N         sessions at once (default 2)
-  --only LIST         only these sessions (comma-separated indices, as in --json): to look
-                      again at one
   --only LIST         only these sessions (comma-separated indices, as in --json): to look
                       again at one
   --json FILE         also write every session as JSON
@@ -247,13 +245,6 @@ int main(int argc, char** argv) {
         v.seed = static_cast<unsigned long long>(n);
       } else if (arg == "--threads" && ParseInt(value, 1, 64, &n)) {
         v.threads = static_cast<int>(n);
-      } else if (arg == "--only") {
-        std::stringstream ss(value);
-        std::string item;
-        while (std::getline(ss, item, ',')) {
-          if (!ParseInt(item, 0, 1000000, &n)) return BadOption(arg, value);
-          v.only.push_back(static_cast<int>(n));
-        }
       } else if (arg == "--only") {
         std::stringstream ss(value);
         std::string item;

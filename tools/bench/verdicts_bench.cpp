@@ -45,6 +45,13 @@ double Draw(Rng* rng, double lo, double hi) {
 double Sign(Rng* rng) { return (*rng)() & 1u ? 1.0 : -1.0; }
 std::string Num(double v, int decimals) { return FixedDecimal(v, decimals); }
 
+/// A factor 1 +- [lo, hi] (either sign), written as the session's magnitude in %.
+double DrawFactor(Rng* rng, double lo, double hi, Session* s) {
+  const double f = 1.0 + Sign(rng) * Draw(rng, lo, hi);
+  s->magnitude = Num((f - 1.0) * 100.0, 2) + " %";
+  return f;
+}
+
 /// The catalogue (issue 21 §1): each fault draws its magnitude and changes the session.
 struct Fault {
   const char* name;
@@ -72,8 +79,7 @@ constexpr Fault kFaults[] = {
      }},
     {"board_size", "the config's board width and height 1-5 % off",
      [](Rng* rng, Session* s) {
-       const double f = 1.0 + Sign(rng) * Draw(rng, 0.01, 0.05);
-       s->magnitude = Num((f - 1.0) * 100.0, 2) + " %";
+       const double f = DrawFactor(rng, 0.01, 0.05, s);
        s->edit_config = [f](CalibConfig* c) {
          for (auto& b : c->boards) {
            b.width_m *= f;
@@ -83,8 +89,7 @@ constexpr Fault kFaults[] = {
      }},
     {"tag_size", "the config's tag size 1-5 % off",
      [](Rng* rng, Session* s) {
-       const double f = 1.0 + Sign(rng) * Draw(rng, 0.01, 0.05);
-       s->magnitude = Num((f - 1.0) * 100.0, 2) + " %";
+       const double f = DrawFactor(rng, 0.01, 0.05, s);
        s->edit_config = [f](CalibConfig* c) {
          for (auto& b : c->boards) {
            b.tag_size_m *= f;
@@ -94,8 +99,7 @@ constexpr Fault kFaults[] = {
      }},
     {"focal_length", "the config's fx and fy 0.5-3 % off",
      [](Rng* rng, Session* s) {
-       const double f = 1.0 + Sign(rng) * Draw(rng, 0.005, 0.03);
-       s->magnitude = Num((f - 1.0) * 100.0, 2) + " %";
+       const double f = DrawFactor(rng, 0.005, 0.03, s);
        s->edit_config = [f](CalibConfig* c) {
          c->camera.fx *= f;
          c->camera.fy *= f;
