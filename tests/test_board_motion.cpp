@@ -1,6 +1,7 @@
 // Motion compensation of LiDAR board points (board_motion.hpp): the board velocity fitted from
 // camera poses over neighbouring frames, and points fired across a sweep moved back to the
-// camera's capture time, on exact kinematics of a turning, driving vehicle.
+// camera's capture time, on exact kinematics of a turning, driving vehicle; and the camera's time
+// offset measured from the boards' motion.
 
 #include <gtest/gtest.h>
 
@@ -158,6 +159,80 @@ TEST(BoardMotionTest, PointsFiredAcrossTheSweepReturnToTheCaptureTime) {
   off.enabled = false;
   EXPECT_EQ(CompensateBoardMotion(s, scene.T_camera_lidar, off, &set).compensated, 0);
   EXPECT_EQ(set.points, once);
+}
+
+// Compensated observations of three boards turned differently whose apparent velocity along the
+// camera's axis follows `speed(k)` (frame k), seen by a camera `offset_s` later than its stamps:
+// the camera's board pose is where the board was then, the points where it was at the stamp
+// (offset_s u earlier). Points lie on the boards' planes, with the LiDAR frame of `scene`.
+ObservationSet MovingBoards(const Scene& scene, double offset_s, double (*speed)(int)) {
+  ObservationSet set;
+  set.Reserve(300, 300 * 25);
+  for (int k = 0; k < 100; ++k) {
+    for (int b = 0; b < 3; ++b) {
+      BoardObservation o;
+      o.frame = k;
+      o.board_index = b;
+      const double roll_deg[] = {15.0, -10.0, 20.0}, pitch_deg[] = {-25.0, 5.0, 30.0};
+      o.T_camera_board.linear() =
+          RotationFromRpy(roll_deg[b] * kDeg, M_PI + pitch_deg[b] * kDeg, 0.0);
+      o.T_camera_board.translation() = Eigen::Vector3d((b - 1) * 2.0, 0.3 * b, 8.0 + 0.05 * k);
+      o.velocity = Eigen::Vector3d(0.1 * (b - 1), 0.0, speed(k));
+      o.has_velocity = true;
+      for (int c = 0; c < 4; ++c)  // a 40 px tag
+        o.corners_px[c] =
+            Eigen::Vector2d(500.0 + 40.0 * (c == 1 || c == 2), 300.0 + 40.0 * (c >= 2));
+      std::vector<Eigen::Vector3f> points;
+      for (int i = 0; i < 25; ++i) {
+        const Eigen::Vector3d on_board(-0.4 + 0.2 * (i % 5), -0.4 + 0.2 * (i / 5), 0.0);
+        const Eigen::Vector3d p_camera = o.T_camera_board * on_board - offset_s * o.velocity;
+        points.push_back((scene.T_camera_lidar.inverse() * p_camera).cast<float>());
+      }
+      EXPECT_TRUE(set.Add(o, points.data(), nullptr, static_cast<int>(points.size())));
+    }
+  }
+  set.motion_compensated = true;
+  return set;
+}
+
+TEST(BoardMotionTest, TheCamerasTimeOffsetIsMeasuredFromBoardsMovingBothWays) {
+  const Scene scene;
+  // Back and forth: 2.5 m/s towards, then away.
+  auto both_ways = [](int k) { return 2.5 * std::cos(2.0 * M_PI * k / 100.0); };
+  ObservationSet set = MovingBoards(scene, 0.03, both_ways);
+  const TimeOffsetEstimate t = EstimateTimeOffset(set, scene.T_camera_lidar);
+  ASSERT_TRUE(t.fitted);
+  EXPECT_NEAR(t.offset_s, 0.03, 1e-4);
+  EXPECT_LT(t.sigma_s, 1e-3);
+  EXPECT_NEAR(t.normal_speed_rms_mps, 2.5 / std::sqrt(2.0), 0.2);
+  EXPECT_EQ(t.observations, 300);
+
+  // Moved to the camera's capture time, nothing is left of it.
+  ShiftToCaptureTime(t.offset_s, scene.T_camera_lidar, &set);
+  EXPECT_DOUBLE_EQ(set.time_offset_s, t.offset_s);
+  const TimeOffsetEstimate after = EstimateTimeOffset(set, scene.T_camera_lidar);
+  ASSERT_TRUE(after.fitted);
+  EXPECT_NEAR(after.offset_s, 0.0, 1e-4);
+
+  // A clean session measures none.
+  const TimeOffsetEstimate clean =
+      EstimateTimeOffset(MovingBoards(scene, 0.0, both_ways), scene.T_camera_lidar);
+  ASSERT_TRUE(clean.fitted);
+  EXPECT_NEAR(clean.offset_s, 0.0, 1e-4);
+}
+
+TEST(BoardMotionTest, AtASteadySpeedTowardsTheBoardsTheOffsetIsATranslation) {
+  const Scene scene;
+  // Every board approaches at 2.5 m/s: offset_s u is the same shift in every frame, which a
+  // translation explains as well, so the offset cannot be measured.
+  const TimeOffsetEstimate t =
+      EstimateTimeOffset(MovingBoards(scene, 0.03, [](int) { return -2.5; }), scene.T_camera_lidar);
+  EXPECT_TRUE(!t.fitted || t.sigma_s * t.normal_speed_rms_mps > 0.01)
+      << t.offset_s << " +- " << t.sigma_s;
+  // Without motion compensation there is nothing to measure it from.
+  ObservationSet uncompensated = MovingBoards(scene, 0.03, [](int) { return -2.5; });
+  uncompensated.motion_compensated = false;
+  EXPECT_FALSE(EstimateTimeOffset(uncompensated, scene.T_camera_lidar).fitted);
 }
 
 }  // namespace

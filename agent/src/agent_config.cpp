@@ -205,6 +205,7 @@ bool EngineKeysValid(const EngineConfig& e, std::string* error) {
     return false;
   if (!PositiveUpTo(k + "max_lidar_range_offset_m", v.max_lidar_range_offset_m, 1.0, error))
     return false;
+  if (!PositiveUpTo(k + "max_time_offset_s", v.max_time_offset_s, 1.0, error)) return false;
   if (!PositiveUpTo(k + "max_reprojection_mean_px", v.max_reprojection_mean_px, 1000.0, error))
     return false;
   if (!PositiveUpTo(k + "max_residual_rms_m", v.max_residual_rms_m, 1.0, error)) return false;
@@ -465,6 +466,7 @@ void ParseEngineSection(const YAML::Node& node, EngineConfig* e) {
   v.Read("max_start_translation_m", &e->verdict.max_start_translation_m);
   v.Read("max_camera_scale_error", &e->verdict.max_camera_scale_error);
   v.Read("max_lidar_range_offset_m", &e->verdict.max_lidar_range_offset_m);
+  v.Read("max_time_offset_s", &e->verdict.max_time_offset_s);
   v.Read("max_reprojection_mean_px", &e->verdict.max_reprojection_mean_px);
   v.Read("max_residual_rms_m", &e->verdict.max_residual_rms_m);
   v.RejectUnknown();

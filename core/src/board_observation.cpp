@@ -14,6 +14,7 @@ void ObservationSet::Clear() {
   points.clear();
   point_dt.clear();
   motion_compensated = false;
+  time_offset_s = 0.0;
 }
 
 bool ObservationSet::Add(const BoardObservation& obs, const Eigen::Vector3f* board_points,

@@ -205,6 +205,7 @@ int DropBoardsThatDoNotFit(const std::vector<BoardGeometry>& boards, const Direc
     kept.Add(o, set->points.data() + first, set->point_dt.data() + first, o.num_points);
   }
   kept.motion_compensated = set->motion_compensated;
+  kept.time_offset_s = set->time_offset_s;
   *set = std::move(kept);
   return dropped;
 }
@@ -397,9 +398,24 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     direct = OptimizeDirect(config.boards, corr, ind.T_camera_lidar, engine.direct, nullptr, false);
     direct.T_camera_lidar = ind.T_camera_lidar;
   } else {
-    direct = OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr,
+    auto solve = [&] {
+      return OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr,
                             true, &camera);
+    };
+    // A camera running behind its stamps biases the solution along the boards' motion: its offset
+    // is measured under the solution, the points moved to the camera's capture time, and solved
+    // again (board_motion.hpp, EstimateTimeOffset). Once before dropping boards that do not fit
+    // (a large offset would make moving boards look unfitting) and once after.
+    auto correct_time_offset = [&] {
+      const TimeOffsetEstimate t = EstimateTimeOffset(corr, direct.T_camera_lidar);
+      if (!t.fitted || std::fabs(t.offset_s) <= kTimeOffsetSigmas * t.sigma_s) return false;
+      ShiftToCaptureTime(corr.time_offset_s + t.offset_s, direct.T_camera_lidar, &corr);
+      direct = solve();
+      return true;
+    };
+    direct = solve();
     if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
+    if (correct_time_offset() && !direct.usable) return Reject(out, "solver_failed", direct.reason);
     // A board paired with a cluster that is not on it pulls the solution: dropped, then solved
     // again without it, until none is dropped (a pulled solution can hide some at first).
     for (int round = 0; round < kMaxDropRounds; ++round) {
@@ -411,10 +427,10 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                                 " whose LiDAR points did not lie on their board were dropped";
       if (const char* reason = TooFewCorrespondences(q, v, after, &few))
         return Reject(out, reason, few);
-      direct = OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr,
-                              true, &camera);
+      direct = solve();
       if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
     }
+    if (correct_time_offset() && !direct.usable) return Reject(out, "solver_failed", direct.reason);
   }
   out.optimise_ms = Ms(t_opt);
   out.T_camera_lidar = direct.T_camera_lidar;
@@ -433,6 +449,15 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   q.min_information_eigenvalue = direct.min_information_eigenvalue;
   FormalSigmas(direct.information, direct.residual_rms_m, &q);
   CameraScaleFigures(corr, out.T_camera_lidar, &q);
+  {
+    // What is left of the time offset after the corrections, added to what they applied.
+    const TimeOffsetEstimate t = EstimateTimeOffset(corr, out.T_camera_lidar);
+    q.time_offset_fitted = t.fitted;
+    q.time_offset_s = corr.time_offset_s + (t.fitted ? t.offset_s : 0.0);
+    q.time_offset_sigma_s = t.sigma_s;
+    q.time_offset_corrected_s = corr.time_offset_s;
+    q.board_normal_speed_mps = t.normal_speed_rms_mps;
+  }
   {
     Eigen::Matrix<double, 6, 1> scale;
     scale << 1.0, 1.0, 1.0, 10.0, 10.0, 10.0;  // rad -> m at a 10 m lever arm
@@ -548,6 +573,26 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       " like them, or fewer at closer range and more varied angles, where the "
                       "LiDAR puts more points on each)");
   }
+  if (q.time_offset_fitted && std::fabs(q.time_offset_s) > v.max_time_offset_s &&
+      std::fabs(q.time_offset_s) > kTimeOffsetSigmas * q.time_offset_sigma_s)
+    return Reject(out, "time_offset_beyond_tolerance",
+                  "the camera captured its images " + Fmt(std::fabs(q.time_offset_s) * 1e3, 1) +
+                      " ms (+-" + Fmt(q.time_offset_sigma_s * 1e3, 1) + ") " +
+                      (q.time_offset_s > 0.0 ? "later" : "earlier") +
+                      " than their stamps say against the LiDAR's, more than " +
+                      Fmt(v.max_time_offset_s * 1e3, 0) +
+                      " ms: correct the camera's time stamping (its trigger delay and exposure, "
+                      "or the clock synchronisation) and calibrate again");
+  if (q.time_offset_fitted &&
+      q.time_offset_sigma_s * q.board_normal_speed_mps > v.max_translation_sigma_m)
+    return Reject(out, "time_offset_beyond_tolerance",
+                  "the boards moved at " + Fmt(q.board_normal_speed_mps, 2) +
+                      " m/s towards or away from the camera, but the camera's time offset is "
+                      "measured only to +-" +
+                      Fmt(q.time_offset_sigma_s * 1e3, 1) + " ms, which moves the translation by " +
+                      Fmt(q.time_offset_sigma_s * q.board_normal_speed_mps * 100.0, 1) +
+                      " cm: drive towards and away from the boards (or vary the speed), or "
+                      "record still poses");
   if (std::fabs(q.camera_scale_error) > v.max_camera_scale_error &&
       std::fabs(q.camera_scale_error) > kScaleSigmas * q.camera_scale_sigma)
     return Reject(out, "camera_scale_mismatch",

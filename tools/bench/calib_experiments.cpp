@@ -95,10 +95,10 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
   for (int k = 0; k < frames; ++k) {
     detected.Detect(k, true, &frame);
     ScoreLidar(frame, &board_of_point, drive);
-    const FrameTimes times =
-        faults.no_times ? FrameTimes{}
-                        : FrameTimes{frame.truth.camera_utime + faults.camera_stamp_shift_us,
-                                     frame.truth.lidar_utime};
+    FrameTimes times{frame.truth.camera_utime + faults.camera_stamp_shift_us,
+                     frame.truth.lidar_utime};
+    if (faults.one_time_per_pair) times.camera_utime = times.lidar_utime;
+    if (faults.no_times) times = FrameTimes{};
     if (!drive->observations.AddFrame(frame.camera, frame.lidar, boards, times))
       ++drive->incomplete_frames;
     drive->vehicle_positions.push_back(frame.truth.T_world_vehicle.translation());

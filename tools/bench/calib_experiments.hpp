@@ -54,6 +54,9 @@ struct RecordingFaults {
   const CalibConfig* config = nullptr;
   int64_t camera_stamp_shift_us = 0;  ///< added to every camera stamp (a wrong clock)
   bool no_times = false;              ///< frame pairs without capture times (paired by file name)
+  /// Each pair stamped with one time, its LiDAR sweep's start, for both sensors: a folder whose
+  /// frames.csv a user wrote for pairs matched by file name, at the sensors' nominal rate.
+  bool one_time_per_pair = false;
 };
 
 /// Simulates every frame pair of a drive and runs the real detectors on it into

@@ -17,6 +17,7 @@
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
+#include "quality_json.hpp"
 #include "recordings_bench.hpp"
 
 namespace calibd::bench {
@@ -309,22 +310,8 @@ bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ost
     }
     if (r.run.has_estimate) {
       const QualityFigures& q = r.run.quality;
-      j["quality"] = {{"reprojection_mean_px", q.reprojection_mean_px},
-                      {"reprojection_p95_px", q.reprojection_p95_px},
-                      {"residual_rms_m", q.residual_rms_m},
-                      {"rotation_sigma_deg", q.rotation_sigma_deg},
-                      {"translation_sigma_m", q.translation_sigma_m},
-                      {"plane_conditioning", q.plane_conditioning},
-                      {"rotation_spread_deg", q.rotation_spread_deg},
-                      {"translation_spread_m", q.translation_spread_m},
-                      {"start_rotation_deg", q.start_rotation_deg},
-                      {"min_distance_m", q.min_distance_m},
-                      {"max_distance_m", q.max_distance_m},
-                      {"board_translation_change_m", r.run.board_translation_change_m},
-                      {"camera_scale_error", q.camera_scale_error},
-                      {"camera_scale_sigma", q.camera_scale_sigma},
-                      {"lidar_range_offset_m", q.lidar_range_offset_m},
-                      {"lidar_range_offset_sigma_m", q.lidar_range_offset_sigma_m}};
+      j["quality"] = QualityJson(q);
+      j["quality"]["board_translation_change_m"] = r.run.board_translation_change_m;
     }
     j["false_accept"] = r.accepted() && !within;
     j["seconds"] = r.seconds;

@@ -487,6 +487,10 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   if (std::isfinite(q.lidar_range_offset_m))
     s += at_most("LiDAR range offset [m] (sigma " + Num(q.lidar_range_offset_sigma_m, 4) + ")",
                  std::fabs(q.lidar_range_offset_m), 4, v.max_lidar_range_offset_m, 4);
+  if (q.time_offset_fitted)
+    s += at_most("camera time offset [ms] (sigma " + Num(q.time_offset_sigma_s * 1e3, 1) +
+                     ", corrected for " + Num(q.time_offset_corrected_s * 1e3, 1) + ")",
+                 std::fabs(q.time_offset_s) * 1e3, 1, v.max_time_offset_s * 1e3, 1);
   s += at_most("reprojection error mean [px] (p95 " + Num(q.reprojection_p95_px, 2) + ")",
                q.reprojection_mean_px, 2, v.max_reprojection_mean_px, 2);
   s += at_most("LiDAR residual RMS [m]", q.residual_rms_m, 4, v.max_residual_rms_m, 4);

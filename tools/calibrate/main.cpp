@@ -28,6 +28,7 @@
 #include "lidar_model_source.hpp"
 #include "log_session.hpp"
 #include "overlay.hpp"
+#include "quality_json.hpp"
 
 namespace {
 
@@ -406,25 +407,7 @@ int main(int argc, char** argv) {
   report["prior_T_camera_lidar"] = TransformJson(out.prior_T_camera_lidar);
   report["delta_vs_prior"] = {{"rotation_deg", out.delta_rotation_deg},
                               {"translation_m", out.delta_translation_m}};
-  report["quality"] = {{"reprojection_mean_px", q.reprojection_mean_px},
-                       {"reprojection_p95_px", q.reprojection_p95_px},
-                       {"residual_rms_m", q.residual_rms_m},
-                       {"frames_used", q.frames_used},
-                       {"boards_used", q.boards_used},
-                       {"distance_min_m", q.min_distance_m},
-                       {"distance_max_m", q.max_distance_m},
-                       {"image_coverage", q.image_coverage},
-                       {"min_information_eigenvalue", q.min_information_eigenvalue},
-                       {"rotation_sigma_deg", q.rotation_sigma_deg},
-                       {"translation_sigma_m", q.translation_sigma_m},
-                       {"rotation_spread_deg", q.rotation_spread_deg},
-                       {"translation_spread_m", q.translation_spread_m},
-                       {"start_rotation_deg", q.start_rotation_deg},
-                       {"start_translation_m", q.start_translation_m},
-                       {"camera_scale_error", q.camera_scale_error},
-                       {"camera_scale_sigma", q.camera_scale_sigma},
-                       {"lidar_range_offset_m", q.lidar_range_offset_m},
-                       {"lidar_range_offset_sigma_m", q.lidar_range_offset_sigma_m}};
+  report["quality"] = QualityJson(q);
   report["grid_search"] = {{"perturbation_rpy_deg",
                             {out.grid.perturbation_rpy_deg.x(), out.grid.perturbation_rpy_deg.y(),
                              out.grid.perturbation_rpy_deg.z()}},

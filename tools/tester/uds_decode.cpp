@@ -417,7 +417,8 @@ const char* RoutineReasonName(uint8_t reason) {
                                            "camera_timeout",
                                            "no_pairs",
                                            "camera_scale_mismatch",
-                                           "lidar_range_offset"};
+                                           "lidar_range_offset",
+                                           "time_offset_beyond_tolerance"};
   if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
   return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
 }

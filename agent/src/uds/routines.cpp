@@ -28,7 +28,8 @@ RoutineReason RoutineReasonCode(std::string_view reason) {
                 {"camera_timeout", R::kCameraTimeout},
                 {"no_pairs", R::kNoPairs},
                 {"camera_scale_mismatch", R::kCameraScaleMismatch},
-                {"lidar_range_offset", R::kLidarRangeOffset}};
+                {"lidar_range_offset", R::kLidarRangeOffset},
+                {"time_offset_beyond_tolerance", R::kTimeOffset}};
   if (reason.empty()) return R::kNone;
   for (const auto& c : kCodes)
     if (reason == c.text) return c.code;

@@ -11,6 +11,7 @@
 /// at a 2.5 deg/s yaw rate, under 1 mm over a 0.05 s sweep, so one velocity per board is enough.
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 
 #include "calibd/core/board_observation.hpp"
@@ -53,5 +54,40 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
                                               const Pose& T_camera_lidar,
                                               const MotionCompensationConfig& config,
                                               ObservationSet* set);
+
+/// The camera's time offset against the LiDAR, estimated from the boards' motion (issue 21 §2;
+/// the spatiotemporal idea of Furgale et al., "Unified temporal and spatial calibration for
+/// multi-sensor systems", IROS 2013, reduced to one parameter). A camera that exposes `offset_s`
+/// later than its stamps say saw each board where it was `offset_s` later: the compensated
+/// points lie short of the camera's board by offset_s u (u its velocity). Along the board's
+/// normal n that is offset_s (n . u), which a translation cannot take up once the boards move
+/// towards and away from the camera (n . u of both signs). Per observation, with
+/// d = n . (camera board centre) - median over its points of n . (T_camera_lidar p):
+///   d = n . c + offset_s (n . u)     (c: what a translation explains)
+/// fitted by least squares, each row weighted by the inverse of PnP's distance error (which grows
+/// with the distance over the tag's size in pixels). The sigma is the larger of the least-squares
+/// one and a cluster-robust one over blocks of kTimeOffsetBlockFrames frames of a board
+/// (consecutive frames of a board share their errors). Observations without a velocity enter with n
+/// . u = 0.
+struct TimeOffsetEstimate {
+  bool fitted = false;  ///< enough observations with a velocity, and the fit determined
+  double offset_s = 0.0;
+  double sigma_s = std::numeric_limits<double>::infinity();
+  /// RMS of n . u over the observations with a velocity (m/s): how fast the boards move along
+  /// their normals. sigma_s times it is the translation an offset as large as its sigma moves.
+  double normal_speed_rms_mps = 0.0;
+  int observations = 0;  ///< with a velocity
+};
+
+inline constexpr int kTimeOffsetBlockFrames = 10;
+/// Observations with a velocity the fit needs (and at least this many blocks of them).
+inline constexpr int kMinTimeOffsetObservations = 12;
+
+TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set, const Pose& T_camera_lidar);
+
+/// Moves the compensated points of every observation with a velocity to the capture time of a
+/// camera whose offset is `offset_s` (set->time_offset_s becomes it): p += (offset_s -
+/// set->time_offset_s) R_camera_lidar^T u. Does nothing before CompensateBoardMotion.
+void ShiftToCaptureTime(double offset_s, const Pose& T_camera_lidar, ObservationSet* set);
 
 }  // namespace calibd

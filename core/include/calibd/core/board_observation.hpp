@@ -36,6 +36,8 @@ struct ObservationSet {
   std::vector<float> point_dt;
   /// True once CompensateBoardMotion moved the points to the camera's capture time.
   bool motion_compensated = false;
+  /// The camera time offset (s) the compensated points were moved for (ShiftToCaptureTime).
+  double time_offset_s = 0.0;
 
   /// Empties the set and reserves room once (fixed memory: Add never grows beyond it).
   void Reserve(int max_observations, int max_points);

@@ -19,6 +19,8 @@
 ///   proportion to the distance (a wrong tag size or focal length in the configuration).
 /// - `lidar_range_offset`: the LiDAR's ranges are offset by a constant, told from a translation
 ///   by boards in several directions.
+/// - `time_offset_beyond_tolerance`: while driving, the camera's time offset against the LiDAR
+///   is beyond what the engine corrects for, or the drive cannot tell it from a translation.
 /// - `high_reprojection_error`: LiDAR-fitted tag corners miss the camera corners (paper Table I).
 /// - `high_residual`: LiDAR board points sit far from their boards under the solution.
 /// - `delta_beyond_tolerance`: the change from the prior exceeds the mechanical tolerance.
@@ -84,6 +86,13 @@ struct VerdictConfig {
   /// the gate: boards in front of the LiDAR) it does not fire, and the translation is only as
   /// good as the LiDAR's range calibration.
   double max_lidar_range_offset_m = 0.015;
+  /// Time offset gate (QualityFigures::time_offset_s): the solution is corrected for the camera's
+  /// offset against the LiDAR up to this (calibd-bench time-offset: 0-100 ms recovered within
+  /// 0.5 ms on the default drive); beyond it and kTimeOffsetSigmas of its sigma the stamping is
+  /// broken rather than late, and the verdict is `time_offset_beyond_tolerance`. So is a session
+  /// whose boards move so that the offset cannot be told from a translation: its sigma times the
+  /// boards' speed along their normals above max_translation_sigma_m.
+  double max_time_offset_s = 0.1;
   /// Paper Table I metric. It measures each board's own LiDAR fit as much as the extrinsic:
   /// measured means over 5 simulated drives (calibd-bench calib) 3.1 px ot128, 4.9 px m1,
   /// 2.4 px falcon with correct results; a rotation error of 0.1 deg adds about 6 px at
@@ -123,6 +132,8 @@ inline constexpr double kScaleSigmas = 3.0;
 /// boards' scatter, which underrates correlated errors where the boards' directions barely tell
 /// it from a translation (the default 6-30 m drives fit -14 +-4 cm from errors of millimetres).
 inline constexpr double kMeasuredRangeOffsetShare = 0.5;
+/// A time offset is corrected for only beyond this many of its standard deviations.
+inline constexpr double kTimeOffsetSigmas = 3.0;
 
 struct QualityFigures {
   double reprojection_mean_px = 0.0, reprojection_p95_px = 0.0;  ///< paper Table I metric
@@ -147,6 +158,17 @@ struct QualityFigures {
   /// translation (all in front of the LiDAR). NaN with too few boards.
   double lidar_range_offset_m = std::numeric_limits<double>::quiet_NaN();
   double lidar_range_offset_sigma_m = std::numeric_limits<double>::quiet_NaN();
+  /// The camera's time offset against the LiDAR (s; positive: the camera exposed later than its
+  /// stamps say) and its sigma, from the boards' motion (board_motion.hpp, EstimateTimeOffset);
+  /// not fitted (sigma infinite) without moving boards or capture times. `time_offset_corrected_s`
+  /// is what the solution was corrected for: the offset when it exceeded kTimeOffsetSigmas of its
+  /// sigma, else 0.
+  bool time_offset_fitted = false;
+  double time_offset_s = 0.0;
+  double time_offset_sigma_s = std::numeric_limits<double>::infinity();
+  double time_offset_corrected_s = 0.0;
+  /// RMS speed of the boards along their normals (m/s) in the observations with a velocity.
+  double board_normal_speed_mps = 0.0;
 };
 
 struct CalibrationOutcome {

@@ -101,6 +101,7 @@ enum class RoutineReason : uint8_t {
   kNoPairs = 0x14,                ///< "no_pairs": both sensors send, no frames pair in time
   kCameraScaleMismatch = 0x15,    ///< "camera_scale_mismatch"
   kLidarRangeOffset = 0x16,       ///< "lidar_range_offset"
+  kTimeOffset = 0x17,             ///< "time_offset_beyond_tolerance"
   kOther = 0xFF,                  ///< any other reason (the agent's log has the text)
 };
 

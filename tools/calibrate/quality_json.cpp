@@ -1,0 +1,41 @@
+#include "quality_json.hpp"
+
+#include <cmath>
+
+namespace calibd {
+
+nlohmann::json QualityJson(const QualityFigures& q) {
+  nlohmann::json j = {{"reprojection_mean_px", q.reprojection_mean_px},
+                      {"reprojection_p95_px", q.reprojection_p95_px},
+                      {"residual_rms_m", q.residual_rms_m},
+                      {"frames_used", q.frames_used},
+                      {"boards_used", q.boards_used},
+                      {"distance_min_m", q.min_distance_m},
+                      {"distance_max_m", q.max_distance_m},
+                      {"image_coverage", q.image_coverage},
+                      {"min_information_eigenvalue", q.min_information_eigenvalue},
+                      {"rotation_sigma_deg", q.rotation_sigma_deg},
+                      {"translation_sigma_m", q.translation_sigma_m},
+                      {"plane_conditioning", q.plane_conditioning},
+                      {"rotation_spread_deg", q.rotation_spread_deg},
+                      {"translation_spread_m", q.translation_spread_m},
+                      {"start_rotation_deg", q.start_rotation_deg},
+                      {"start_translation_m", q.start_translation_m},
+                      {"camera_scale_error", q.camera_scale_error},
+                      {"camera_scale_sigma", q.camera_scale_sigma},
+                      {"lidar_range_offset_m", q.lidar_range_offset_m},
+                      {"lidar_range_offset_sigma_m", q.lidar_range_offset_sigma_m},
+                      {"board_normal_speed_mps", q.board_normal_speed_mps}};
+  // Not fitted (no moving boards, or no capture times): null, not a made-up zero.
+  nlohmann::json offset = nullptr, sigma = nullptr;
+  if (q.time_offset_fitted) {
+    offset = q.time_offset_s;
+    if (std::isfinite(q.time_offset_sigma_s)) sigma = q.time_offset_sigma_s;
+  }
+  j["time_offset_s"] = offset;
+  j["time_offset_sigma_s"] = sigma;
+  j["time_offset_corrected_s"] = q.time_offset_corrected_s;
+  return j;
+}
+
+}  // namespace calibd
