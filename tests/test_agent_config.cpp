@@ -58,6 +58,7 @@ void ExpectAgentAndEngineDefaults(const AgentConfig& c) {
   const EngineConfig de;
   EXPECT_EQ(e.method, EngineConfig::Method::kDirect);
   EXPECT_EQ(e.motion.enabled, de.motion.enabled);
+  EXPECT_EQ(e.motion.window_s, de.motion.window_s);
   EXPECT_EQ(e.direct.refine_board_poses, de.direct.refine_board_poses);
   EXPECT_EQ(e.direct.threads, de.direct.threads);
   EXPECT_EQ(e.stability_runs, de.stability_runs);
@@ -168,6 +169,7 @@ agent:
 engine:
   method: indirect
   motion_compensation: false
+  motion_window_s: 1.5
   board_pose_refinement: false
   solver_threads: 4
   stability_runs: 0
@@ -214,6 +216,7 @@ engine:
   const EngineConfig& e = c.engine;
   EXPECT_EQ(e.method, EngineConfig::Method::kIndirect);
   EXPECT_FALSE(e.motion.enabled);
+  EXPECT_DOUBLE_EQ(e.motion.window_s, 1.5);
   EXPECT_FALSE(e.direct.refine_board_poses);
   EXPECT_EQ(e.direct.threads, 4);
   EXPECT_EQ(e.stability_runs, 0);
@@ -446,6 +449,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"max_solve_frames: 200\n", "max_solve_frames: -1\n", "engine.max_solve_frames"},
         BadCase{"motion_compensation: true\n", "motion_compensation: 1\n",
                 "engine.motion_compensation"},
+        BadCase{"motion_window_s: 0.25\n", "motion_window_s: 3\n", "engine.motion_window_s"},
+        BadCase{"max_time_offset_s: 0.1\n", "max_time_offset_s: .inf\n",
+                "engine.verdict.max_time_offset_s"},
         BadCase{"range_deg: 9\n", "range_deg: 45\n", "engine.grid.range_deg"},
         BadCase{"step_deg: 1.5\n", "step_deg: 0.1\n", "engine.grid.step_deg"},
         BadCase{"verify_rotation_deg: 0.15", "verify_rotation_deg: 20",

@@ -212,7 +212,7 @@ bool EngineKeysValid(const EngineConfig& e, std::string* error) {
 
   // The fields the file does not expose keep the core's own checks (a config built in code).
   if (!e.grid.IsValid(&why)) return Fail(error, "engine", why);
-  if (!e.motion.IsValid(&why)) return Fail(error, "engine.motion", why);
+  if (!e.motion.IsValid(&why)) return Fail(error, "engine.motion_window_s", why);
   if (!e.direct.IsValid(&why)) return Fail(error, "engine.direct", why);
   return true;
 }
@@ -441,6 +441,7 @@ void ParseEngineSection(const YAML::Node& node, EngineConfig* e) {
   }
   // Named like calibd-calibrate's --motion-compensation and --board-pose-refinement.
   s.Read("motion_compensation", &e->motion.enabled);
+  s.Read("motion_window_s", &e->motion.window_s);
   s.Read("board_pose_refinement", &e->direct.refine_board_poses);
   s.Read("solver_threads", &e->direct.threads);
   s.Read("stability_runs", &e->stability_runs);

@@ -17,8 +17,8 @@ bool MotionCompensationConfig::IsValid(std::string* error) const {
   };
   if (!(window_s > 0.0 && window_s <= 2.0)) return fail("window_s must be in (0, 2] s");
   if (min_samples < 2) return fail("min_samples must be >= 2");
-  if (!(min_span_s > 0.0 && min_span_s <= 2.0 * window_s))
-    return fail("min_span_s must be in (0, 2 window_s]");
+  if (!(min_span_share > 0.0 && min_span_share <= 2.0))
+    return fail("min_span_share must be in (0, 2]");
   if (!(max_speed_mps > 0.0)) return fail("max_speed_mps must be > 0");
   return true;
 }
@@ -54,7 +54,7 @@ bool EstimateBoardVelocity(const SessionObservations& s, int frame, int board_in
   };
   for (auto it = mid; it != s.camera.end() && in_window(*it); ++it) take(*it);
   for (auto it = mid; it != s.camera.begin() && in_window(*(it - 1)); --it) take(*(it - 1));
-  if (n < config.min_samples || tmax - tmin < config.min_span_s) return false;
+  if (n < config.min_samples || tmax - tmin < config.min_span_share * config.window_s) return false;
   const double sxx = stt - st * st / n;
   if (!(sxx > 0.0)) return false;
   const Eigen::Vector3d u = (stc - st * sc / n) / sxx;

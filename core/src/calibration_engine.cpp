@@ -573,26 +573,6 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       " like them, or fewer at closer range and more varied angles, where the "
                       "LiDAR puts more points on each)");
   }
-  if (q.time_offset_fitted && std::fabs(q.time_offset_s) > v.max_time_offset_s &&
-      std::fabs(q.time_offset_s) > kTimeOffsetSigmas * q.time_offset_sigma_s)
-    return Reject(out, "time_offset_beyond_tolerance",
-                  "the camera captured its images " + Fmt(std::fabs(q.time_offset_s) * 1e3, 1) +
-                      " ms (+-" + Fmt(q.time_offset_sigma_s * 1e3, 1) + ") " +
-                      (q.time_offset_s > 0.0 ? "later" : "earlier") +
-                      " than their stamps say against the LiDAR's, more than " +
-                      Fmt(v.max_time_offset_s * 1e3, 0) +
-                      " ms: correct the camera's time stamping (its trigger delay and exposure, "
-                      "or the clock synchronisation) and calibrate again");
-  if (q.time_offset_fitted &&
-      q.time_offset_sigma_s * q.board_normal_speed_mps > v.max_translation_sigma_m)
-    return Reject(out, "time_offset_beyond_tolerance",
-                  "the boards moved at " + Fmt(q.board_normal_speed_mps, 2) +
-                      " m/s towards or away from the camera, but the camera's time offset is "
-                      "measured only to +-" +
-                      Fmt(q.time_offset_sigma_s * 1e3, 1) + " ms, which moves the translation by " +
-                      Fmt(q.time_offset_sigma_s * q.board_normal_speed_mps * 100.0, 1) +
-                      " cm: drive towards and away from the boards (or vary the speed), or "
-                      "record still poses");
   if (std::fabs(q.camera_scale_error) > v.max_camera_scale_error &&
       std::fabs(q.camera_scale_error) > kScaleSigmas * q.camera_scale_sigma)
     return Reject(out, "camera_scale_mismatch",
@@ -615,6 +595,28 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       " cm: the translation would be off by about as much; have the LiDAR's range "
                       "calibration checked (or the board thickness and tag print: the tag's face "
                       "must be the board's front)");
+  // After the scale and range gates: a wrong scale also spreads the boards' distances, and so
+  // the time offset's sigma; its own words name the cause.
+  if (q.time_offset_fitted && std::fabs(q.time_offset_s) > v.max_time_offset_s &&
+      std::fabs(q.time_offset_s) > kTimeOffsetSigmas * q.time_offset_sigma_s)
+    return Reject(out, "time_offset_beyond_tolerance",
+                  "the camera captured its images " + Fmt(std::fabs(q.time_offset_s) * 1e3, 1) +
+                      " ms (+-" + Fmt(q.time_offset_sigma_s * 1e3, 1) + ") " +
+                      (q.time_offset_s > 0.0 ? "later" : "earlier") +
+                      " than their stamps say against the LiDAR's, more than " +
+                      Fmt(v.max_time_offset_s * 1e3, 0) +
+                      " ms: correct the camera's time stamping (its trigger delay and exposure, "
+                      "or the clock synchronisation) and calibrate again");
+  if (q.time_offset_fitted &&
+      q.time_offset_sigma_s * q.board_normal_speed_mps > v.max_translation_sigma_m)
+    return Reject(out, "time_offset_beyond_tolerance",
+                  "the boards moved at " + Fmt(q.board_normal_speed_mps, 2) +
+                      " m/s towards or away from the camera, but the camera's time offset is "
+                      "measured only to +-" +
+                      Fmt(q.time_offset_sigma_s * 1e3, 1) + " ms, which moves the translation by " +
+                      Fmt(q.time_offset_sigma_s * q.board_normal_speed_mps * 100.0, 1) +
+                      " cm: drive towards and away from the boards (or vary the speed), or "
+                      "record still poses");
   if (q.rotation_spread_deg > v.max_rotation_spread_deg ||
       q.translation_spread_m > v.max_translation_spread_m)
     return Reject(out, "unstable_solution",

@@ -24,10 +24,12 @@ struct MotionCompensationConfig {
   bool enabled = true;
   /// Camera detections of the same board within this time of a frame's capture enter its
   /// velocity fit (+-0.25 s: up to 5 frames at 10 Hz). Longer smooths PnP noise of far boards,
-  /// shorter follows braking better.
+  /// shorter follows braking better; frames recorded further apart than it while driving need
+  /// it longer (engine.motion_window_s), or their boards have no velocity.
   double window_s = 0.25;
-  int min_samples = 3;          ///< detections in the window, the frame's own included
-  double min_span_s = 0.15;     ///< the samples' times must span at least this
+  int min_samples = 3;  ///< detections in the window, the frame's own included
+  /// The samples' times must span at least this share of window_s (0.15 s of +-0.25 s).
+  double min_span_share = 0.6;
   double max_speed_mps = 20.0;  ///< a faster apparent board speed is a mismatch: not used
 
   bool IsValid(std::string* error) const;
