@@ -106,6 +106,33 @@ TEST_F(UdsServerTest, SuppressPositiveResponseBit) {
   EXPECT_EQ(server_->session(), Session::kDefault);
 }
 
+// ISO 14229-2 §7.2: the requests that may wait for storage (each write fsync'd) are the ones the
+// transport answers with 0x78 first; after a 0x78 the final positive response comes even when
+// the request asked for none (ISO 14229-1 §7.5.2).
+TEST_F(UdsServerTest, RequestsThatMayWriteStorageAndTheirAnswerAfterResponsePending) {
+  auto writes = [](const Bytes& r) { return MayWriteStorage(r.data(), r.size()); };
+  EXPECT_TRUE(writes({0x31, 0x01, 0xF0, 0xA1}));   // commit
+  EXPECT_TRUE(writes({0x31, 0x81, 0xF0, 0xA2}));   // restore, positive response suppressed
+  EXPECT_TRUE(writes({0x31, 0x02, 0xF0, 0xA0}));   // stop: the session marker goes
+  EXPECT_FALSE(writes({0x31, 0x03, 0xF0, 0xA0}));  // results: read only
+  EXPECT_TRUE(writes({0x27, 0x02, 0x00}));         // sendKey: the attempt counter
+  EXPECT_FALSE(writes({0x27, 0x01}));              // requestSeed
+  EXPECT_TRUE(writes({0x2E, 0xF1, 0x90}));         // the VIN
+  EXPECT_TRUE(writes({0x14, 0xFF, 0xFF, 0xFF}));   // the DTC file
+  EXPECT_FALSE(writes({0x22, 0xF1, 0x90}));
+  EXPECT_FALSE(writes({0x3E, 0x00}));
+  EXPECT_FALSE(writes({0x10, 0x03}));
+  EXPECT_FALSE(MayWriteStorage(nullptr, 0));
+
+  // Suppressed without a 0x78; with one, the final positive response is sent.
+  const Bytes clear = {0x14, 0xFF, 0xFF, 0xFF};
+  EXPECT_EQ(Tx(clear), (Bytes{0x54}));
+  const Bytes suppressed = {0x10, 0x83};
+  EXPECT_EQ(Tx(suppressed), Bytes{});
+  const Response r = server_->Handle(suppressed.data(), suppressed.size(), false, kT0, true);
+  EXPECT_EQ(Bytes(r.data, r.data + r.size), (Bytes{0x50, 0x03, 0x00, 0x32, 0x01, 0xF4}));
+}
+
 TEST_F(UdsServerTest, UnknownServiceAndServiceNotInSession) {
   EXPECT_EQ(Tx({0x23, 0x00}), (Bytes{0x7F, 0x23, 0x11}));
   EXPECT_EQ(Tx({0x7F}), (Bytes{0x7F, 0x7F, 0x11}));

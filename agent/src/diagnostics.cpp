@@ -79,7 +79,15 @@ void Diagnostics::HandleRequests(int64_t now_us) {
   if (pending_size_ > 0) return;  // one response at a time: the requests wait in the socket
   IsoTpMessage m;
   while (isotp_.Receive(&m) == IsoTpIo::kOk) {
-    const uds::Response r = server_->Handle(m.data, m.size, m.functional, now_us);
+    // A request that may wait for storage hears 0x78 first, before any file is touched: within
+    // P2 however slow the filesystem (uds_server.hpp, MayWriteStorage). Only when it goes out
+    // now: with the previous response still being sent, the final answer waits its turn alone.
+    bool pending_sent = false;
+    if (!m.functional && uds::MayWriteStorage(m.data, m.size)) {
+      const uint8_t pending[3] = {uds::kSidNegativeResponse, m.data[0], uds::kNrcResponsePending};
+      pending_sent = isotp_.Send(pending, sizeof(pending)) == IsoTpIo::kOk;
+    }
+    const uds::Response r = server_->Handle(m.data, m.size, m.functional, now_us, pending_sent);
     if (!r.empty()) SendResponse(r.data, r.size);
     if (pending_size_ > 0) return;
   }

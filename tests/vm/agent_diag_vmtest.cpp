@@ -472,8 +472,7 @@ class AgentDiagVm : public ::testing::Test {
   /// Writes the agent's config (calib.yaml + an agent section: CAN on vcan0, UDS, GPIO, the
   /// store) and starts it; returns once it answers on the bus.
   void StartAgent() {
-    const std::string d = dir_.path().string();
-    std::filesystem::create_directories(d + "/uds");
+    std::filesystem::create_directories(uds_state_dir());
     {
       std::ofstream(secret()) << kSecret;
       std::filesystem::permissions(
@@ -488,7 +487,7 @@ class AgentDiagVm : public ::testing::Test {
             // 1-2 cm of translation error): 25 s of the replay, solved in about 10 s.
             "  min_frames: 60\n  max_duration_s: 150\n" +
             "  can:\n    enabled: true\n    interface: " + kInterface + "\n" +
-            "  uds:\n    secret_file: " + secret() + "\n    state_dir: " + d + "/uds\n" +
+            "  uds:\n    secret_file: " + secret() + "\n    state_dir: " + uds_state_dir() + "\n" +
             "    ecu_serial: " + kEcuSerial + "\n" +
             "    lockout_delay_s: " + std::to_string(kLockoutDelayS) + "\n" + "  gpio:\n" +
             GpioLine("interlock") + GpioLine("start_button") + GpioLine("status_lamp") +
@@ -624,7 +623,13 @@ class AgentDiagVm : public ::testing::Test {
   }
 
   std::string secret() const { return dir_.file("secret"); }
-  std::string store_dir() const { return dir_.file("store"); }
+  /// Where the agent keeps its store and UDS state: the test's temporary folder, unless a test
+  /// sets state_root_ (the throttled share).
+  std::string state_root() const {
+    return state_root_.empty() ? dir_.path().string() : state_root_;
+  }
+  std::string store_dir() const { return state_root() + "/store"; }
+  std::string uds_state_dir() const { return state_root() + "/uds"; }
 
   static Child* sim_;
   TempDir dir_;
@@ -632,6 +637,7 @@ class AgentDiagVm : public ::testing::Test {
   Child agent_;
   bool agent_started_ = false;
   std::string agent_log_;
+  std::string state_root_;
   FrameMonitor monitor_;
 };
 Child* AgentDiagVm::sim_ = nullptr;
@@ -1172,6 +1178,92 @@ TEST_F(AgentDiagVm, WorkshopFlowCalibratesCommitsAndStores) {
       [](const StatusFrame& s) { return s.calibration == StatusFrame::Calibration::kValid; }, 3,
       after_commit, &valid));
   EXPECT_NEAR(valid.check.status.calibration_age_h, 0.0, 1.0);
+}
+
+// ISO 14229-2 §7.2 on slow storage: the agent's store and UDS state on the share that qemu
+// writes at 2 kB/s (vm_run.sh's /slow-store: a worn flash under load). Every request that writes a
+// file (a wrong key's attempt counter, the VIN, the reference restored as a new version with its
+// exports) hears 0x78 responsePending within P2 and its final answer within P2*; a read does
+// not wait for any of it. The tester's P2 is twice the agent's 50 ms (the guest is emulated), and
+// the restore's final answer must come later than that: the storage really is slow.
+TEST_F(AgentDiagVm, SlowStorageHearsResponsePendingWithinP2AndTheAnswerWithinP2Star) {
+  state_root_ =
+      "/slow-store/" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name());
+  std::filesystem::remove_all(state_root_);
+  ASSERT_TRUE(std::filesystem::create_directories(state_root_))
+      << "no throttled share at /slow-store (vm_run.sh)";
+  {
+    // A current calibration and a factory reference for the same sensors, as the line left them.
+    CalibrationStoreConfig store_config;
+    store_config.directory = store_dir();
+    CalibrationStore store;
+    std::string error;
+    ASSERT_TRUE(store.Open(store_config, &error)) << error;
+    StoredCalibration c;
+    c.created_unix_s = 1767225600;
+    c.lidar_serial = "LDR-SIM-0001";
+    c.camera_serial = "CAM-SIM-0001";
+    c.source = "end_of_line";
+    c.verdict = "end_of_line";
+    ASSERT_TRUE(store.SetReference(c, &error)) << error;
+    c.T_camera_lidar.translation() = Eigen::Vector3d(0.01, 0.0, 0.0);
+    c.source = "workshop";
+    c.verdict = "updated";
+    ASSERT_TRUE(store.Commit(c, &error)) << error;
+  }
+  StartAgent();
+  if (HasFatalFailure()) return;
+
+  IsoTpConfig config;
+  config.interface = kInterface;
+  tester::ClientTiming timing;
+  timing.p2_ms = 100;
+  timing.p2_star_ms = 5000;
+  tester::UdsClient client;
+  std::string error;
+  ASSERT_TRUE(client.Open(config, timing, &error)) << error;
+  auto request = [&](const std::string& hex) {
+    const tester::UdsReply r = client.Request(Bytes(hex));
+    std::printf("%-22s -> %s after %d ms, %d x 0x78\n", hex.substr(0, 22).c_str(),
+                r.outcome == tester::UdsReply::Outcome::kPositive ? Hex(r.bytes).c_str()
+                : r.outcome == tester::UdsReply::Outcome::kNegative
+                    ? ("NRC " + std::to_string(r.nrc)).c_str()
+                    : r.error.c_str(),
+                r.waited_ms, r.pending_count);
+    return r;
+  };
+  ASSERT_EQ(request("10 03").outcome, tester::UdsReply::Outcome::kPositive);
+
+  // A wrong key: its attempt is counted on disk before the answer (security_access.hpp).
+  ASSERT_EQ(request("27 01").outcome, tester::UdsReply::Outcome::kPositive);
+  tester::UdsReply r = request("27 02 00 00 00 00 00 00 00 00 00 00 00 00 00 00 00 00");
+  EXPECT_EQ(r.outcome, tester::UdsReply::Outcome::kNegative) << r.error;
+  EXPECT_EQ(r.nrc, 0x35);
+  EXPECT_GE(r.pending_count, 1) << "no 0x78 before the invalid-key answer";
+
+  const ToolRun unlock = Tester("--secret " + secret() + " unlock");
+  ASSERT_EQ(unlock.code, 0) << unlock.err;
+  // The VIN, written to the UDS state directory.
+  r = request("2E F1 90 57 56 57 5A 5A 5A 31 4B 5A 36 57 30 30 30 30 30 31");
+  EXPECT_EQ(r.outcome, tester::UdsReply::Outcome::kPositive) << r.error;
+  EXPECT_GE(r.pending_count, 1) << "no 0x78 before the VIN write's answer";
+  // The reference restored: a new current version, history and exports.
+  r = request("31 01 F0 A2");
+  EXPECT_EQ(r.outcome, tester::UdsReply::Outcome::kPositive) << r.error << "; agent log:\n"
+                                                             << ReadFile(agent_log_);
+  EXPECT_GE(r.pending_count, 1) << "no 0x78 before the restore's answer";
+  EXPECT_GT(r.waited_ms, timing.p2_ms) << "the store was not slow: the test shows nothing";
+  // A read hears no 0x78.
+  r = request("22 FD 00");
+  EXPECT_EQ(r.outcome, tester::UdsReply::Outcome::kPositive) << r.error;
+  EXPECT_EQ(r.pending_count, 0);
+
+  CalibrationStoreConfig store_config;
+  store_config.directory = store_dir();
+  CalibrationStore store;
+  ASSERT_TRUE(store.Open(store_config, &error)) << error;
+  ASSERT_NE(store.current(), nullptr);
+  EXPECT_EQ(store.current()->verdict, "restored_reference");
 }
 
 // d. A noisy bus: during a whole calibration, random frames (random 11-bit ids other than the

@@ -5,7 +5,8 @@
 # 2. Builds the job's root: the host's / (9p tag "hostroot", read-only) under a tmpfs overlay, so
 #    host-built binaries and their libraries run unchanged and the job may write anywhere (the
 #    writes stay in guest memory); fresh /tmp, /run, /dev; the host folder given as
-#    calibd.shared= (9p tag "shared", read-write) mounted at the same path.
+#    calibd.shared= (9p tag "shared", read-write) mounted at the same path; the throttled share
+#    (9p tag "slowstore", vm_run.sh) at /slow-store.
 # 3. Fixtures: lo up; vcan0 and vcan1 (CAN FD MTU); a gpio-sim chip labelled calibd-sim with 8
 #    lines, the first four named interlock, start_button, status_lamp, spare.
 # 4. Runs `bash JOB` chrooted into that root, in the shared folder, with a clean environment:
@@ -75,6 +76,8 @@ mount -t tmpfs tmpfs "$R/run"
 # Last, as it may lie under /tmp or /run of the host.
 mkdir -p "$R$shared"
 mount -t 9p -o "$p9,cache=none" shared "$R$shared" || fatal "cannot mount the shared folder (9p)"
+mkdir -p "$R/slow-store"
+mount -t 9p -o "$p9,cache=none" slowstore "$R/slow-store" || say "FAIL: the slow-store share (9p)"
 
 # --- fixtures, made with the host's iproute2 (busybox ip knows no vcan) ---
 chroot "$R" ip link set lo up

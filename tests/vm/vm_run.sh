@@ -14,6 +14,9 @@
 # Assets come from prepare.sh (run here first; a no-op once built) in $CALIBD_VM_CACHE, default
 # build/vm of this checkout. CALIBD_VM_MEM (MiB, default 1024) and CALIBD_VM_CPUS (default 2);
 # CALIBD_VM_INIT=systemd boots the guest with systemd and runs the job as a service.
+# A second shared folder, SHARED_DIR/slow-store, is written through qemu's I/O throttling
+# (CALIBD_VM_SLOW_BPS bytes written per second, default 2048): slow storage, mounted in the guest
+# at /slow-store.
 set -uo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -75,6 +78,13 @@ case ${CALIBD_VM_INIT:-} in
     exit 2
     ;;
 esac
+mkdir -p "$shared/slow-store" || exit 2
+slow_bps=${CALIBD_VM_SLOW_BPS:-2048}
+case $slow_bps in '' | *[!0-9]*)
+  err "CALIBD_VM_SLOW_BPS must be whole bytes per second, got '$slow_bps'"
+  exit 2
+  ;;
+esac
 t0=$(date +%s.%N)
 # -nodefaults: no network, display or monitor; the serial port is the console; -no-reboot turns a
 # guest reboot or panic (panic=-1) into qemu exiting. KVM does not boot a stock kernel on our
@@ -85,6 +95,8 @@ timeout -k 5 "$timeout_s" qemu-system-x86_64 -accel tcg,thread=multi -cpu max -M
   -kernel "$CALIBD_VM_KERNEL_IMAGE" -initrd "$CALIBD_VM_INITRAMFS" \
   -virtfs local,path=/,mount_tag=hostroot,security_model=none,readonly=on,multidevs=remap \
   -virtfs "local,path=$shared,mount_tag=shared,security_model=none,multidevs=remap" \
+  -fsdev "local,id=slowstore,path=$shared/slow-store,security_model=none,throttling.bps-write=$slow_bps" \
+  -device virtio-9p-pci,fsdev=slowstore,mount_tag=slowstore \
   -append "console=ttyS0 quiet panic=-1 calibd.job=$job calibd.shared=$shared$init_arg" \
   </dev/null >"$console" 2>&1
 qemu_rc=$?

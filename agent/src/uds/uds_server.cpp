@@ -40,6 +40,22 @@ bool IsVinChar(uint8_t c) {
 
 }  // namespace
 
+bool MayWriteStorage(const uint8_t* request, size_t size) {
+  if (size == 0) return false;
+  const uint8_t sub = size >= 2 ? request[1] & ~kSuppressPosRspBit : 0;
+  switch (request[0]) {
+    case kSidRoutineControl:
+      return sub == 0x01 || sub == 0x02;  // start, stop (not requestRoutineResults)
+    case kSidSecurityAccess:
+      return size >= 2 && sub % 2 == 0;  // sendKey (even levels)
+    case kSidWriteDataByIdentifier:
+    case kSidClearDiagnosticInformation:
+      return true;
+    default:
+      return false;
+  }
+}
+
 UdsServer::UdsServer(const UdsConfig& config, UdsBackend* backend)
     : config_(config), backend_(backend) {}
 
@@ -74,7 +90,8 @@ void UdsServer::Tick(int64_t now_us) {
   }
 }
 
-Response UdsServer::Handle(const uint8_t* request, size_t size, bool functional, int64_t now_us) {
+Response UdsServer::Handle(const uint8_t* request, size_t size, bool functional, int64_t now_us,
+                           bool pending_sent) {
   if (size == 0) return {};
   Tick(now_us);  // an expired S3 takes effect before this request
   last_request_us_ = now_us;
@@ -88,7 +105,7 @@ Response UdsServer::Handle(const uint8_t* request, size_t size, bool functional,
     buffer_[2] = nrc_;
     return {buffer_.data(), 3};
   }
-  if (suppress_positive_ || n == 0) return {};
+  if ((suppress_positive_ && !pending_sent) || n == 0) return {};
   return {buffer_.data(), n};
 }
 

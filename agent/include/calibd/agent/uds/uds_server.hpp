@@ -52,6 +52,14 @@ namespace calibd::uds {
 /// Most DIDs accepted in one 0x22 request (more: 0x13).
 inline constexpr size_t kMaxDidsPerRead = 16;
 
+/// True for the requests whose answer may wait for a write to storage, each file written and
+/// fsync'd (RoutineControl start or stop: the session marker, the commit and restore versions
+/// and exports; SecurityAccess sendKey: the attempt counter; WriteDataByIdentifier: the VIN;
+/// ClearDiagnosticInformation: the DTC file). On a slow or busy filesystem that takes longer
+/// than P2: the transport sends 0x78 requestCorrectlyReceived-ResponsePending for them first
+/// (ISO 14229-2 §7.2, then the final answer within P2*), and tells Handle it did.
+bool MayWriteStorage(const uint8_t* request, size_t size);
+
 class UdsServer {
  public:
   /// `config` must be valid (UdsConfig::IsValid); `backend` outlives the server.
@@ -63,8 +71,12 @@ class UdsServer {
   bool Init(int64_t now_us, int64_t now_unix_us, std::string* error);
 
   /// One request (the SID first). `functional`: it came on the functional address. `now_us`
-  /// monotonic. The response stays valid until the next call.
-  Response Handle(const uint8_t* request, size_t size, bool functional, int64_t now_us);
+  /// monotonic. `pending_sent`: a 0x78 responsePending went out for it, so the final positive
+  /// response is sent even when suppressPosRspMsgIndicationBit asked for none (ISO 14229-1
+  /// §7.5.2: a tester that heard 0x78 waits for the final answer). The response stays valid
+  /// until the next call.
+  Response Handle(const uint8_t* request, size_t size, bool functional, int64_t now_us,
+                  bool pending_sent = false);
   /// Advances the S3 timer: back to the default session once s3_us passed without a request.
   void Tick(int64_t now_us);
 

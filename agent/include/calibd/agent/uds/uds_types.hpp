@@ -40,6 +40,7 @@ enum Nrc : uint8_t {
   kNrcInvalidKey = 0x35,
   kNrcExceededNumberOfAttempts = 0x36,
   kNrcRequiredTimeDelayNotExpired = 0x37,
+  kNrcResponsePending = 0x78,  ///< requestCorrectlyReceived-ResponsePending
   kNrcGeneralProgrammingFailure = 0x72,
   kNrcSubFunctionNotSupportedInActiveSession = 0x7E,
   kNrcServiceNotSupportedInActiveSession = 0x7F,
