@@ -24,6 +24,7 @@ class FakeUdsBackend : public uds::UdsBackend {
   uds::BackendReply start_reply = uds::BackendReply::kAccepted;
   uds::BackendReply commit_reply = uds::BackendReply::kAccepted;
   uds::BackendReply restore_reply = uds::BackendReply::kAccepted;
+  uds::BackendReply store_reference_reply = uds::BackendReply::kAccepted;
   bool write_vin_ok = true;
   std::string vin = "WVWZZZ1KZAW000001";
   std::string software_version = "0.6.0";
@@ -36,7 +37,8 @@ class FakeUdsBackend : public uds::UdsBackend {
   CaptureCoverage coverage;
 
   // What the server did.
-  int starts = 0, stops = 0, aborts = 0, commits = 0, restores = 0, resets = 0;
+  int starts = 0, stops = 0, aborts = 0, commits = 0, restores = 0, references_stored = 0,
+      resets = 0;
   uds::CalibrateOptions last_options;
   std::string written_vin;
 
@@ -70,6 +72,10 @@ class FakeUdsBackend : public uds::UdsBackend {
   uds::BackendReply RestoreReference() override {
     ++restores;
     return restore_reply;
+  }
+  uds::BackendReply StoreReference() override {
+    ++references_stored;
+    return store_reference_reply;
   }
   std::string_view Vin() const override { return vin; }
   bool WriteVin(std::string_view v) override {

@@ -156,6 +156,27 @@ uds::BackendReply Agent::RestoreReference() {
   return uds::BackendReply::kAccepted;
 }
 
+uds::BackendReply Agent::StoreReference() {
+  const StoredCalibration* current = store_.current();
+  if (current == nullptr) {
+    last_error_ = "store-reference refused: the store holds no current calibration";
+    Log(last_error_);
+    return uds::BackendReply::kConditionsNotCorrect;
+  }
+  const StoredCalibration kept = *current;  // the store's own copy changes as it writes
+  std::string error;
+  if (!store_.SetReference(kept, &error)) {
+    last_error_ = "store-reference failed: " + error;
+    Log(last_error_ + " (the previous reference stays)");
+    diag_.Report(uds::Dtc::kStoreWriteFailed, true);
+    return uds::BackendReply::kFailure;
+  }
+  diag_.Report(uds::Dtc::kStoreWriteFailed, false);
+  Log("stored calibration version " + std::to_string(kept.version) + " as the reference (version " +
+      std::to_string(store_.reference()->version) + ")");
+  return uds::BackendReply::kAccepted;
+}
+
 bool Agent::WriteVin(std::string_view vin) {
   std::string error;
   if (!WriteFileAtomic(config_.uds.state_dir + "/vin", vin, &error)) {

@@ -1183,7 +1183,8 @@ TEST_F(AgentDiagVm, WorkshopFlowCalibratesCommitsAndStores) {
 // ISO 14229-2 §7.2 on slow storage: the agent's store and UDS state on the share that qemu
 // writes at 2 kB/s (vm_run.sh's /slow-store: a worn flash under load). Every request that writes a
 // file (a wrong key's attempt counter, the VIN, the reference restored as a new version with its
-// exports) hears 0x78 responsePending within P2 and its final answer within P2*; a read does
+// exports, the current one kept as the reference) hears 0x78 responsePending within P2 and its
+// final answer within P2*; a read does
 // not wait for any of it. The tester's P2 is twice the agent's 50 ms (the guest is emulated), and
 // the restore's final answer must come later than that: the storage really is slow.
 TEST_F(AgentDiagVm, SlowStorageHearsResponsePendingWithinP2AndTheAnswerWithinP2Star) {
@@ -1193,7 +1194,7 @@ TEST_F(AgentDiagVm, SlowStorageHearsResponsePendingWithinP2AndTheAnswerWithinP2S
   ASSERT_TRUE(std::filesystem::create_directories(state_root_))
       << "no throttled share at /slow-store (vm_run.sh)";
   {
-    // A current calibration and a factory reference for the same sensors, as the line left them.
+    // A current calibration, as the end-of-line line committed it (no reference yet).
     CalibrationStoreConfig store_config;
     store_config.directory = store_dir();
     CalibrationStore store;
@@ -1205,10 +1206,6 @@ TEST_F(AgentDiagVm, SlowStorageHearsResponsePendingWithinP2AndTheAnswerWithinP2S
     c.camera_serial = "CAM-SIM-0001";
     c.source = "end_of_line";
     c.verdict = "end_of_line";
-    ASSERT_TRUE(store.SetReference(c, &error)) << error;
-    c.T_camera_lidar.translation() = Eigen::Vector3d(0.01, 0.0, 0.0);
-    c.source = "workshop";
-    c.verdict = "updated";
     ASSERT_TRUE(store.Commit(c, &error)) << error;
   }
   StartAgent();
@@ -1247,6 +1244,11 @@ TEST_F(AgentDiagVm, SlowStorageHearsResponsePendingWithinP2AndTheAnswerWithinP2S
   r = request("2E F1 90 57 56 57 5A 5A 5A 31 4B 5A 36 57 30 30 30 30 30 31");
   EXPECT_EQ(r.outcome, tester::UdsReply::Outcome::kPositive) << r.error;
   EXPECT_GE(r.pending_count, 1) << "no 0x78 before the VIN write's answer";
+  // The line keeps it as the reference (routine F0A4); restoring finds it there.
+  r = request("31 01 F0 A4");
+  EXPECT_EQ(r.outcome, tester::UdsReply::Outcome::kPositive) << r.error << "; agent log:\n"
+                                                             << ReadFile(agent_log_);
+  EXPECT_GE(r.pending_count, 1) << "no 0x78 before the store-reference's answer";
   // The reference restored: a new current version, history and exports.
   r = request("31 01 F0 A2");
   EXPECT_EQ(r.outcome, tester::UdsReply::Outcome::kPositive) << r.error << "; agent log:\n"
@@ -1264,6 +1266,8 @@ TEST_F(AgentDiagVm, SlowStorageHearsResponsePendingWithinP2AndTheAnswerWithinP2S
   ASSERT_TRUE(store.Open(store_config, &error)) << error;
   ASSERT_NE(store.current(), nullptr);
   EXPECT_EQ(store.current()->verdict, "restored_reference");
+  ASSERT_NE(store.reference(), nullptr);
+  EXPECT_EQ(store.reference()->source, "end_of_line");
 }
 
 // d. A noisy bus: during a whole calibration, random frames (random 11-bit ids other than the

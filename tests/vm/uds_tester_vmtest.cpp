@@ -286,12 +286,19 @@ TEST_F(UdsTesterVm, VerifyRestoreReferenceAndWriteVin) {
   r = Tester("--secret " + Secret() + " restore-reference");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.out, "restore-reference: success\n");
+  r = Tester("--secret " + Secret() + " store-reference");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.out, "store-reference: success\n");
+  r = Tester("store-reference");  // locked: refused, and nothing stored
+  EXPECT_NE(r.code, 0);
+  EXPECT_HAS(r.err, "0x33");
   r = Tester("--secret " + Secret() + " write-vin WVWZZZ1KZAW000002");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.out, "VIN written: WVWZZZ1KZAW000002\n");
   server_->Stop();
   EXPECT_TRUE(server_->backend.last_options.verify_only);
   EXPECT_EQ(server_->backend.restores, 1);
+  EXPECT_EQ(server_->backend.references_stored, 1);
   EXPECT_EQ(server_->backend.written_vin, "WVWZZZ1KZAW000002");
 }
 

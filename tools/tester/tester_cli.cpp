@@ -34,6 +34,8 @@ Commands:
   stop                       stop the running calibrate/verify routine
   commit                     commit the last updated result (routine 0xF0A1)
   restore-reference          make the factory reference current (routine 0xF0A2)
+  store-reference            keep the current calibration as the reference: the end-of-line
+                             step after its commit (routine 0xF0A4)
   read DID[,DID...]          ReadDataByIdentifier, decoded (F18C F190 F195 F19B FD00-FD06)
   coverage                   where boards are still missing in the running session: distance
                              bins, the image grid and what to do next (DID FD06)
@@ -52,7 +54,7 @@ Options:
   --can-fd             CAN FD frames (the interface needs MTU 72)
   --secret FILE        the vehicle's SecurityAccess secret (mode 0600): unlock before commands
                        that change the ECU (calibrate, verify, stop, commit, restore-reference,
-                       write-vin). Each run opens its own extended session; the ECU drops it (and
+                       store-reference, write-vin). Each run opens its own extended session; the ECU drops it (and
                        relocks) 5 s after the last request.
   --p2-ms MS           wait for a response (default 200)
   --p2-star-ms MS      wait after a 0x78 responsePending (default 5500)
@@ -461,8 +463,10 @@ int RunCommand(UdsClient& client, const TesterOptions& o, std::ostream& out, std
     if (code == kExitOk) out << "stopped\n";
     return code;
   }
-  if (c == "commit" || c == "restore-reference") {
-    const uint16_t rid = c == "commit" ? uds::kRoutineCommit : uds::kRoutineRestoreReference;
+  if (c == "commit" || c == "restore-reference" || c == "store-reference") {
+    const uint16_t rid = c == "commit"              ? uds::kRoutineCommit
+                         : c == "restore-reference" ? uds::kRoutineRestoreReference
+                                                    : uds::kRoutineStoreReference;
     code = Call(client, RoutineRequest(uds::kStartRoutine, rid), err, &reply);
     if (code != kExitOk) return code;
     if (!ExpectSize(reply, 5, err)) return kExitFailure;
@@ -593,8 +597,8 @@ bool ParseTesterArgs(const std::vector<std::string>& argv, TesterOptions* o, boo
       *error = "results takes nothing or 'verify' (got '" + o->args[0] + "')";
       return false;
     }
-  } else if (c == "stop" || c == "commit" || c == "restore-reference" || c == "tester-present" ||
-             c == "coverage") {
+  } else if (c == "stop" || c == "commit" || c == "restore-reference" || c == "store-reference" ||
+             c == "tester-present" || c == "coverage") {
     if (!args_count(0, 0, (c + (c == "tester-present" ? " [--functional]" : "")).c_str()))
       return false;
   } else if (c == "dtc") {

@@ -408,7 +408,8 @@ size_t UdsServer::RoutineControl(const uint8_t* req, size_t size) {
   if (size < 4) return Fail(kNrcIncorrectMessageLength);
   const uint16_t rid = U16(&req[2]);
   const bool session_routine = rid == kRoutineCalibrate || rid == kRoutineVerify;
-  if (!session_routine && rid != kRoutineCommit && rid != kRoutineRestoreReference) {
+  if (!session_routine && rid != kRoutineCommit && rid != kRoutineRestoreReference &&
+      rid != kRoutineStoreReference) {
     return Fail(kNrcRequestOutOfRange);
   }
   if (type == kStopRoutine && !session_routine) return Fail(kNrcSubFunctionNotSupported);
@@ -431,7 +432,7 @@ size_t UdsServer::RoutineControl(const uint8_t* req, size_t size) {
       suppress_positive_ = suppress;
       return n;
     }
-    const RoutineStatus last = rid == kRoutineCommit ? commit_status_ : restore_status_;
+    const RoutineStatus last = StoreRoutineStatus(rid);
     if (last == RoutineStatus::kIdle) return Fail(kNrcRequestSequenceError);
     if (size != 4) return Fail(kNrcIncorrectMessageLength);
     suppress_positive_ = suppress;
@@ -473,15 +474,22 @@ size_t UdsServer::RoutineControl(const uint8_t* req, size_t size) {
   }
   if (size != 4) return Fail(kNrcIncorrectMessageLength);
   if (!conditions.interlock_asserted) return Fail(kNrcConditionsNotCorrect);
-  const BackendReply reply =
-      rid == kRoutineCommit ? backend_->Commit() : backend_->RestoreReference();
+  const BackendReply reply = rid == kRoutineCommit             ? backend_->Commit()
+                             : rid == kRoutineRestoreReference ? backend_->RestoreReference()
+                                                               : backend_->StoreReference();
   const Nrc nrc = FromBackend(reply);
-  RoutineStatus& last = rid == kRoutineCommit ? commit_status_ : restore_status_;
+  RoutineStatus& last = StoreRoutineStatus(rid);
   if (nrc == kNrcGeneralProgrammingFailure) last = RoutineStatus::kFailed;
   if (nrc != kNrcNone) return Fail(nrc);
   last = RoutineStatus::kSuccess;
   suppress_positive_ = suppress;
   return RoutineReply(req, static_cast<uint8_t>(last));
+}
+
+RoutineStatus& UdsServer::StoreRoutineStatus(uint16_t rid) {
+  return rid == kRoutineCommit             ? commit_status_
+         : rid == kRoutineRestoreReference ? restore_status_
+                                           : store_reference_status_;
 }
 
 // ISO 14229-1 §9.5 TesterPresent: zeroSubFunction only.

@@ -93,6 +93,7 @@ class Agent : private uds::UdsBackend {
   void AbortCalibration() override;
   uds::RoutineSnapshot CalibrationStatus() const override;
   uds::BackendReply RestoreReference() override;
+  uds::BackendReply StoreReference() override;
   std::string_view Vin() const override { return vin_; }
   bool WriteVin(std::string_view vin) override;
   std::string_view SoftwareVersion() const override { return software_version_; }

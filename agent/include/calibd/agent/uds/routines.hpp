@@ -13,6 +13,8 @@
 /// - 0xF0A2 restore the factory / end-of-line reference: as commit
 /// - 0xF0A3 verify: as calibrate, but the result is only compared with the stored calibration
 ///   and never committed
+/// - 0xF0A4 store the current calibration as the reference (the end-of-line line's provisioning,
+///   what 0xF0A2 later restores): as commit
 ///
 /// Calibrate option record (3 bytes): byte 0 CalibrationMode (0x00 moving: the vehicle drives
 /// past the boards; 0x01 static: the vehicle is parked and the boards are moved), bytes 1-2 the
@@ -29,7 +31,8 @@
 ///   byte 3    RoutineReason (why it failed, aborted or was rejected; 0 otherwise)
 ///   bytes 4-5 rotation change vs the prior calibration, u16 in 0.001 deg (saturates at 65.535)
 ///   bytes 6-7 translation change vs the prior, u16 in 0.1 mm (saturates at 6.5535 m)
-/// For commit and restore the result is the status byte of the last start (success or failed).
+/// For commit, restore and store-reference the result is the status byte of the last start
+/// (success or failed).
 
 #include <cstdint>
 #include <string_view>
@@ -41,6 +44,7 @@ enum RoutineId : uint16_t {
   kRoutineCommit = 0xF0A1,
   kRoutineRestoreReference = 0xF0A2,
   kRoutineVerify = 0xF0A3,
+  kRoutineStoreReference = 0xF0A4,
 };
 
 /// routineControlType (ISO 14229-1 §13.2.2.2 Table 376).

@@ -46,6 +46,8 @@ class UdsBackend {
   virtual BackendReply Commit() = 0;
   /// Make the factory / end-of-line reference the current calibration.
   virtual BackendReply RestoreReference() = 0;
+  /// Keep the current calibration as the reference (what RestoreReference brings back).
+  virtual BackendReply StoreReference() = 0;
 
   // --- data identifiers (did_codec.hpp). Views must stay valid until the call returns. ---
   virtual std::string_view Vin() const = 0;

@@ -127,6 +127,9 @@ class UdsServer {
   bool routine_started_in_session_ = false;
   RoutineStatus commit_status_ = RoutineStatus::kIdle;
   RoutineStatus restore_status_ = RoutineStatus::kIdle;
+  RoutineStatus store_reference_status_ = RoutineStatus::kIdle;
+  /// The last-start status of a store routine (commit, restore, store-reference).
+  RoutineStatus& StoreRoutineStatus(uint16_t rid);
   std::array<uint8_t, kMaxMessageSize> buffer_{};
 };
 
