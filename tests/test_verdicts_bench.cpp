@@ -1,6 +1,7 @@
 // calibd-bench verdicts on a few of its sessions: a clean one is accepted within tolerance and
 // counted so, the same seed gives the same answer, and a fault drawn from the catalogue reaches
-// the engine (a tag size 3.4 % off is refused for its scale).
+// the engine (a tag size 3.4 % off is refused for its scale, a principal point 12.4 px off for
+// what the tags say).
 
 #include <gtest/gtest.h>
 
@@ -28,14 +29,16 @@ nlohmann::json RunSessions(const std::vector<int>& only, const std::string& json
   return nlohmann::json::parse(in);
 }
 
-TEST(VerdictsBenchTest, ACleanSessionIsAcceptedAndATagSizeFaultIsRefusedForItsScale) {
+TEST(VerdictsBenchTest, ACleanSessionIsAcceptedAndSizeAndCentreFaultsAreRefusedForThem) {
   testing::TempDir dir;
   std::string table;
   bool ok = false;
-  // Session 9: ot128, still poses, clean. Session 4: ot128 drive, tag size 3.4 % off.
-  const nlohmann::json first = RunSessions({9, 4}, dir.file("a.json"), &table, &ok);
+  // Session 9: ot128, still poses, clean. Session 4: ot128 drive, tag size 3.4 % off. Session
+  // 33: m1, still poses, the principal point 12.4 px off (accepted 0.49 deg off before the tags
+  // were asked about it).
+  const nlohmann::json first = RunSessions({9, 4, 33}, dir.file("a.json"), &table, &ok);
   EXPECT_TRUE(ok) << table;
-  ASSERT_EQ(first["sessions"].size(), 2u);
+  ASSERT_EQ(first["sessions"].size(), 3u);
   const nlohmann::json& clean = first["sessions"][0];
   EXPECT_EQ(clean["fault"], "none");
   EXPECT_EQ(clean["verdict"], "updated") << clean["detail"];
@@ -47,6 +50,10 @@ TEST(VerdictsBenchTest, ACleanSessionIsAcceptedAndATagSizeFaultIsRefusedForItsSc
   EXPECT_GT(std::fabs(tag["quality"]["camera_scale_error"].get<double>()), 0.01);
   EXPECT_NE(table.find("| none | clean session | 1 | 1 | 0 | 0 | 0 |"), std::string::npos) << table;
   EXPECT_NE(table.find("camera_scale_mismatch 1"), std::string::npos) << table;
+  const nlohmann::json& centre = first["sessions"][2];
+  EXPECT_EQ(centre["fault"], "principal_point");
+  EXPECT_EQ(centre["reason"], "principal_point_mismatch") << centre["detail"];
+  EXPECT_GT(centre["quality"]["principal_point_turn_deg"].get<double>(), 0.3);
   // Deterministic per seed.
   const nlohmann::json again = RunSessions({9}, dir.file("b.json"), &table, &ok);
   EXPECT_EQ(again["sessions"][0]["rotation_error_deg"], clean["rotation_error_deg"]);

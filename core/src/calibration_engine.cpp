@@ -450,6 +450,17 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   FormalSigmas(direct.information, direct.residual_rms_m, &q);
   CameraScaleFigures(corr, out.T_camera_lidar, &q);
   {
+    const auto t_pp = Clock::now();
+    const PrincipalPointEstimate pp = EstimatePrincipalPoint(config.camera, config.boards, session);
+    q.principal_point_fitted = pp.fitted;
+    q.principal_point_shift_px = pp.shift_px;
+    q.principal_point_sigma_px = pp.sigma_px;
+    q.principal_point_turn_deg =
+        std::hypot(pp.shift_px.x() / config.camera.fx, pp.shift_px.y() / config.camera.fy) *
+        kRad2Deg;
+    q.principal_point_ms = Ms(t_pp);
+  }
+  {
     // What is left of the time offset after the corrections, added to what they applied.
     const TimeOffsetEstimate t = EstimateTimeOffset(corr, out.T_camera_lidar);
     q.time_offset_fitted = t.fitted;
@@ -572,6 +583,24 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       (std::isfinite(needed) && needed < 1e6 ? Fmt(needed, 0) : "many more") +
                       " like them, or fewer at closer range and more varied angles, where the "
                       "LiDAR puts more points on each)");
+  }
+  if (q.principal_point_fitted) {
+    // A principal point off by d turns the result by about d / f, which the LiDAR cannot see.
+    const Eigen::Vector2d d = q.principal_point_shift_px;
+    const double turn_deg = q.principal_point_turn_deg;
+    const double chi2 = (d.cwiseQuotient(q.principal_point_sigma_px)).squaredNorm();
+    const double max_turn_deg = kPrincipalPointTurnTolerances * v.verify_rotation_deg;
+    if (turn_deg > max_turn_deg && chi2 > kPrincipalPointChiSquare)
+      return Reject(
+          out, "principal_point_mismatch",
+          "the tags put the camera's principal point " + Fmt(d.x(), 1) + " px (+-" +
+              Fmt(q.principal_point_sigma_px.x(), 1) + ") right and " + Fmt(d.y(), 1) + " px (+-" +
+              Fmt(q.principal_point_sigma_px.y(), 1) +
+              ") down of the configured one, which turns the result by " + Fmt(turn_deg, 2) +
+              " deg, more than " + Fmt(max_turn_deg, 2) +
+              " deg: the camera's intrinsic calibration (its principal point, or its focal "
+              "length) is wrong or belongs to another camera; calibrate the camera's "
+              "intrinsics again");
   }
   if (std::fabs(q.camera_scale_error) > v.max_camera_scale_error &&
       std::fabs(q.camera_scale_error) > kScaleSigmas * q.camera_scale_sigma)

@@ -487,6 +487,13 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   if (std::isfinite(q.lidar_range_offset_m))
     s += at_most("LiDAR range offset [m] (sigma " + Num(q.lidar_range_offset_sigma_m, 4) + ")",
                  std::fabs(q.lidar_range_offset_m), 4, v.max_lidar_range_offset_m, 4);
+  if (q.principal_point_fitted)
+    s += at_most(
+        "principal point shift as a turn [deg] (" + Num(q.principal_point_shift_px.x(), 1) + ", " +
+            Num(q.principal_point_shift_px.y(), 1) + " px, sigma " +
+            Num(q.principal_point_sigma_px.x(), 1) + ", " + Num(q.principal_point_sigma_px.y(), 1) +
+            ")",
+        q.principal_point_turn_deg, 3, kPrincipalPointTurnTolerances * v.verify_rotation_deg, 3);
   if (q.time_offset_fitted)
     s += at_most("camera time offset [ms] (sigma " + Num(q.time_offset_sigma_s * 1e3, 1) +
                      ", corrected for " + Num(q.time_offset_corrected_s * 1e3, 1) + ")",

@@ -35,6 +35,15 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["time_offset_s"] = offset;
   j["time_offset_sigma_s"] = sigma;
   j["time_offset_corrected_s"] = q.time_offset_corrected_s;
+  nlohmann::json shift = nullptr, shift_sigma = nullptr;
+  if (q.principal_point_fitted) {
+    shift = {q.principal_point_shift_px.x(), q.principal_point_shift_px.y()};
+    shift_sigma = {q.principal_point_sigma_px.x(), q.principal_point_sigma_px.y()};
+  }
+  j["principal_point_shift_px"] = shift;
+  j["principal_point_sigma_px"] = shift_sigma;
+  j["principal_point_turn_deg"] = q.principal_point_turn_deg;
+  j["principal_point_ms"] = q.principal_point_ms;
   return j;
 }
 

@@ -418,7 +418,8 @@ const char* RoutineReasonName(uint8_t reason) {
                                            "no_pairs",
                                            "camera_scale_mismatch",
                                            "lidar_range_offset",
-                                           "time_offset_beyond_tolerance"};
+                                           "time_offset_beyond_tolerance",
+                                           "principal_point_mismatch"};
   if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
   return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
 }

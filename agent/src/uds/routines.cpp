@@ -29,7 +29,8 @@ RoutineReason RoutineReasonCode(std::string_view reason) {
                 {"no_pairs", R::kNoPairs},
                 {"camera_scale_mismatch", R::kCameraScaleMismatch},
                 {"lidar_range_offset", R::kLidarRangeOffset},
-                {"time_offset_beyond_tolerance", R::kTimeOffset}};
+                {"time_offset_beyond_tolerance", R::kTimeOffset},
+                {"principal_point_mismatch", R::kPrincipalPointMismatch}};
   if (reason.empty()) return R::kNone;
   for (const auto& c : kCodes)
     if (reason == c.text) return c.code;

@@ -19,6 +19,8 @@
 ///   proportion to the distance (a wrong tag size or focal length in the configuration).
 /// - `lidar_range_offset`: the LiDAR's ranges are offset by a constant, told from a translation
 ///   by boards in several directions.
+/// - `principal_point_mismatch`: the tags fit a principal point so far from the configured one
+///   that the result would turn by more than twice the verification tolerance.
 /// - `time_offset_beyond_tolerance`: while driving, the camera's time offset against the LiDAR
 ///   is beyond what the engine corrects for, or the drive cannot tell it from a translation.
 /// - `high_reprojection_error`: LiDAR-fitted tag corners miss the camera corners (paper Table I).
@@ -35,6 +37,7 @@
 #include "calibd/core/direct_optimizer.hpp"
 #include "calibd/core/grid_search.hpp"
 #include "calibd/core/indirect_optimizer.hpp"
+#include "calibd/core/principal_point_check.hpp"
 #include "calibd/core/range_image.hpp"
 #include "calibd/core/session_observations.hpp"
 #include "calibd/core/static_scenery.hpp"
@@ -132,6 +135,14 @@ inline constexpr double kScaleSigmas = 3.0;
 /// boards' scatter, which underrates correlated errors where the boards' directions barely tell
 /// it from a translation (the default 6-30 m drives fit -14 +-4 cm from errors of millimetres).
 inline constexpr double kMeasuredRangeOffsetShare = 0.5;
+/// A principal point shift counts only when its chi-square (two degrees of freedom, each axis
+/// over its sigma) is beyond this: the 3-sigma probability, 0.27 %.
+inline constexpr double kPrincipalPointChiSquare = 11.83;
+/// ... and when the turn it gives the result is beyond this many verification tolerances
+/// (VerdictConfig::verify_rotation_deg): the tags' fit carries biases of its own beyond its sigma
+/// (corner localisation under perspective), so the gate refuses what would make the result wrong,
+/// not what a correct camera's fit scatters by.
+inline constexpr double kPrincipalPointTurnTolerances = 2.0;
 /// A time offset is corrected for only beyond this many of its standard deviations.
 inline constexpr double kTimeOffsetSigmas = 3.0;
 
@@ -169,6 +180,15 @@ struct QualityFigures {
   double time_offset_corrected_s = 0.0;
   /// RMS speed of the boards along their normals (m/s) in the observations with a velocity.
   double board_normal_speed_mps = 0.0;
+  /// The principal point the tags fit against the configured one (principal_point_check.hpp),
+  /// px, and its sigma; not fitted with too few camera observations.
+  bool principal_point_fitted = false;
+  Eigen::Vector2d principal_point_shift_px = Eigen::Vector2d::Zero();
+  Eigen::Vector2d principal_point_sigma_px =
+      Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  /// The turn that shift gives the result: about |(dx / fx, dy / fy)|, deg.
+  double principal_point_turn_deg = 0.0;
+  double principal_point_ms = 0.0;
 };
 
 struct CalibrationOutcome {

@@ -106,7 +106,8 @@ enum class RoutineReason : uint8_t {
   kCameraScaleMismatch = 0x15,    ///< "camera_scale_mismatch"
   kLidarRangeOffset = 0x16,       ///< "lidar_range_offset"
   kTimeOffset = 0x17,             ///< "time_offset_beyond_tolerance"
-  kOther = 0xFF,                  ///< any other reason (the agent's log has the text)
+  kPrincipalPointMismatch = 0x18,  ///< "principal_point_mismatch"
+  kOther = 0xFF,                   ///< any other reason (the agent's log has the text)
 };
 
 /// The results record's code of a reason string of the session machine or the engine
