@@ -636,16 +636,6 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       Fmt(v.max_time_offset_s * 1e3, 0) +
                       " ms: correct the camera's time stamping (its trigger delay and exposure, "
                       "or the clock synchronisation) and calibrate again");
-  if (q.time_offset_fitted &&
-      q.time_offset_sigma_s * q.board_normal_speed_mps > v.max_translation_sigma_m)
-    return Reject(out, "time_offset_beyond_tolerance",
-                  "the boards moved at " + Fmt(q.board_normal_speed_mps, 2) +
-                      " m/s towards or away from the camera, but the camera's time offset is "
-                      "measured only to +-" +
-                      Fmt(q.time_offset_sigma_s * 1e3, 1) + " ms, which moves the translation by " +
-                      Fmt(q.time_offset_sigma_s * q.board_normal_speed_mps * 100.0, 1) +
-                      " cm: drive towards and away from the boards (or vary the speed), or "
-                      "record still poses");
   if (q.rotation_spread_deg > v.max_rotation_spread_deg ||
       q.translation_spread_m > v.max_translation_spread_m)
     return Reject(out, "unstable_solution",

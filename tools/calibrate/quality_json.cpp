@@ -35,6 +35,10 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["time_offset_s"] = offset;
   j["time_offset_sigma_s"] = sigma;
   j["time_offset_corrected_s"] = q.time_offset_corrected_s;
+  // How far an offset as large as its sigma moves the translation (the boards' normal speed
+  // times it): what a session that cannot measure the offset rests on the stamps for.
+  j["time_offset_translation_m"] =
+      sigma.is_null() ? nullptr : nlohmann::json(q.time_offset_sigma_s * q.board_normal_speed_mps);
   nlohmann::json shift = nullptr, shift_sigma = nullptr;
   if (q.principal_point_fitted) {
     shift = {q.principal_point_shift_px.x(), q.principal_point_shift_px.y()};

@@ -22,7 +22,7 @@
 /// - `principal_point_mismatch`: the tags fit a principal point so far from the configured one
 ///   that the result would turn by more than twice the verification tolerance.
 /// - `time_offset_beyond_tolerance`: while driving, the camera's time offset against the LiDAR
-///   is beyond what the engine corrects for, or the drive cannot tell it from a translation.
+///   is beyond what the engine corrects for.
 /// - `high_reprojection_error`: LiDAR-fitted tag corners miss the camera corners (paper Table I).
 /// - `high_residual`: LiDAR board points sit far from their boards under the solution.
 /// - `delta_beyond_tolerance`: the change from the prior exceeds the mechanical tolerance.
@@ -92,9 +92,10 @@ struct VerdictConfig {
   /// Time offset gate (QualityFigures::time_offset_s): the solution is corrected for the camera's
   /// offset against the LiDAR up to this (calibd-bench time-offset: 0-100 ms recovered within
   /// 0.5 ms on the default drive); beyond it and kTimeOffsetSigmas of its sigma the stamping is
-  /// broken rather than late, and the verdict is `time_offset_beyond_tolerance`. So is a session
-  /// whose boards move so that the offset cannot be told from a translation: its sigma times the
-  /// boards' speed along their normals above max_translation_sigma_m.
+  /// broken rather than late, and the verdict is `time_offset_beyond_tolerance`. A session that
+  /// cannot measure the offset (still boards, no capture times, or a drive whose boards' speed
+  /// along their normals hardly varies) relies on the stamps: QualityFigures says how far an
+  /// offset as large as its sigma would move the translation.
   double max_time_offset_s = 0.1;
   /// Paper Table I metric. It measures each board's own LiDAR fit as much as the extrinsic:
   /// measured means over 5 simulated drives (calibd-bench calib) 3.1 px ot128, 4.9 px m1,
