@@ -74,10 +74,10 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
                  const RecordingFaults& faults) {
   const auto t0 = std::chrono::steady_clock::now();
   DetectedSession detected;
-  if (!detected.Init(options, error, lidar, model, faults.config)) return false;
+  if (!detected.Init(options, error, lidar, model, faults.edit_config)) return false;
   const sim::SessionSimulator& session = detected.session();
   drive->seed = options.seed;
-  drive->config = faults.config ? *faults.config : session.UserConfig();
+  drive->config = detected.user_config();
   drive->T_camera_lidar = session.T_camera_lidar();
   const auto& boards = drive->config.boards;
   const int frames = session.num_frames();

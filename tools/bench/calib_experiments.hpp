@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -49,9 +50,9 @@ inline constexpr int kVisibleBoardPoints = 30;
 
 /// Where a recording differs from the simulated truth (the fault campaign, calibd-bench verdicts).
 struct RecordingFaults {
-  /// The user's config (wrong sizes, intrinsics or prior): the detectors and the engine use it.
-  /// Null: the simulator's UserConfig().
-  const CalibConfig* config = nullptr;
+  /// Changes the simulator's UserConfig() into the user's (wrong sizes, intrinsics or prior):
+  /// the detectors and the engine use it. Empty: UserConfig() as it is.
+  std::function<void(CalibConfig*)> edit_config;
   int64_t camera_stamp_shift_us = 0;  ///< added to every camera stamp (a wrong clock)
   bool no_times = false;              ///< frame pairs without capture times (paired by file name)
   /// Each pair stamped with one time, its LiDAR sweep's start, for both sensors: a folder whose

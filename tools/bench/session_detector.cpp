@@ -33,16 +33,18 @@ sim::SessionOptions BenchSessionOptions(const std::string& lidar, unsigned long 
 
 bool DetectedSession::Init(const sim::SessionOptions& options, std::string* error,
                            const LidarDetectorConfig& lidar, const LidarModel* model,
-                           const CalibConfig* user) {
+                           const std::function<void(CalibConfig*)>& edit_user) {
   if (!session_.Init(options, error)) return false;
+  user_ = session_.UserConfig();
+  if (edit_user) edit_user(&user_);
   lidar_config_ = lidar;
-  const auto& geometries = user ? user->boards : session_.workshop().geometries;
+  const auto& geometries = edit_user ? user_.boards : session_.workshop().geometries;
   lidar_detector_.emplace(lidar_config_, model ? *model : session_.lidar_model(), geometries);
   if (!lidar_detector_->ok()) {
     if (error) *error = "LiDAR detector: " + lidar_detector_->error();
     return false;
   }
-  camera_detector_.emplace(CameraDetectorConfig{}, user ? user->camera : options.camera,
+  camera_detector_.emplace(CameraDetectorConfig{}, edit_user ? user_.camera : options.camera,
                            geometries);
   if (!camera_detector_->ok()) {
     if (error) *error = "camera detector: " + camera_detector_->error();

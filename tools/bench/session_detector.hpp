@@ -3,6 +3,7 @@
 /// A simulated session with the real camera and LiDAR detectors built for its boards: the one
 /// place where the benches turn simulated frame pairs into detections.
 
+#include <functional>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -39,13 +40,17 @@ class DetectedSession {
   /// the workshop's boards); the LiDAR detector with `model` when given (e.g. a generic model
   /// estimated from the sweeps), else the simulated sensor's. False with `error` saying what
   /// failed.
-  /// With `user`, both detectors take the board geometry and the camera's intrinsics from that
-  /// config instead of the simulator's (a user's config with wrong figures: the fault campaign).
+  /// With `edit_user`, the user's config (the simulator's UserConfig()) is changed by it, and both
+  /// detectors take the board geometry and the camera's intrinsics from it (a user's config with
+  /// wrong figures: the fault campaign).
   bool Init(const sim::SessionOptions& options, std::string* error,
             const LidarDetectorConfig& lidar = LidarDetectorConfig{},
-            const LidarModel* model = nullptr, const CalibConfig* user = nullptr);
+            const LidarModel* model = nullptr,
+            const std::function<void(CalibConfig*)>& edit_user = nullptr);
 
   const sim::SessionSimulator& session() const { return session_; }
+  /// The config a user would calibrate with: UserConfig(), edited as Init was told.
+  const CalibConfig& user_config() const { return user_; }
   const LidarDetectorConfig& lidar_config() const { return lidar_config_; }
 
   /// Simulates frame pair k and runs the LiDAR detector on its sweep; renders the image and runs
@@ -54,6 +59,7 @@ class DetectedSession {
 
  private:
   sim::SessionSimulator session_;
+  CalibConfig user_;
   LidarDetectorConfig lidar_config_;
   std::optional<LidarDetector> lidar_detector_;
   std::optional<CameraDetector> camera_detector_;
