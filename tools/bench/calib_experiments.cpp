@@ -2,11 +2,14 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <random>
+#include <thread>
 
 #include "calibd/core/grid_search.hpp"
 #include "calibd/core/stats.hpp"
@@ -68,6 +71,32 @@ void ScoreLidar(const FrameDetections& frame, std::vector<int>* board_of_point,
 }
 
 }  // namespace
+
+void ParallelTasks(int count, int threads, const std::function<void(int)>& task,
+                   std::ostream* progress, const std::string& label, const char* unit, int every) {
+  std::atomic<int> next{0}, done{0};
+  std::mutex progress_mutex;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto work = [&] {
+    for (int k = next++; k < count; k = next++) {
+      task(k);
+      const int n = ++done;
+      if (progress && (n % every == 0 || n == count)) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        *progress
+            << label << ": " << n << "/" << count << " " << unit << ", "
+            << std::lround(
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
+            << " s\n"
+            << std::flush;
+      }
+    }
+  };
+  std::vector<std::thread> workers;
+  for (int t = 1; t < std::max(1, threads); ++t) workers.emplace_back(work);
+  work();
+  for (auto& w : workers) w.join();
+}
 
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
                  const LidarDetectorConfig& lidar, const LidarModel* model,

@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,13 @@ struct RecordingFaults {
   /// frames.csv a user wrote for pairs matched by file name, at the sensors' nominal rate.
   bool one_time_per_pair = false;
 };
+
+/// Runs task(k) for k in [0, count) on `threads` threads (the caller's among them), and after
+/// each task, when `progress` is given and `every` divides the number done (or all are done),
+/// prints "`label`: done/count `unit`, seconds" on it.
+void ParallelTasks(int count, int threads, const std::function<void(int)>& task,
+                   std::ostream* progress, const std::string& label, const char* unit,
+                   int every = 1);
 
 /// Simulates every frame pair of a drive and runs the real detectors on it into
 /// `drive->observations`, the way tests/recorded_session.hpp does; the LiDAR detector with

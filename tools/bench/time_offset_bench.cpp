@@ -1,11 +1,7 @@
 #include "time_offset_bench.hpp"
 
-#include <atomic>
-#include <chrono>
 #include <cmath>
-#include <mutex>
 #include <nlohmann/json.hpp>
-#include <thread>
 
 #include "calib_experiments.hpp"
 #include "calibd/core/lidar_model.hpp"
@@ -86,28 +82,12 @@ bool RunTimeOffsetBench(const TimeOffsetBenchOptions& o, std::ostream& out, std:
     drives.push_back({lidar, Stamps::kCameraAtTrigger, 30.0, true});
   }
   std::vector<DriveResult> results(drives.size());
-  std::atomic<int> next{0}, done{0};
-  std::mutex progress_mutex;
-  const auto t0 = std::chrono::steady_clock::now();
-  auto work = [&] {
-    for (int k = next++; k < static_cast<int>(drives.size()); k = next++) {
-      RunDrive(drives[static_cast<size_t>(k)], o.seed, &results[static_cast<size_t>(k)]);
-      const int n = ++done;
-      if (progress) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        *progress
-            << "calibd-bench time-offset: " << n << "/" << drives.size() << " drives, "
-            << std::lround(
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
-            << " s\n"
-            << std::flush;
-      }
-    }
-  };
-  std::vector<std::thread> workers;
-  for (int t = 1; t < std::max(1, o.threads); ++t) workers.emplace_back(work);
-  work();
-  for (auto& w : workers) w.join();
+  ParallelTasks(
+      static_cast<int>(drives.size()), o.threads,
+      [&](int k) {
+        RunDrive(drives[static_cast<size_t>(k)], o.seed, &results[static_cast<size_t>(k)]);
+      },
+      progress, "calibd-bench time-offset", "drives");
 
   out << "Camera time offset, estimated from the boards' motion: the default drive (3 boards, "
          "6-30 m and back, 20 s at 10 Hz; one way: only towards the boards), seed "

@@ -1,15 +1,12 @@
 #include "verdicts_bench.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <functional>
 #include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <random>
-#include <thread>
 
 #include "calib_experiments.hpp"
 #include "calibd/core/geometry.hpp"
@@ -239,29 +236,14 @@ bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ost
     for (int i = 0; i < o.sessions; ++i) indices.push_back(i);
   const int count = static_cast<int>(indices.size());
   std::vector<SessionResult> results(indices.size());
-  std::atomic<int> next{0}, done{0};
-  std::mutex progress_mutex;
   const auto t0 = std::chrono::steady_clock::now();
-  auto work = [&] {
-    for (int k = next++; k < count; k = next++) {
-      SessionResult& r = results[static_cast<size_t>(k)];
-      RunSession(MakeSession(indices[static_cast<size_t>(k)], o.seed, o.quick), &r);
-      const int n = ++done;
-      if (progress && (n % 10 == 0 || n == count)) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        *progress
-            << "calibd-bench verdicts: " << n << "/" << count << " sessions, "
-            << std::lround(
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
-            << " s\n"
-            << std::flush;
-      }
-    }
-  };
-  std::vector<std::thread> workers;
-  for (int t = 1; t < std::max(1, o.threads); ++t) workers.emplace_back(work);
-  work();
-  for (auto& w : workers) w.join();
+  ParallelTasks(
+      count, o.threads,
+      [&](int k) {
+        RunSession(MakeSession(indices[static_cast<size_t>(k)], o.seed, o.quick),
+                   &results[static_cast<size_t>(k)]);
+      },
+      progress, "calibd-bench verdicts", "sessions", 10);
 
   std::map<std::string, Tally> by_fault;
   Tally all;
