@@ -3,10 +3,9 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <vector>
 
-#include "calibd/core/stats.hpp"
+#include "calibd/core/board_distances.hpp"
 
 namespace calibd {
 
@@ -94,76 +93,27 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
 }
 
 TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set, const Pose& T_camera_lidar) {
-  constexpr int kMinPoints = 10;
   TimeOffsetEstimate est;
   if (!set.motion_compensated) return est;
-  struct Row {
-    Eigen::Vector4d a;  // n, n . u
-    double y;           // d_camera - d_lidar
-    int block;
-  };
-  std::vector<Row> rows;
-  rows.reserve(set.observations.size());
-  std::vector<double> along;
-  std::map<std::pair<int, int>, int> blocks;
+  DistanceFitter<4> fitter;
   double speed2 = 0.0;
-  for (const BoardObservation& o : set.observations) {
-    if (o.num_points < kMinPoints) continue;
-    const Eigen::Vector3d n = o.T_camera_board.linear().col(2);
-    along.clear();
-    for (int p = 0; p < o.num_points; ++p)
-      along.push_back(n.dot(T_camera_lidar *
-                            set.points[static_cast<size_t>(o.first_point + p)].cast<double>()));
-    const double nu = o.has_velocity ? n.dot(o.velocity) : 0.0;
+  for (const BoardDistance& b : BoardDistances(set, T_camera_lidar)) {
+    const BoardObservation& o = *b.observation;
+    const double nu = o.has_velocity ? b.normal.dot(o.velocity) : 0.0;
     if (o.has_velocity) {
       ++est.observations;
       speed2 += nu * nu;
     }
-    const auto key = std::make_pair(o.board_index, o.frame / kTimeOffsetBlockFrames);
-    const int block = blocks.emplace(key, static_cast<int>(blocks.size())).first->second;
-    // PnP's distance error grows with the distance over the tag's size in the image (d / s_px):
-    // each row is weighted by the inverse of that, so that small far tags do not drown the rest.
-    double side_px = 0.0;
-    for (int c = 0; c < 4; ++c) side_px += (o.corners_px[c] - o.corners_px[(c + 1) % 4]).norm();
-    const double d = o.T_camera_board.translation().norm();
-    const double w = d > 0.0 && side_px > 0.0 ? side_px / 4.0 / d : 0.0;
-    if (!(w > 0.0) || !std::isfinite(w)) continue;
-    rows.push_back({w * Eigen::Vector4d(n.x(), n.y(), n.z(), nu),
-                    w * (n.dot(o.T_camera_board.translation()) - Quantile(along, 0.5)), block});
+    fitter.Add(o, b.weight * Eigen::Vector4d(b.normal.x(), b.normal.y(), b.normal.z(), nu),
+               b.weight * (b.camera_m - b.lidar_m));
   }
   if (est.observations < kMinTimeOffsetObservations) return est;
   est.normal_speed_rms_mps = std::sqrt(speed2 / est.observations);
-  const int m = static_cast<int>(rows.size());
-  const int g = static_cast<int>(blocks.size());
-  if (m <= 4 || g <= 4) return est;
-  Eigen::Matrix4d AtA = Eigen::Matrix4d::Zero();
-  Eigen::Vector4d Aty = Eigen::Vector4d::Zero();
-  for (const Row& r : rows) {
-    AtA += r.a * r.a.transpose();
-    Aty += r.a * r.y;
-  }
-  const Eigen::FullPivLU<Eigen::Matrix4d> lu(AtA);
-  if (!lu.isInvertible()) return est;
-  const Eigen::Vector4d x = lu.solve(Aty);
-  const Eigen::Matrix4d inv = lu.inverse();
-  // Least squares: inv s^2; cluster-robust (sandwich over the blocks): inv B inv g / (g - 1),
-  // B = sum over blocks of (A_b^T e_b)(A_b^T e_b)^T.
-  std::vector<Eigen::Vector4d> score(static_cast<size_t>(g), Eigen::Vector4d::Zero());
-  double sse = 0.0;
-  for (const Row& r : rows) {
-    const double e = r.y - r.a.dot(x);
-    sse += e * e;
-    score[static_cast<size_t>(r.block)] += r.a * e;
-  }
-  Eigen::Matrix4d B = Eigen::Matrix4d::Zero();
-  for (const Eigen::Vector4d& s : score) B += s * s.transpose();
-  const double var_ls = inv(3, 3) * sse / (m - 4);
-  const double var_cluster = (inv * B * inv)(3, 3) * g / (g - 1);
-  const double var = std::max(var_ls, var_cluster);
-  if (!std::isfinite(x(3)) || !(var >= 0.0)) return est;
+  const DistanceFit<4> fit = fitter.Fit();
+  if (fit.rows <= 4 || fit.blocks <= 4 || !fit.fitted) return est;
   est.fitted = true;
-  est.offset_s = x(3);
-  est.sigma_s = std::sqrt(var);
+  est.offset_s = fit.x(3);
+  est.sigma_s = fit.Sigma(3, 0);
   return est;
 }
 

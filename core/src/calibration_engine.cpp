@@ -13,6 +13,7 @@
 #include <sstream>
 #include <thread>
 
+#include "calibd/core/board_distances.hpp"
 #include "calibd/core/board_fit.hpp"
 #include "calibd/core/stats.hpp"
 
@@ -46,7 +47,7 @@ std::string Fmt(double v, int precision = 3) {
 // Paper Table I errors of observations [begin, end) of `set` into errors_px[4k .. 4k+3] (NaN
 // where a corner has none). `T_camera_board_start` (one per observation, or empty): where each
 // board's fit starts.
-void ReprojectionErrors(const CalibConfig& config, const CameraModel& camera,
+void ReprojectionErrors(const std::vector<BoardGeometry>& boards, const CameraModel& camera,
                         const ObservationSet& set, const Pose& T_cl,
                         const DirectOptimizerConfig& direct,
                         const std::vector<Pose>& T_camera_board_start, size_t begin, size_t end,
@@ -55,7 +56,7 @@ void ReprojectionErrors(const CalibConfig& config, const CameraModel& camera,
   std::array<Eigen::Vector2d, 4> px;
   for (size_t k = begin; k < end; ++k) {
     const BoardObservation& o = set.observations[k];
-    const bool fitted = FittedTagCornersPx(camera, config.boards, set, o, T_cl, direct, &px,
+    const bool fitted = FittedTagCornersPx(camera, boards, set, o, T_cl, direct, &px,
                                            warm ? &T_camera_board_start[k] : nullptr);
     for (int c = 0; c < 4; ++c)
       errors_px[4 * k + c] = fitted && px[c].allFinite() ? (px[c] - o.corners_px[c]).norm()
@@ -212,75 +213,62 @@ int DropBoardsThatDoNotFit(const std::vector<BoardGeometry>& boards, const Direc
 
 }  // namespace
 
-// Camera-LiDAR scale agreement. Per board: the camera's distance to its plane along the plane's
-// normal n (PnP, d = n . t) and the LiDAR's (the median of n . p over its points in the camera
-// frame under the solution). A tag size or focal length wrong by a factor s makes every camera
-// distance s d; a translation error c adds n . c. The least-squares fit of
-// d_camera - d_lidar = e d_camera + n . c over the boards gives e (the scale error, what a
-// translation cannot explain) and its standard deviation from the fit's residuals.
-void CameraScaleFigures(const ObservationSet& set, const Pose& T_camera_lidar, QualityFigures* q) {
-  constexpr int kMinPoints = 10;
-  // Per board: d_camera, the normal n, -(n . u) with u the mean ray direction from the LiDAR to
-  // the board's points (a range offset b moves the LiDAR's plane by b (n . u)), and the
-  // difference d_camera - d_lidar.
-  std::vector<Eigen::Matrix<double, 6, 1>> rows;
-  std::vector<double> along;
-  const Eigen::Vector3d lidar_origin = T_camera_lidar.translation();
-  for (const BoardObservation& o : set.observations) {
-    if (o.num_points < kMinPoints) continue;
-    Eigen::Vector3d n = o.T_camera_board.linear().col(2);
-    double d_camera = n.dot(o.T_camera_board.translation());
-    if (d_camera < 0.0) {
-      n = -n;
-      d_camera = -d_camera;
-    }
-    along.clear();
-    Eigen::Vector3d ray = Eigen::Vector3d::Zero();
-    for (int p = 0; p < o.num_points; ++p) {
-      const Eigen::Vector3d p_camera =
-          T_camera_lidar * set.points[static_cast<size_t>(o.first_point + p)].cast<double>();
-      along.push_back(n.dot(p_camera));
-      ray += (p_camera - lidar_origin).normalized();
-    }
-    const double d_lidar = Quantile(along, 0.5);
-    Eigen::Matrix<double, 6, 1> row;
-    row << d_camera, n.x(), n.y(), n.z(), -n.dot(ray.normalized()), d_camera - d_lidar;
-    rows.push_back(row);
+CameraScaleEstimate EstimateCameraScale(const ObservationSet& set, const Pose& T_camera_lidar) {
+  CameraScaleEstimate est;
+  const std::vector<BoardDistance> rows = BoardDistances(set, T_camera_lidar);
+  if (static_cast<int>(rows.size()) < kMinScaleBoards) return est;
+  DistanceFitter<4> scale;
+  DistanceFitter<5> range;
+  double near = rows[0].camera_m, far = rows[0].camera_m, distance = 0.0;
+  for (const BoardDistance& b : rows) {
+    const Eigen::Vector3d& n = b.normal;
+    Eigen::Matrix<double, 5, 1> a;
+    a << b.camera_m, n.x(), n.y(), n.z(), -n.dot(b.mean_ray);
+    // Unweighted: near the boards the LiDAR's own scatter, not PnP's, limits a row (weighting by
+    // PnP's error, as the time offset does, put a clean still session's scale and range offset
+    // at 8 and 4 sigma on the nearest boards).
+    const double y = b.camera_m - b.lidar_m;
+    scale.Add(*b.observation, a.head<4>(), y);
+    range.Add(*b.observation, a, y);
+    near = std::min(near, b.camera_m);
+    far = std::max(far, b.camera_m);
+    distance += b.camera_m;
   }
-  const int m = static_cast<int>(rows.size());
-  if (m < kMinScaleBoards) return;
-  // Least squares of the last column on the first `k`: the solution and its covariance (from
-  // the residuals); false when the boards leave it undetermined.
-  auto fit = [&](int k, Eigen::VectorXd* x, Eigen::MatrixXd* cov) {
-    if (m <= k) return false;
-    Eigen::MatrixXd A(m, k);
-    Eigen::VectorXd y(m);
-    for (int i = 0; i < m; ++i) {
-      A.row(i) = rows[static_cast<size_t>(i)].head(k).transpose();
-      y(i) = rows[static_cast<size_t>(i)](5);
-    }
-    const Eigen::FullPivLU<Eigen::MatrixXd> lu(A.transpose() * A);
-    if (!lu.isInvertible()) return false;
-    *x = lu.solve(A.transpose() * y);
-    *cov = lu.inverse() * ((A * *x - y).squaredNorm() / (m - k));
-    return true;
-  };
-  Eigen::VectorXd x;
-  Eigen::MatrixXd cov;
+  est.distance_m = distance / static_cast<double>(rows.size());
+  const DistanceFit<5> r = range.Fit();
+  if (r.fitted) {
+    est.range_offset_fitted = true;
+    est.range_offset_m = r.x(4);
+    est.range_offset_sigma_m = r.Sigma(4, kMinScaleClusterBlocks);
+  }
   // A scale shows only over a spread of distances: boards all at one distance leave it to the
-  // translation (the fit would be noise).
-  double near = rows[0](0), far = rows[0](0);
-  for (const auto& r : rows) {
-    near = std::min(near, r(0));
-    far = std::max(far, r(0));
+  // translation (the fit would be noise). With the range offset beside it where the boards'
+  // directions can tell that from a translation: still poses near and far would otherwise take
+  // part of a range offset for a scale.
+  if (far - near < kMinScaleDistanceSpread * far) return est;
+  if (r.fitted) {
+    est.scale_fitted = true;
+    est.scale = r.x(0);
+    est.scale_sigma = r.Sigma(0, kMinScaleClusterBlocks);
+    return est;
   }
-  if (far - near >= kMinScaleDistanceSpread * far && fit(4, &x, &cov)) {
-    q->camera_scale_error = x(0);
-    q->camera_scale_sigma = std::sqrt(std::max(0.0, cov(0, 0)));
+  const DistanceFit<4> s = scale.Fit();
+  if (s.fitted) {
+    est.scale_fitted = true;
+    est.scale = s.x(0);
+    est.scale_sigma = s.Sigma(0, kMinScaleClusterBlocks);
   }
-  if (fit(5, &x, &cov)) {
-    q->lidar_range_offset_m = x(4);
-    q->lidar_range_offset_sigma_m = std::sqrt(std::max(0.0, cov(4, 4)));
+  return est;
+}
+
+void ScaleCameraPatterns(double factor, std::vector<BoardGeometry>* boards, ObservationSet* set) {
+  for (BoardGeometry& g : *boards) {
+    g.tag_size_m *= factor;
+    g.checker_square_size_m *= factor;
+  }
+  for (BoardObservation& o : set->observations) {
+    o.T_camera_board.translation() *= factor;
+    o.velocity *= factor;
   }
 }
 
@@ -390,22 +378,24 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
 
   const CameraModel camera(config.camera);
   const auto t_opt = Clock::now();
+  // The boards as the solve sees them: the configured ones, their patterns scaled when the
+  // camera's scale is corrected (correct_camera_scale below).
+  std::vector<BoardGeometry> boards = config.boards;
   DirectResult direct;
   if (engine.method == EngineConfig::Method::kIndirect) {
     const IndirectResult ind =
-        OptimizeIndirect(config.boards, corr, camera, out.grid.T_camera_lidar, engine.indirect);
+        OptimizeIndirect(boards, corr, camera, out.grid.T_camera_lidar, engine.indirect);
     if (!ind.usable) return Reject(out, "solver_failed", "indirect method: " + ind.reason);
-    direct = OptimizeDirect(config.boards, corr, ind.T_camera_lidar, engine.direct, nullptr, false);
+    direct = OptimizeDirect(boards, corr, ind.T_camera_lidar, engine.direct, nullptr, false);
     direct.T_camera_lidar = ind.T_camera_lidar;
   } else {
     auto solve = [&] {
-      return OptimizeDirect(config.boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr,
-                            true, &camera);
+      return OptimizeDirect(boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr, true,
+                            &camera);
     };
     // A camera running behind its stamps biases the solution along the boards' motion: its offset
     // is measured under the solution, the points moved to the camera's capture time, and solved
-    // again (board_motion.hpp, EstimateTimeOffset). Once before dropping boards that do not fit
-    // (a large offset would make moving boards look unfitting) and once after.
+    // again (board_motion.hpp, EstimateTimeOffset).
     auto correct_time_offset = [&] {
       const TimeOffsetEstimate t = EstimateTimeOffset(corr, direct.T_camera_lidar);
       if (!t.fitted || std::fabs(t.offset_s) <= kTimeOffsetSigmas * t.sigma_s) return false;
@@ -413,13 +403,39 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
       direct = solve();
       return true;
     };
+    // A tag printed at another size than configured (or a focal length off) scales every PnP
+    // distance, which the translation would take up in proportion to the boards' distance: where
+    // the boards' distances spread enough to measure it, the camera's patterns and distances are
+    // scaled to the LiDAR's and the session solved again, as far as max_camera_scale_error
+    // (beyond it the configuration is wrong, and the gate below refuses).
+    auto correct_camera_scale = [&] {
+      const CameraScaleEstimate e = EstimateCameraScale(corr, direct.T_camera_lidar);
+      // Only a scale that matters to the verdict: one that moves the translation by less than
+      // the verification tolerance leaves the result within it (and PnP's own distance bias on
+      // small far tags, a share of a per mille, would be taken for one).
+      if (!e.scale_fitted || std::fabs(e.scale) <= kScaleSigmas * e.scale_sigma ||
+          std::fabs(e.scale) * e.distance_m <= v.verify_translation_m)
+        return false;
+      const double total = (1.0 + q.camera_scale_corrected) * (1.0 + e.scale) - 1.0;
+      if (std::fabs(total) > v.max_camera_scale_error) return false;
+      ScaleCameraPatterns(1.0 / (1.0 + e.scale), &boards, &corr);
+      q.camera_scale_corrected = total;
+      direct = solve();
+      return true;
+    };
+    // Both corrections once before dropping boards that do not fit (a large offset or scale
+    // would make good boards look unfitting), and once after.
+    auto correct = [&] {
+      if (correct_time_offset() && !direct.usable) return false;
+      return !(correct_camera_scale() && !direct.usable);
+    };
     direct = solve();
     if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
-    if (correct_time_offset() && !direct.usable) return Reject(out, "solver_failed", direct.reason);
+    if (!correct()) return Reject(out, "solver_failed", direct.reason);
     // A board paired with a cluster that is not on it pulls the solution: dropped, then solved
     // again without it, until none is dropped (a pulled solution can hide some at first).
     for (int round = 0; round < kMaxDropRounds; ++round) {
-      const int dropped = DropBoardsThatDoNotFit(config.boards, direct, &corr);
+      const int dropped = DropBoardsThatDoNotFit(boards, direct, &corr);
       if (dropped == 0) break;
       out.dropped_correspondences += dropped;
       CoverageFigures(config, corr, &q);
@@ -430,7 +446,7 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
       direct = solve();
       if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
     }
-    if (correct_time_offset() && !direct.usable) return Reject(out, "solver_failed", direct.reason);
+    if (!correct()) return Reject(out, "solver_failed", direct.reason);
   }
   out.optimise_ms = Ms(t_opt);
   out.T_camera_lidar = direct.T_camera_lidar;
@@ -448,7 +464,18 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   q.information = direct.information;
   q.min_information_eigenvalue = direct.min_information_eigenvalue;
   FormalSigmas(direct.information, direct.residual_rms_m, &q);
-  CameraScaleFigures(corr, out.T_camera_lidar, &q);
+  {
+    const CameraScaleEstimate e = EstimateCameraScale(corr, out.T_camera_lidar);
+    if (e.scale_fitted) {
+      q.camera_scale_error = (1.0 + q.camera_scale_corrected) * (1.0 + e.scale) - 1.0;
+      q.camera_scale_sigma = e.scale_sigma;
+      q.camera_scale_translation_m = e.scale_sigma * e.distance_m;
+    }
+    if (e.range_offset_fitted) {
+      q.lidar_range_offset_m = e.range_offset_m;
+      q.lidar_range_offset_sigma_m = e.range_offset_sigma_m;
+    }
+  }
   {
     const auto t_pp = Clock::now();
     const PrincipalPointEstimate pp = EstimatePrincipalPoint(config.camera, config.boards, session);
@@ -508,16 +535,15 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   auto work = [&] {
     for (int task = next++; task < runs + starts + chunks; task = next++) {
       if (task < runs) {
-        half[task] = ResolveWithHeldBoards(config.boards, corr, out.T_camera_lidar, one,
+        half[task] = ResolveWithHeldBoards(boards, corr, out.T_camera_lidar, one,
                                            direct.T_camera_board, &use[task]);
       } else if (task < runs + starts) {
         const int k = task - runs;
-        started[static_cast<size_t>(k)] =
-            OptimizeDirect(config.boards, corr, StartCheckPose(out.T_camera_lidar, k), one, nullptr,
-                           true, &camera);
+        started[static_cast<size_t>(k)] = OptimizeDirect(
+            boards, corr, StartCheckPose(out.T_camera_lidar, k), one, nullptr, true, &camera);
       } else {
         const size_t c = static_cast<size_t>(task - runs - starts);
-        ReprojectionErrors(config, camera, corr, out.T_camera_lidar, engine.direct,
+        ReprojectionErrors(boards, camera, corr, out.T_camera_lidar, engine.direct,
                            direct.T_camera_board, n * c / chunks, n * (c + 1) / chunks,
                            errors_px.data());
       }
@@ -670,6 +696,12 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                    ? "the prior calibration is confirmed"
                    : "the extrinsic changed by " + Fmt(out.delta_rotation_deg) + " deg / " +
                          Fmt(out.delta_translation_m) + " m";
+  if (q.camera_scale_corrected != 0.0)
+    out.detail += "; the camera's board distances were " +
+                  Fmt(std::fabs(q.camera_scale_corrected) * 100.0, 2) + " % " +
+                  (q.camera_scale_corrected > 0.0 ? "longer" : "shorter") +
+                  " than the LiDAR's and were corrected: measure the printed tag (or checkerboard "
+                  "square) and check the camera's focal length";
   return out;
 }
 

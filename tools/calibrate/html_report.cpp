@@ -481,9 +481,12 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += at_most("solves from other starts, translation [m]", q.start_translation_m, 4,
                v.max_start_translation_m, 4);
   if (std::isfinite(q.camera_scale_error))
-    s += at_most(
-        "camera vs LiDAR scale error [%] (sigma " + Num(q.camera_scale_sigma * 100.0, 3) + ")",
-        std::fabs(q.camera_scale_error) * 100.0, 3, v.max_camera_scale_error * 100.0, 3);
+    s += at_most("camera vs LiDAR scale error [%] (sigma " + Num(q.camera_scale_sigma * 100.0, 3) +
+                     (q.camera_scale_corrected != 0.0
+                          ? "; corrected for " + Num(q.camera_scale_corrected * 100.0, 3)
+                          : std::string()) +
+                     ")",
+                 std::fabs(q.camera_scale_error) * 100.0, 3, v.max_camera_scale_error * 100.0, 3);
   if (std::isfinite(q.lidar_range_offset_m))
     s += at_most("LiDAR range offset [m] (sigma " + Num(q.lidar_range_offset_sigma_m, 4) + ")",
                  std::fabs(q.lidar_range_offset_m), 4, v.max_lidar_range_offset_m, 4);

@@ -23,6 +23,8 @@ nlohmann::json QualityJson(const QualityFigures& q) {
                       {"start_translation_m", q.start_translation_m},
                       {"camera_scale_error", q.camera_scale_error},
                       {"camera_scale_sigma", q.camera_scale_sigma},
+                      {"camera_scale_corrected", q.camera_scale_corrected},
+                      {"camera_scale_translation_m", q.camera_scale_translation_m},
                       {"lidar_range_offset_m", q.lidar_range_offset_m},
                       {"lidar_range_offset_sigma_m", q.lidar_range_offset_sigma_m},
                       {"board_normal_speed_mps", q.board_normal_speed_mps}};

@@ -75,12 +75,11 @@ struct VerdictConfig {
   /// verification tolerance would not change what the verdict means.
   double max_start_rotation_deg = 0.1;
   double max_start_translation_m = 0.01;
-  /// Scale gate (QualityFigures::camera_scale_error): the camera's board distances may differ
-  /// from the LiDAR's by at most this share, unless the difference is within kScaleSigmas of its
-  /// own sigma. A tag size or focal length 1 % off moves the extrinsic by several centimetres
-  /// at 4-14 m (calibd-bench verdicts). Correct sessions measure up to 0.5-0.7 % where far tags
-  /// are small in the image (PnP's distances then carry a bias: 13 px tags at 30 m with
-  /// fx = 831, the agent_diag_vmtest drive), so the gate is a backstop for large errors.
+  /// Scale (QualityFigures::camera_scale_error): a tag size or focal length 1 % off moves the
+  /// translation by 1 % of the boards' distance, more than the verification tolerance beyond a
+  /// metre and a half. Measured beyond kScaleSigmas of its sigma, the session is corrected for it
+  /// up to this share (QualityFigures::camera_scale_corrected); beyond, the configuration is wrong
+  /// and the verdict is `camera_scale_mismatch`.
   double max_camera_scale_error = 0.015;
   /// Range offset gate (QualityFigures::lidar_range_offset_m): beyond this and kScaleSigmas of its
   /// sigma, `lidar_range_offset`. An offset moves the translation by about as much along the
@@ -165,6 +164,13 @@ struct QualityFigures {
   /// tag size or focal length scales every PnP distance; a translation cannot absorb that.
   double camera_scale_error = std::numeric_limits<double>::quiet_NaN();
   double camera_scale_sigma = std::numeric_limits<double>::quiet_NaN();
+  /// What the solution was corrected for (the camera's patterns and distances scaled by
+  /// 1 / (1 + it)): the scale error when it exceeded kScaleSigmas of its sigma and stayed within
+  /// VerdictConfig::max_camera_scale_error, else 0. camera_scale_error includes it.
+  double camera_scale_corrected = 0.0;
+  /// How far a scale error as large as its sigma moves the translation (sigma x the boards'
+  /// distance): what the result rests on the tag size for; NaN where the scale is not fitted.
+  double camera_scale_translation_m = std::numeric_limits<double>::quiet_NaN();
   /// A constant LiDAR range offset fitted in the same way (with the scale and a translation),
   /// m, and its standard deviation: large when the boards' directions cannot tell it from a
   /// translation (all in front of the LiDAR). NaN with too few boards.
@@ -220,10 +226,37 @@ struct CalibrationOutcome {
 
 const char* VerdictName(CalibrationOutcome::Verdict v);
 
-/// Fills QualityFigures::camera_scale_error and camera_scale_sigma from the correspondences'
-/// camera board poses and LiDAR points under `T_camera_lidar` (left NaN with fewer than
-/// kMinScaleBoards boards of enough points).
-void CameraScaleFigures(const ObservationSet& set, const Pose& T_camera_lidar, QualityFigures* q);
+/// Camera-LiDAR distance agreement (board_distances.hpp). Per board, the camera's distance to its
+/// plane along the normal n (PnP) and the LiDAR's (its points under the solution). A tag size or
+/// focal length wrong by a factor 1 + e makes every camera distance (1 + e) d; a translation
+/// error c adds n . c; a LiDAR range offset b adds b (n . u), u the mean ray to the board's
+/// points. The least-squares fit of d_camera - d_lidar = e d_camera + n . c + b (n . u) gives e
+/// (what a translation cannot explain) and b, each with the larger of its least-squares and
+/// cluster-robust sigmas; e without b where the boards leave b undetermined.
+struct CameraScaleEstimate {
+  /// Fitted over kMinScaleBoards boards or more whose distances spread by
+  /// kMinScaleDistanceSpread of the farthest.
+  bool scale_fitted = false;
+  double scale = 0.0;  ///< e: the camera's distances are 1 + e times the LiDAR's
+  double scale_sigma = std::numeric_limits<double>::infinity();
+  bool range_offset_fitted = false;
+  double range_offset_m = 0.0;
+  double range_offset_sigma_m = std::numeric_limits<double>::infinity();
+  /// The boards' mean distance: a scale e moves the translation by about e distance_m.
+  double distance_m = 0.0;
+};
+
+/// The cluster-robust sigma counts over this many blocks of a board's frames (fewer, e.g. still
+/// poses, leave only the least-squares one).
+inline constexpr int kMinScaleClusterBlocks = 8;
+
+CameraScaleEstimate EstimateCameraScale(const ObservationSet& set, const Pose& T_camera_lidar);
+
+/// The camera's view of a session whose patterns are `factor` times their configured size:
+/// every PnP distance scales by it (PnP is scale-equivariant), so each observation's board
+/// translation and velocity does, and the patterns' sizes in `boards` (the corners the board-pose
+/// refinement fits). The boards' outlines, which the LiDAR measures, stay.
+void ScaleCameraPatterns(double factor, std::vector<BoardGeometry>* boards, ObservationSet* set);
 
 /// The image coverage grid (QualityFigures::image_coverage, the agent's coverage gate): the image
 /// in kImageGridSide x kImageGridSide cells.
