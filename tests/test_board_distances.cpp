@@ -63,7 +63,7 @@ TEST(BoardDistancesTest, BothSensorsDistancesAlongTheNormalAndWhatARangeOffsetAd
 TEST(BoardDistancesTest, TheFitRecoversItsUnknownsAndItsSigmaCountsErrorsSharedWithinABlock) {
   std::mt19937 rng(7);
   std::normal_distribution<double> shared(0.0, 0.1), own(0.0, 0.01), spread(0.0, 1.0);
-  DistanceFitter<2> fitter;
+  DistanceFitter fitter(2);
   for (int block = 0; block < 40; ++block) {
     BoardObservation o;
     o.board_index = 0;
@@ -74,7 +74,7 @@ TEST(BoardDistancesTest, TheFitRecoversItsUnknownsAndItsSigmaCountsErrorsSharedW
       fitter.Add(o, a, 2.0 * a(0) - a(1) + e + own(rng));
     }
   }
-  const DistanceFit<2> fit = fitter.Fit();
+  const DistanceFit fit = fitter.Fit();
   ASSERT_TRUE(fit.fitted);
   EXPECT_EQ(fit.rows, 400);
   EXPECT_EQ(fit.blocks, 40);
@@ -85,11 +85,11 @@ TEST(BoardDistancesTest, TheFitRecoversItsUnknownsAndItsSigmaCountsErrorsSharedW
   EXPECT_NEAR(fit.x(0), 2.0, 4.0 * cluster);
   EXPECT_NEAR(fit.x(1), -1.0, 4.0 * std::sqrt(fit.cov_cluster(1, 1)));
   // As many rows as unknowns, or a column of zeros: not fitted.
-  DistanceFitter<2> few;
+  DistanceFitter few(2);
   few.Add(BoardObservation{}, Eigen::Vector2d(1.0, 0.0), 1.0);
   few.Add(BoardObservation{}, Eigen::Vector2d(0.0, 1.0), 1.0);
   EXPECT_FALSE(few.Fit().fitted);
-  DistanceFitter<2> singular;
+  DistanceFitter singular(2);
   for (int k = 0; k < 5; ++k) singular.Add(BoardObservation{}, Eigen::Vector2d(k, 0.0), k);
   EXPECT_FALSE(singular.Fit().fitted);
 }

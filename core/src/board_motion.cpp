@@ -95,7 +95,7 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
 TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set, const Pose& T_camera_lidar) {
   TimeOffsetEstimate est;
   if (!set.motion_compensated) return est;
-  DistanceFitter<4> fitter;
+  DistanceFitter fitter(4);
   double speed2 = 0.0;
   for (const BoardDistance& b : BoardDistances(set, T_camera_lidar)) {
     const BoardObservation& o = *b.observation;
@@ -109,7 +109,7 @@ TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set, const Pose& T_c
   }
   if (est.observations < kMinTimeOffsetObservations) return est;
   est.normal_speed_rms_mps = std::sqrt(speed2 / est.observations);
-  const DistanceFit<4> fit = fitter.Fit();
+  const DistanceFit fit = fitter.Fit();
   if (fit.rows <= 4 || fit.blocks <= 4 || !fit.fitted) return est;
   est.fitted = true;
   est.offset_s = fit.x(3);

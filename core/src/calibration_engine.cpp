@@ -217,46 +217,49 @@ CameraScaleEstimate EstimateCameraScale(const ObservationSet& set, const Pose& T
   CameraScaleEstimate est;
   const std::vector<BoardDistance> rows = BoardDistances(set, T_camera_lidar);
   if (static_cast<int>(rows.size()) < kMinScaleBoards) return est;
-  DistanceFitter<4> scale;
-  DistanceFitter<5> range;
+  // While driving, what is left of the camera's time offset adds tau (n . v) (board_motion.hpp):
+  // fitted beside the scale where the boards' velocities are known, or a camera corrected for a
+  // large offset would leave part of it to the scale.
+  int moving = 0;
+  for (const BoardDistance& b : rows) moving += b.observation->has_velocity;
+  const bool timed = set.motion_compensated && moving >= kMinTimeOffsetObservations;
+  const int k = timed ? 5 : 4;
+  DistanceFitter scale(k), range(k + 1);
   double near = rows[0].camera_m, far = rows[0].camera_m, distance = 0.0;
+  Eigen::VectorXd a(k + 1);
   for (const BoardDistance& b : rows) {
     const Eigen::Vector3d& n = b.normal;
-    Eigen::Matrix<double, 5, 1> a;
-    a << b.camera_m, n.x(), n.y(), n.z(), -n.dot(b.mean_ray);
+    const BoardObservation& o = *b.observation;
     // Unweighted: near the boards the LiDAR's own scatter, not PnP's, limits a row (weighting by
     // PnP's error, as the time offset does, put a clean still session's scale and range offset
     // at 8 and 4 sigma on the nearest boards).
+    a.head<4>() << b.camera_m, n.x(), n.y(), n.z();
+    if (timed) a(4) = o.has_velocity ? n.dot(o.velocity) : 0.0;
     const double y = b.camera_m - b.lidar_m;
-    scale.Add(*b.observation, a.head<4>(), y);
-    range.Add(*b.observation, a, y);
+    scale.Add(o, a.head(k), y);
+    a(k) = -n.dot(b.mean_ray);
+    range.Add(o, a, y);
     near = std::min(near, b.camera_m);
     far = std::max(far, b.camera_m);
     distance += b.camera_m;
   }
   est.distance_m = distance / static_cast<double>(rows.size());
-  const DistanceFit<5> r = range.Fit();
+  const DistanceFit r = range.Fit();
   if (r.fitted) {
     est.range_offset_fitted = true;
-    est.range_offset_m = r.x(4);
-    est.range_offset_sigma_m = r.Sigma(4, kMinScaleClusterBlocks);
+    est.range_offset_m = r.x(k);
+    est.range_offset_sigma_m = r.Sigma(k, kMinScaleClusterBlocks);
   }
   // A scale shows only over a spread of distances: boards all at one distance leave it to the
   // translation (the fit would be noise). With the range offset beside it where the boards'
   // directions can tell that from a translation: still poses near and far would otherwise take
   // part of a range offset for a scale.
   if (far - near < kMinScaleDistanceSpread * far) return est;
-  if (r.fitted) {
+  const DistanceFit& fit = r.fitted ? r : scale.Fit();
+  if (fit.fitted) {
     est.scale_fitted = true;
-    est.scale = r.x(0);
-    est.scale_sigma = r.Sigma(0, kMinScaleClusterBlocks);
-    return est;
-  }
-  const DistanceFit<4> s = scale.Fit();
-  if (s.fitted) {
-    est.scale_fitted = true;
-    est.scale = s.x(0);
-    est.scale_sigma = s.Sigma(0, kMinScaleClusterBlocks);
+    est.scale = fit.x(0);
+    est.scale_sigma = fit.Sigma(0, kMinScaleClusterBlocks);
   }
   return est;
 }
@@ -410,11 +413,12 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     // (beyond it the configuration is wrong, and the gate below refuses).
     auto correct_camera_scale = [&] {
       const CameraScaleEstimate e = EstimateCameraScale(corr, direct.T_camera_lidar);
-      // Only a scale that matters to the verdict: one that moves the translation by less than
-      // the verification tolerance leaves the result within it (and PnP's own distance bias on
-      // small far tags, a share of a per mille, would be taken for one).
-      if (!e.scale_fitted || std::fabs(e.scale) <= kScaleSigmas * e.scale_sigma ||
-          std::fabs(e.scale) * e.distance_m <= v.verify_translation_m)
+      // Only a scale that would make the result wrong (kCorrectedScaleTolerances); once one
+      // was corrected, what the second pass finds left of it counts beyond its sigma.
+      const bool matters =
+          q.camera_scale_corrected != 0.0 ||
+          std::fabs(e.scale) * e.distance_m > kCorrectedScaleTolerances * v.verify_translation_m;
+      if (!e.scale_fitted || std::fabs(e.scale) <= kScaleSigmas * e.scale_sigma || !matters)
         return false;
       const double total = (1.0 + q.camera_scale_corrected) * (1.0 + e.scale) - 1.0;
       if (std::fabs(total) > v.max_camera_scale_error) return false;

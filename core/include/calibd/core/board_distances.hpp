@@ -43,19 +43,17 @@ inline constexpr int kDistanceBlockFrames = 10;
 /// One row per observation of `set` with kMinBoardDistancePoints points or more.
 std::vector<BoardDistance> BoardDistances(const ObservationSet& set, const Pose& T_camera_lidar);
 
-/// Weighted least squares y = A x over rows (already weighted) grouped in blocks of
+/// Weighted least squares y = a . x over rows (already weighted) grouped in blocks of
 /// kDistanceBlockFrames frames of a board, with two covariances: the least-squares one from the
 /// residuals, and the cluster-robust sandwich over the blocks (Liang & Zeger), which also counts
 /// errors shared within a block.
-template <int K>
 struct DistanceFit {
   bool fitted = false;  ///< more rows than unknowns, and A^T A invertible
-  Eigen::Matrix<double, K, 1> x = Eigen::Matrix<double, K, 1>::Zero();
-  Eigen::Matrix<double, K, K> cov_ls = Eigen::Matrix<double, K, K>::Zero();
-  Eigen::Matrix<double, K, K> cov_cluster = Eigen::Matrix<double, K, K>::Zero();
+  Eigen::VectorXd x;
+  Eigen::MatrixXd cov_ls, cov_cluster;
   int rows = 0, blocks = 0;
-  /// The larger of the two sigmas of unknown i (the cluster one only over enough blocks to be
-  /// estimated).
+  /// The larger of the two sigmas of unknown i (the cluster one only over `min_blocks` blocks or
+  /// more, fewer being too few to estimate it).
   double Sigma(int i, int min_blocks) const {
     const double ls = cov_ls(i, i);
     const double cluster = blocks >= min_blocks ? cov_cluster(i, i) : 0.0;
@@ -63,56 +61,58 @@ struct DistanceFit {
   }
 };
 
-template <int K>
 class DistanceFitter {
  public:
-  /// Adds the row a . x = y (a and y weighted by the caller) of observation `o`.
-  void Add(const BoardObservation& o, const Eigen::Matrix<double, K, 1>& a, double y) {
+  explicit DistanceFitter(int unknowns) : k_(unknowns) {}
+
+  /// Adds the row a . x = y (a and y weighted by the caller; a has as many entries as unknowns)
+  /// of observation `o`.
+  void Add(const BoardObservation& o, const Eigen::VectorXd& a, double y) {
     const auto key = std::make_pair(o.board_index, o.frame / kDistanceBlockFrames);
     const int block = blocks_.emplace(key, static_cast<int>(blocks_.size())).first->second;
     rows_.push_back({a, y, block});
   }
 
-  DistanceFit<K> Fit() const {
-    DistanceFit<K> fit;
+  DistanceFit Fit() const {
+    DistanceFit fit;
     fit.rows = static_cast<int>(rows_.size());
     fit.blocks = static_cast<int>(blocks_.size());
-    if (fit.rows <= K) return fit;
-    Eigen::Matrix<double, K, K> AtA = Eigen::Matrix<double, K, K>::Zero();
-    Eigen::Matrix<double, K, 1> Aty = Eigen::Matrix<double, K, 1>::Zero();
+    if (fit.rows <= k_) return fit;
+    Eigen::MatrixXd AtA = Eigen::MatrixXd::Zero(k_, k_);
+    Eigen::VectorXd Aty = Eigen::VectorXd::Zero(k_);
     for (const Row& r : rows_) {
       AtA += r.a * r.a.transpose();
       Aty += r.a * r.y;
     }
-    const Eigen::FullPivLU<Eigen::Matrix<double, K, K>> lu(AtA);
+    const Eigen::FullPivLU<Eigen::MatrixXd> lu(AtA);
     if (!lu.isInvertible()) return fit;
     fit.x = lu.solve(Aty);
-    const Eigen::Matrix<double, K, K> inv = lu.inverse();
-    std::vector<Eigen::Matrix<double, K, 1>> score(blocks_.size(),
-                                                   Eigen::Matrix<double, K, 1>::Zero());
+    const Eigen::MatrixXd inv = lu.inverse();
+    std::vector<Eigen::VectorXd> score(blocks_.size(), Eigen::VectorXd::Zero(k_));
     double sse = 0.0;
     for (const Row& r : rows_) {
       const double e = r.y - r.a.dot(fit.x);
       sse += e * e;
       score[static_cast<size_t>(r.block)] += r.a * e;
     }
-    Eigen::Matrix<double, K, K> B = Eigen::Matrix<double, K, K>::Zero();
-    for (const auto& s : score) B += s * s.transpose();
-    fit.cov_ls = inv * (sse / (fit.rows - K));
+    Eigen::MatrixXd B = Eigen::MatrixXd::Zero(k_, k_);
+    for (const Eigen::VectorXd& s : score) B += s * s.transpose();
+    fit.cov_ls = inv * (sse / (fit.rows - k_));
     const double g = fit.blocks;
     fit.cov_cluster =
-        g > 1 ? Eigen::Matrix<double, K, K>(inv * B * inv * (g / (g - 1.0)))
-              : Eigen::Matrix<double, K, K>::Constant(std::numeric_limits<double>::infinity());
+        g > 1 ? Eigen::MatrixXd(inv * B * inv * (g / (g - 1.0)))
+              : Eigen::MatrixXd::Constant(k_, k_, std::numeric_limits<double>::infinity());
     fit.fitted = fit.x.allFinite();
     return fit;
   }
 
  private:
   struct Row {
-    Eigen::Matrix<double, K, 1> a;
+    Eigen::VectorXd a;
     double y;
     int block;
   };
+  int k_;
   std::vector<Row> rows_;
   std::map<std::pair<int, int>, int> blocks_;
 };

@@ -246,6 +246,12 @@ struct CameraScaleEstimate {
   double distance_m = 0.0;
 };
 
+/// The camera's scale is corrected only where it would move the translation by more than this
+/// many verification tolerances (VerdictConfig::verify_translation_m; twice is where a result
+/// becomes wrong): the fit also measures 0.1-0.3 % on correct cameras, PnP's bias on small far
+/// tags and, in drives with a camera 40-100 ms late, scales that moved the corrected result
+/// further from the truth (calibd-bench verdicts).
+inline constexpr double kCorrectedScaleTolerances = 2.0;
 /// The cluster-robust sigma counts over this many blocks of a board's frames (fewer, e.g. still
 /// poses, leave only the least-squares one).
 inline constexpr int kMinScaleClusterBlocks = 8;
