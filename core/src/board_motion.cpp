@@ -93,11 +93,17 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
 }
 
 TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set, const Pose& T_camera_lidar) {
+  if (!set.motion_compensated) return TimeOffsetEstimate{};
+  return EstimateTimeOffset(set, BoardDistances(set, T_camera_lidar));
+}
+
+TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set,
+                                      const std::vector<BoardDistance>& distances) {
   TimeOffsetEstimate est;
   if (!set.motion_compensated) return est;
   DistanceFitter fitter(4);
   double speed2 = 0.0;
-  for (const BoardDistance& b : BoardDistances(set, T_camera_lidar)) {
+  for (const BoardDistance& b : distances) {
     const BoardObservation& o = *b.observation;
     const double nu = o.has_velocity ? b.normal.dot(o.velocity) : 0.0;
     if (o.has_velocity) {

@@ -213,9 +213,9 @@ int DropBoardsThatDoNotFit(const std::vector<BoardGeometry>& boards, const Direc
 
 }  // namespace
 
-CameraScaleEstimate EstimateCameraScale(const ObservationSet& set, const Pose& T_camera_lidar) {
+CameraScaleEstimate EstimateCameraScale(const ObservationSet& set,
+                                        const std::vector<BoardDistance>& rows) {
   CameraScaleEstimate est;
-  const std::vector<BoardDistance> rows = BoardDistances(set, T_camera_lidar);
   if (static_cast<int>(rows.size()) < kMinScaleBoards) return est;
   // While driving, what is left of the camera's time offset adds tau (n . v) (board_motion.hpp):
   // fitted beside the scale where the boards' velocities are known, or a camera corrected for a
@@ -399,8 +399,8 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     // A camera running behind its stamps biases the solution along the boards' motion: its offset
     // is measured under the solution, the points moved to the camera's capture time, and solved
     // again (board_motion.hpp, EstimateTimeOffset).
-    auto correct_time_offset = [&] {
-      const TimeOffsetEstimate t = EstimateTimeOffset(corr, direct.T_camera_lidar);
+    auto correct_time_offset = [&](const std::vector<BoardDistance>& distances) {
+      const TimeOffsetEstimate t = EstimateTimeOffset(corr, distances);
       if (!t.fitted || std::fabs(t.offset_s) <= kTimeOffsetSigmas * t.sigma_s) return false;
       ShiftToCaptureTime(corr.time_offset_s + t.offset_s, direct.T_camera_lidar, &corr);
       direct = solve();
@@ -411,8 +411,8 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     // the boards' distances spread enough to measure it, the camera's patterns and distances are
     // scaled to the LiDAR's and the session solved again, as far as max_camera_scale_error
     // (beyond it the configuration is wrong, and the gate below refuses).
-    auto correct_camera_scale = [&] {
-      const CameraScaleEstimate e = EstimateCameraScale(corr, direct.T_camera_lidar);
+    auto correct_camera_scale = [&](const std::vector<BoardDistance>& distances) {
+      const CameraScaleEstimate e = EstimateCameraScale(corr, distances);
       // Only a scale that would make the result wrong (kCorrectedScaleTolerances); once one
       // was corrected, what the second pass finds left of it counts beyond its sigma.
       const bool matters =
@@ -430,8 +430,12 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     // Both corrections once before dropping boards that do not fit (a large offset or scale
     // would make good boards look unfitting), and once after.
     auto correct = [&] {
-      if (correct_time_offset() && !direct.usable) return false;
-      return !(correct_camera_scale() && !direct.usable);
+      std::vector<BoardDistance> distances = BoardDistances(corr, direct.T_camera_lidar);
+      if (correct_time_offset(distances)) {
+        if (!direct.usable) return false;
+        distances = BoardDistances(corr, direct.T_camera_lidar);
+      }
+      return !(correct_camera_scale(distances) && !direct.usable);
     };
     direct = solve();
     if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
@@ -468,8 +472,9 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   q.information = direct.information;
   q.min_information_eigenvalue = direct.min_information_eigenvalue;
   FormalSigmas(direct.information, direct.residual_rms_m, &q);
+  const std::vector<BoardDistance> distances = BoardDistances(corr, out.T_camera_lidar);
   {
-    const CameraScaleEstimate e = EstimateCameraScale(corr, out.T_camera_lidar);
+    const CameraScaleEstimate e = EstimateCameraScale(corr, distances);
     if (e.scale_fitted) {
       q.camera_scale_error = (1.0 + q.camera_scale_corrected) * (1.0 + e.scale) - 1.0;
       q.camera_scale_sigma = e.scale_sigma;
@@ -493,7 +498,7 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   }
   {
     // What is left of the time offset after the corrections, added to what they applied.
-    const TimeOffsetEstimate t = EstimateTimeOffset(corr, out.T_camera_lidar);
+    const TimeOffsetEstimate t = EstimateTimeOffset(corr, distances);
     q.time_offset_fitted = t.fitted;
     q.time_offset_s = corr.time_offset_s + (t.fitted ? t.offset_s : 0.0);
     q.time_offset_sigma_s = t.sigma_s;

@@ -13,7 +13,9 @@
 #include <Eigen/Core>
 #include <limits>
 #include <string>
+#include <vector>
 
+#include "calibd/core/board_distances.hpp"
 #include "calibd/core/board_observation.hpp"
 #include "calibd/core/geometry.hpp"
 #include "calibd/core/session_observations.hpp"
@@ -86,6 +88,10 @@ inline constexpr int kTimeOffsetBlockFrames = 10;
 inline constexpr int kMinTimeOffsetObservations = 12;
 
 TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set, const Pose& T_camera_lidar);
+/// The same from the set's BoardDistances under the solution, computed once for the checks that
+/// share them.
+TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set,
+                                      const std::vector<BoardDistance>& distances);
 
 /// Moves the compensated points of every observation with a velocity to the capture time of a
 /// camera whose offset is `offset_s` (set->time_offset_s becomes it): p += (offset_s -

@@ -256,7 +256,9 @@ inline constexpr double kCorrectedScaleTolerances = 2.0;
 /// poses, leave only the least-squares one).
 inline constexpr int kMinScaleClusterBlocks = 8;
 
-CameraScaleEstimate EstimateCameraScale(const ObservationSet& set, const Pose& T_camera_lidar);
+/// From the set's BoardDistances under the solution (shared with EstimateTimeOffset).
+CameraScaleEstimate EstimateCameraScale(const ObservationSet& set,
+                                        const std::vector<BoardDistance>& distances);
 
 /// The camera's view of a session whose patterns are `factor` times their configured size:
 /// every PnP distance scales by it (PnP is scale-equivariant), so each observation's board
