@@ -158,7 +158,7 @@ struct QualityFigures {
   double plane_conditioning = 0.0;  ///< see VerdictConfig::min_plane_conditioning
   double rotation_spread_deg = 0.0, translation_spread_m = 0.0;  ///< half-data re-solves
   double start_rotation_deg = 0.0, start_translation_m = 0.0;    ///< solves from other starts
-  /// Camera-LiDAR scale agreement (CameraScaleFigures): the relative error of the camera's board
+  /// Camera-LiDAR scale agreement (EstimateCameraScale): the relative error of the camera's board
   /// distances against the LiDAR's, fitted over the boards with what a translation explains
   /// taken out, and its standard deviation; NaN with fewer than kMinScaleBoards boards. A wrong
   /// tag size or focal length scales every PnP distance; a translation cannot absorb that.
