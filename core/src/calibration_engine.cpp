@@ -15,6 +15,7 @@
 
 #include "calibd/core/board_distances.hpp"
 #include "calibd/core/board_fit.hpp"
+#include "calibd/core/range_offset.hpp"
 #include "calibd/core/stats.hpp"
 
 namespace calibd {
@@ -244,11 +245,22 @@ CameraScaleEstimate EstimateCameraScale(const ObservationSet& set,
     distance += b.camera_m;
   }
   est.distance_m = distance / static_cast<double>(rows.size());
+  // The range offset from the plane distances alone where the boards face the LiDAR from varied
+  // directions (still poses), or from the boards' in-plane centres too (range_offset.hpp), which
+  // determine it while driving towards boards ahead, where the plane distances cannot: whichever
+  // is the more precise. Still poses held by people or beside clutter leave the in-plane centres
+  // the less reliable of the two.
   const DistanceFit r = range.Fit();
   if (r.fitted) {
     est.range_offset_fitted = true;
     est.range_offset_m = r.x(k);
     est.range_offset_sigma_m = r.Sigma(k, kMinScaleClusterBlocks);
+  }
+  const RangeOffsetFit centres = FitRangeOffset(rows, timed, kMinScaleClusterBlocks);
+  if (centres.fitted && centres.sigma_m < est.range_offset_sigma_m) {
+    est.range_offset_fitted = true;
+    est.range_offset_m = centres.offset_m;
+    est.range_offset_sigma_m = centres.sigma_m;
   }
   // A scale shows only over a spread of distances: boards all at one distance leave it to the
   // translation (the fit would be noise). With the range offset beside it where the boards'
@@ -430,10 +442,10 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     // Both corrections once before dropping boards that do not fit (a large offset or scale
     // would make good boards look unfitting), and once after.
     auto correct = [&] {
-      std::vector<BoardDistance> distances = BoardDistances(corr, direct.T_camera_lidar);
+      std::vector<BoardDistance> distances = BoardDistances(corr, direct.T_camera_lidar, &boards);
       if (correct_time_offset(distances)) {
         if (!direct.usable) return false;
-        distances = BoardDistances(corr, direct.T_camera_lidar);
+        distances = BoardDistances(corr, direct.T_camera_lidar, &boards);
       }
       return !(correct_camera_scale(distances) && !direct.usable);
     };
@@ -472,7 +484,7 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   q.information = direct.information;
   q.min_information_eigenvalue = direct.min_information_eigenvalue;
   FormalSigmas(direct.information, direct.residual_rms_m, &q);
-  const std::vector<BoardDistance> distances = BoardDistances(corr, out.T_camera_lidar);
+  const std::vector<BoardDistance> distances = BoardDistances(corr, out.T_camera_lidar, &boards);
   {
     const CameraScaleEstimate e = EstimateCameraScale(corr, distances);
     if (e.scale_fitted) {
@@ -659,6 +671,22 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       " cm: the translation would be off by about as much; have the LiDAR's range "
                       "calibration checked (or the board thickness and tag print: the tag's face "
                       "must be the board's front)");
+  // A range offset the boards do not measure could be in the translation unseen.
+  const double max_range_sigma_m = kRangeOffsetSigmaTolerances * v.verify_translation_m;
+  if (!(q.lidar_range_offset_sigma_m <= max_range_sigma_m))
+    return Reject(out, "poor_observability",
+                  std::isfinite(q.lidar_range_offset_sigma_m)
+                      ? "the boards measure the LiDAR's range offset only to +-" +
+                            Fmt(q.lidar_range_offset_sigma_m * 100.0, 1) + " cm (" +
+                            Fmt(max_range_sigma_m * 100.0, 1) +
+                            " cm or better is needed): an offset that moved the translation by "
+                            "centimetres would go unseen; record boards in more varied directions "
+                            "(left and right of the LiDAR's axis, nearer, turned towards it)"
+                      : "the boards cannot measure the LiDAR's range offset (" +
+                            std::to_string(q.boards_used) + " board correspondences; " +
+                            std::to_string(kMinScaleBoards) +
+                            " or more, in varied directions, are needed), which would move the "
+                            "translation by as much unseen; record more poses");
   // After the scale and range gates: a wrong scale also spreads the boards' distances, and so
   // the time offset's sigma; its own words name the cause.
   if (q.time_offset_fitted && std::fabs(q.time_offset_s) > v.max_time_offset_s &&

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "calibd/core/board.hpp"
 #include "calibd/core/board_observation.hpp"
 #include "calibd/core/geometry.hpp"
 
@@ -29,6 +30,12 @@ struct BoardDistance {
   /// Unit mean direction from the LiDAR to the board's points, camera frame: a range offset b
   /// moves the LiDAR's plane by b (normal . mean_ray).
   Eigen::Vector3d mean_ray = Eigen::Vector3d::Zero();
+  /// The LiDAR's board centre in the camera's board frame (x, y: in the board's plane), the
+  /// points' density evened out (board_distances.cpp). Symmetric edge bloom leaves it.
+  Eigen::Vector2d lidar_in_plane = Eigen::Vector2d::Zero();
+  /// The same mean of the unit rays (not renormalised): a range offset b moves that centre by
+  /// b mean_ray_area.
+  Eigen::Vector3d mean_ray_area = Eigen::Vector3d::Zero();
   /// PnP's distance error grows with the distance over the tag's side in the image: its inverse,
   /// tag side (px) / distance (m), weighs the row so that small far tags do not drown the rest.
   double weight = 0.0;
@@ -36,12 +43,18 @@ struct BoardDistance {
 
 /// Observations with fewer LiDAR points leave no distance.
 inline constexpr int kMinBoardDistancePoints = 10;
+/// Beyond the board's outline by more than this, a point is not the board's (for the in-plane
+/// centroid): above the error a result can have and the beam's bloom at the boards' ranges.
+inline constexpr double kCentroidMargin = 0.05;
 /// Frames of a board per block of the cluster-robust sigma (consecutive frames of a board share
 /// their errors).
 inline constexpr int kDistanceBlockFrames = 10;
 
 /// One row per observation of `set` with kMinBoardDistancePoints points or more.
-std::vector<BoardDistance> BoardDistances(const ObservationSet& set, const Pose& T_camera_lidar);
+/// With `boards`, the in-plane centroid counts only the points within kCentroidMargin of the
+/// board's outline (a person, a stand or a wall beside the board would pull it).
+std::vector<BoardDistance> BoardDistances(const ObservationSet& set, const Pose& T_camera_lidar,
+                                          const std::vector<BoardGeometry>* boards = nullptr);
 
 /// Weighted least squares y = a . x over rows (already weighted) grouped in blocks of
 /// kDistanceBlockFrames frames of a board, with two covariances: the least-squares one from the

@@ -83,10 +83,9 @@ struct VerdictConfig {
   double max_camera_scale_error = 0.015;
   /// Range offset gate (QualityFigures::lidar_range_offset_m): beyond this and kScaleSigmas of its
   /// sigma, `lidar_range_offset`. An offset moves the translation by about as much along the
-  /// boards' mean direction, so the gate is the verification tolerance. Where the boards'
-  /// directions cannot tell it from a translation (its sigma above kMeasuredRangeOffsetShare of
-  /// the gate: boards in front of the LiDAR) it does not fire, and the translation is only as
-  /// good as the LiDAR's range calibration.
+  /// boards' mean direction, so the gate is the verification tolerance. Measured less precisely
+  /// (its sigma above kMeasuredRangeOffsetShare of the gate) it does not fire; not measured to
+  /// kRangeOffsetSigmaTolerances verification tolerances, the verdict is `poor_observability`.
   double max_lidar_range_offset_m = 0.015;
   /// Time offset gate (QualityFigures::time_offset_s): the solution is corrected for the camera's
   /// offset against the LiDAR up to this (calibd-bench time-offset: 0-100 ms recovered within
@@ -132,9 +131,17 @@ inline constexpr double kMinScaleDistanceSpread = 0.3;
 /// A scale error (and a range offset) counts only beyond this many of its standard deviations.
 inline constexpr double kScaleSigmas = 3.0;
 /// A range offset counts only when measured to this share of its gate: its sigma comes from the
-/// boards' scatter, which underrates correlated errors where the boards' directions barely tell
-/// it from a translation (the default 6-30 m drives fit -14 +-4 cm from errors of millimetres).
+/// boards' scatter, which underrates errors shared by all of a session's boards (the in-plane
+/// centres' from the scan pattern's density, the plane distances' from PnP's bias).
 inline constexpr double kMeasuredRangeOffsetShare = 0.5;
+/// A range offset moves the translation by up to as much (all of it for boards straight ahead), so
+/// a result is accepted only where the boards measure it at all: with a sigma of at most this
+/// many verification tolerances (VerdictConfig::verify_translation_m); the rest is
+/// `poor_observability`. Between kMeasuredRangeOffsetShare of the range gate and this, the
+/// translation is as good as the LiDAR's range calibration (report.json gives the sigma): a
+/// tighter bound refused clean m1 drives with a small camera, whose far boards' small tags bias
+/// the in-plane centres (calibd-bench calib, Fig. 7 subsets; SensorFaultsTest).
+inline constexpr double kRangeOffsetSigmaTolerances = 4.0;
 /// A principal point shift counts only when its chi-square (two degrees of freedom, each axis
 /// over its sigma) is beyond this: the 3-sigma probability, 0.27 %.
 inline constexpr double kPrincipalPointChiSquare = 11.83;
@@ -232,7 +239,8 @@ const char* VerdictName(CalibrationOutcome::Verdict v);
 /// error c adds n . c; a LiDAR range offset b adds b (n . u), u the mean ray to the board's
 /// points. The least-squares fit of d_camera - d_lidar = e d_camera + n . c + b (n . u) gives e
 /// (what a translation cannot explain) and b, each with the larger of its least-squares and
-/// cluster-robust sigmas; e without b where the boards leave b undetermined.
+/// cluster-robust sigmas; e without b where the boards leave b undetermined. The range offset
+/// reported is the more precise of that b and the in-plane centres' (FitRangeOffset).
 struct CameraScaleEstimate {
   /// Fitted over kMinScaleBoards boards or more whose distances spread by
   /// kMinScaleDistanceSpread of the farthest.
