@@ -94,6 +94,7 @@ RangeOffsetFit FitRangeOffset(const std::vector<BoardDistance>& distances, bool 
   out.offset_m = fit.x(kOffset);
   out.sigma_m = fit.Sigma(kOffset, min_cluster_blocks);
   out.rows = fit.rows;
+  out.blocks = fit.blocks;
   return out;
 }
 

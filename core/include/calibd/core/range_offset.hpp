@@ -20,6 +20,7 @@ struct RangeOffsetFit {
   double offset_m = 0.0;  ///< b: the LiDAR's ranges are b longer than the camera's boards say
   double sigma_m = std::numeric_limits<double>::infinity();
   int rows = 0, rows_dropped = 0;
+  int blocks = 0;  ///< of the cluster-robust sigma (DistanceFit::blocks)
 };
 
 /// `rows` from BoardDistances with the boards' outlines (its in-plane centroids). `timed` adds the
