@@ -248,9 +248,10 @@ CameraScaleEstimate EstimateCameraScale(const ObservationSet& set,
   // The range offset from the plane distances alone where the boards face the LiDAR from varied
   // directions (still poses), or from the boards' in-plane centres too (range_offset.hpp), which
   // determine it while driving towards boards ahead, where the plane distances cannot: whichever
-  // is the more precise, the centres only over kMinScaleClusterBlocks blocks or more. A few still
-  // poses, held by people or beside clutter, leave the centres' least-squares sigma too small (a
-  // clean falcon session of 15 poses: 2.1 +-0.4 cm, the planes 1.2 +-0.5 cm).
+  // is the more precise. Over fewer than kMinScaleClusterBlocks blocks (still poses, a sparse
+  // subset of a drive) the centres' sigma is a least-squares one only, which a few poses held by
+  // people or beside clutter leave too small (a clean falcon session of 15 poses: 2.1 +-0.4 cm,
+  // the planes 1.2 +-0.5 cm): there the centres must be twice as precise to be taken.
   const DistanceFit r = range.Fit();
   if (r.fitted) {
     est.range_offset_fitted = true;
@@ -258,8 +259,8 @@ CameraScaleEstimate EstimateCameraScale(const ObservationSet& set,
     est.range_offset_sigma_m = r.Sigma(k, kMinScaleClusterBlocks);
   }
   const RangeOffsetFit centres = FitRangeOffset(rows, timed, kMinScaleClusterBlocks);
-  if (centres.fitted && centres.blocks >= kMinScaleClusterBlocks &&
-      centres.sigma_m < est.range_offset_sigma_m) {
+  const double centres_share = centres.blocks >= kMinScaleClusterBlocks ? 1.0 : 0.5;
+  if (centres.fitted && centres.sigma_m < centres_share * est.range_offset_sigma_m) {
     est.range_offset_fitted = true;
     est.range_offset_m = centres.offset_m;
     est.range_offset_sigma_m = centres.sigma_m;
