@@ -92,6 +92,12 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
   return stats;
 }
 
+bool HasTimeOffsetTerm(const ObservationSet& set, const std::vector<BoardDistance>& distances) {
+  int moving = 0;
+  for (const BoardDistance& b : distances) moving += b.observation->has_velocity;
+  return set.motion_compensated && moving >= kMinTimeOffsetObservations;
+}
+
 TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set, const Pose& T_camera_lidar) {
   if (!set.motion_compensated) return TimeOffsetEstimate{};
   return EstimateTimeOffset(set, BoardDistances(set, T_camera_lidar));

@@ -221,9 +221,7 @@ CameraScaleEstimate EstimateCameraScale(const ObservationSet& set,
   // While driving, what is left of the camera's time offset adds tau (n . v) (board_motion.hpp):
   // fitted beside the scale where the boards' velocities are known, or a camera corrected for a
   // large offset would leave part of it to the scale.
-  int moving = 0;
-  for (const BoardDistance& b : rows) moving += b.observation->has_velocity;
-  const bool timed = set.motion_compensated && moving >= kMinTimeOffsetObservations;
+  const bool timed = HasTimeOffsetTerm(set, rows);
   const int k = timed ? 5 : 4;
   DistanceFitter scale(k), range(k + 1);
   double near = rows[0].camera_m, far = rows[0].camera_m, distance = 0.0;
@@ -245,25 +243,11 @@ CameraScaleEstimate EstimateCameraScale(const ObservationSet& set,
     distance += b.camera_m;
   }
   est.distance_m = distance / static_cast<double>(rows.size());
-  // The range offset from the plane distances alone where the boards face the LiDAR from varied
-  // directions (still poses), or from the boards' in-plane centres too (range_offset.hpp), which
-  // determine it while driving towards boards ahead, where the plane distances cannot: whichever
-  // is the more precise. Over fewer than kMinScaleClusterBlocks blocks (still poses, a sparse
-  // subset of a drive) the centres' sigma is a least-squares one only, which a few poses held by
-  // people or beside clutter leave too small (a clean falcon session of 15 poses: 2.1 +-0.4 cm,
-  // the planes 1.2 +-0.5 cm): there the centres must be twice as precise to be taken.
   const DistanceFit r = range.Fit();
   if (r.fitted) {
     est.range_offset_fitted = true;
     est.range_offset_m = r.x(k);
     est.range_offset_sigma_m = r.Sigma(k, kMinScaleClusterBlocks);
-  }
-  const RangeOffsetFit centres = FitRangeOffset(rows, timed, kMinScaleClusterBlocks);
-  const double centres_share = centres.blocks >= kMinScaleClusterBlocks ? 1.0 : 0.5;
-  if (centres.fitted && centres.sigma_m < centres_share * est.range_offset_sigma_m) {
-    est.range_offset_fitted = true;
-    est.range_offset_m = centres.offset_m;
-    est.range_offset_sigma_m = centres.sigma_m;
   }
   // A scale shows only over a spread of distances: boards all at one distance leave it to the
   // translation (the fit would be noise). With the range offset beside it where the boards'
@@ -498,6 +482,25 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     if (e.range_offset_fitted) {
       q.lidar_range_offset_m = e.range_offset_m;
       q.lidar_range_offset_sigma_m = e.range_offset_sigma_m;
+    }
+    // The range offset from the plane distances alone where the boards face the LiDAR from varied
+    // directions (still poses), or from the boards' in-plane centres too (range_offset.hpp),
+    // which determine it while driving towards boards ahead, where the plane distances cannot:
+    // whichever is the more precise. Over fewer than kMinScaleClusterBlocks blocks (still poses,
+    // a sparse subset of a drive) the centres' sigma is a least-squares one only, which a few
+    // poses held by people or beside clutter leave too small (a clean falcon session of 15
+    // poses: 2.1 +-0.4 cm, the planes 1.2 +-0.5 cm): there the centres must be twice as precise
+    // to be taken. Only here: the corrections use the scale alone.
+    if (static_cast<int>(distances.size()) >= kMinScaleBoards) {
+      const RangeOffsetFit centres =
+          FitRangeOffset(distances, HasTimeOffsetTerm(corr, distances), kMinScaleClusterBlocks);
+      const double centres_share = centres.blocks >= kMinScaleClusterBlocks ? 1.0 : 0.5;
+      const double planes_sigma_m =
+          e.range_offset_fitted ? e.range_offset_sigma_m : std::numeric_limits<double>::infinity();
+      if (centres.fitted && centres.sigma_m < centres_share * planes_sigma_m) {
+        q.lidar_range_offset_m = centres.offset_m;
+        q.lidar_range_offset_sigma_m = centres.sigma_m;
+      }
     }
   }
   {

@@ -67,19 +67,14 @@ RangeOffsetFit FitRangeOffset(const std::vector<BoardDistance>& distances, bool 
   std::vector<double> residuals;
   for (int pass = 0; pass < kPasses; ++pass) {
     DistanceFitter fitter(k);
-    int dropped = 0;
     for (const Row& r : rows) {
       const double s = scatter[static_cast<size_t>(r.kind)];
-      if (pass > 0 && std::fabs(r.y - r.a.dot(fit.x)) > kRangeOffsetOutlierSigmas * s) {
-        ++dropped;
-        continue;
-      }
+      if (pass > 0 && std::fabs(r.y - r.a.dot(fit.x)) > kRangeOffsetOutlierSigmas * s) continue;
       fitter.Add(*r.observation, r.a / s, r.y / s);
     }
     const DistanceFit next = fitter.Fit();
     if (!next.fitted) return out;
     fit = next;
-    out.rows_dropped = dropped;
     // Median absolute residual of each kind, scaled to a normal sigma.
     constexpr double kMadToSigma = 1.4826;
     for (int kind = 0; kind < kKinds; ++kind) {
@@ -93,7 +88,6 @@ RangeOffsetFit FitRangeOffset(const std::vector<BoardDistance>& distances, bool 
   out.fitted = true;
   out.offset_m = fit.x(kOffset);
   out.sigma_m = fit.Sigma(kOffset, min_cluster_blocks);
-  out.rows = fit.rows;
   out.blocks = fit.blocks;
   return out;
 }

@@ -87,6 +87,10 @@ inline constexpr int kTimeOffsetBlockFrames = 10;
 /// Observations with a velocity the fit needs (and at least this many blocks of them).
 inline constexpr int kMinTimeOffsetObservations = 12;
 
+/// Whether fits of `distances` carry the residual time offset's term tau (n . v): a compensated
+/// set with kMinTimeOffsetObservations rows with a velocity or more.
+bool HasTimeOffsetTerm(const ObservationSet& set, const std::vector<BoardDistance>& distances);
+
 TimeOffsetEstimate EstimateTimeOffset(const ObservationSet& set, const Pose& T_camera_lidar);
 /// The same from the set's BoardDistances under the solution, computed once for the checks that
 /// share them.

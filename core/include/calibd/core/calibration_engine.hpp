@@ -245,7 +245,8 @@ const char* VerdictName(CalibrationOutcome::Verdict v);
 /// points. The least-squares fit of d_camera - d_lidar = e d_camera + n . c + b (n . u) gives e
 /// (what a translation cannot explain) and b, each with the larger of its least-squares and
 /// cluster-robust sigmas; e without b where the boards leave b undetermined. The range offset
-/// reported is the more precise of that b and the in-plane centres' (FitRangeOffset).
+/// the quality figures report is the more precise of that b and the in-plane centres'
+/// (FitRangeOffset, calibration_engine.cpp).
 struct CameraScaleEstimate {
   /// Fitted over kMinScaleBoards boards or more whose distances spread by
   /// kMinScaleDistanceSpread of the farthest.

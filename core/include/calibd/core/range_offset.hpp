@@ -19,7 +19,6 @@ struct RangeOffsetFit {
   bool fitted = false;    ///< enough rows, and the boards' directions determine the offset
   double offset_m = 0.0;  ///< b: the LiDAR's ranges are b longer than the camera's boards say
   double sigma_m = std::numeric_limits<double>::infinity();
-  int rows = 0, rows_dropped = 0;
   int blocks = 0;  ///< of the cluster-robust sigma (DistanceFit::blocks)
 };
 
