@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 #include <random>
 #include <set>
 
@@ -162,20 +163,16 @@ std::vector<Eigen::Vector3f> FacingSquare(double range_m, double az_deg, double 
   return pts;
 }
 
-TEST(GridSearchTest, AClusterFarBehindTheBoardDoesNotCount) {
-  // Each frame: a 0.9 m board 4 m away, and a large cluster (a cabinet face, a wall patch) 8 m
-  // away, 8 deg beside it, inside the board's range-image region. Counted, its points pull the
-  // search towards rotations that centre the region on it; it is 4 m behind the board, outside
-  // the cube Alg. 1 draws around the board, so it must not count.
-  auto r = Record("ot128", 1);
-  const Pose T_cl = r->session.T_camera_lidar();
-  std::vector<BoardGeometry> boards(1);
-  boards[0].width_m = boards[0].height_m = 0.9;
+// Six frames, each with a 0.9 m board 4 m away at azimuth -20 + 10 f deg and elevation -5 deg as
+// the camera sees it and as the LiDAR's first cluster, then the clusters `others(az)` returns.
+SessionObservations BoardFrames(
+    const Pose& T_cl,
+    const std::function<std::vector<std::vector<Eigen::Vector3f>>(double az_deg)>& others) {
   SessionObservations s;
-  s.Reserve(6, 2, 6000);
+  s.Reserve(6, 4, 20000);
   for (int f = 0; f < 6; ++f) {
     const double az = -20.0 + 10.0 * f;
-    ASSERT_TRUE(s.BeginFrame());
+    EXPECT_TRUE(s.BeginFrame());
     Pose T_lidar_board = Pose::Identity();
     const double el = -5.0 * kDeg;
     T_lidar_board.translation() =
@@ -185,13 +182,32 @@ TEST(GridSearchTest, AClusterFarBehindTheBoardDoesNotCount) {
     cam.frame = f;
     cam.board_index = 0;
     cam.T_camera_board = T_cl * T_lidar_board;
-    ASSERT_TRUE(s.AddCameraBoard(cam));
+    EXPECT_TRUE(s.AddCameraBoard(cam));
     const auto board = FacingSquare(4.0, az, 0.9, 0.03);
-    const auto far = FacingSquare(8.0, az + 8.0, 1.2, 0.03);
-    ASSERT_TRUE(s.AddLidarCluster(board.data(), nullptr, static_cast<int>(board.size())));
-    ASSERT_TRUE(s.AddLidarCluster(far.data(), nullptr, static_cast<int>(far.size())));
+    EXPECT_TRUE(s.AddLidarCluster(board.data(), nullptr, static_cast<int>(board.size())));
+    for (const auto& other : others(az))
+      EXPECT_TRUE(s.AddLidarCluster(other.data(), nullptr, static_cast<int>(other.size())));
   }
-  GridSearch search(GridSearchConfig{}, r->projection, boards);
+  return s;
+}
+
+std::vector<BoardGeometry> OneSquareBoard(double side_m) {
+  std::vector<BoardGeometry> boards(1);
+  boards[0].width_m = boards[0].height_m = side_m;
+  return boards;
+}
+
+TEST(GridSearchTest, AClusterFarBehindTheBoardDoesNotCount) {
+  // Beside each board, a large cluster (a cabinet face, a wall patch) 8 m away, 8 deg beside it,
+  // inside the board's range-image region. Counted, its points pull the search towards rotations
+  // that centre the region on it; it is 4 m behind the board, outside the cube Alg. 1 draws
+  // around the board, so it must not count.
+  auto r = Record("ot128", 1);
+  const Pose T_cl = r->session.T_camera_lidar();
+  const SessionObservations s = BoardFrames(T_cl, [](double az) {
+    return std::vector<std::vector<Eigen::Vector3f>>{FacingSquare(8.0, az + 8.0, 1.2, 0.03)};
+  });
+  GridSearch search(GridSearchConfig{}, r->projection, OneSquareBoard(0.9));
   ObservationSet corr;
   corr.Reserve(6, 6000);
   const GridSearchResult g = search.Run(s, T_cl, &corr);
@@ -202,6 +218,34 @@ TEST(GridSearchTest, AClusterFarBehindTheBoardDoesNotCount) {
   for (const BoardObservation& o : corr.observations) {
     EXPECT_NEAR(corr.points[o.first_point].norm(), 4.0, 0.7);
   }
+}
+
+TEST(GridSearchTest, OnlyClustersTheCameraCouldSeeCountAgainstTheBoards) {
+  // A 360 deg LiDAR in a cluttered room: in each frame, besides the board, two wall patches
+  // behind the car (az 150 and 210 deg) with 7 times the board's points, and a cabinet face
+  // 15 deg beside the board, 2 m behind it, inside the camera's view cone. The point-fraction gate
+  // must weigh the board against what the camera could have seen (the board and the cabinet), not
+  // against the whole room: here 1 / 8 of all points would refuse the session.
+  auto r = Record("ot128", 1);
+  const Pose T_cl = r->session.T_camera_lidar();
+  const SessionObservations s = BoardFrames(T_cl, [](double az) {
+    return std::vector<std::vector<Eigen::Vector3f>>{FacingSquare(6.0, 150.0, 2.4, 0.03),
+                                                     FacingSquare(6.0, 210.0, 2.4, 0.03),
+                                                     FacingSquare(6.0, az + 15.0, 0.9, 0.03)};
+  });
+  const long board_points = static_cast<long>(FacingSquare(4.0, 0.0, 0.9, 0.03).size());
+  GridSearch search(GridSearchConfig{}, r->projection, OneSquareBoard(0.9));
+  const GridSearchResult g = search.Run(s, T_cl, nullptr);
+  ASSERT_EQ(g.status, GridSearchResult::Status::kOk) << g.reason;
+  EXPECT_EQ(g.total_points, 2 * 6 * board_points);
+  EXPECT_EQ(g.best_count, 6 * board_points);
+  // Behind the camera, the same patches would make the gate refuse: the gate itself still works.
+  const SessionObservations ahead = BoardFrames(T_cl, [](double az) {
+    return std::vector<std::vector<Eigen::Vector3f>>{FacingSquare(6.0, az + 30.0, 2.4, 0.03),
+                                                     FacingSquare(6.0, az - 30.0, 2.4, 0.03)};
+  });
+  const GridSearchResult refused = search.Run(ahead, T_cl, nullptr);
+  EXPECT_EQ(refused.status, GridSearchResult::Status::kNoCandidate) << refused.reason;
 }
 
 }  // namespace

@@ -109,7 +109,10 @@ void GridSearch::Prepare(const SessionObservations& s) {
                   0,
                   0,
                   integral_.size(),
-                  ClusterRange(s, c)};
+                  ClusterRange(s, c),
+                  Eigen::Vector3d::Zero()};
+    for (int i = 0; i < c.num_points; ++i) g.centroid += s.points[c.first_point + i].cast<double>();
+    if (c.num_points > 0) g.centroid /= c.num_points;
     int row_hi = std::numeric_limits<int>::min(), col_hi = std::numeric_limits<int>::min();
     std::vector<std::pair<int, int>>& cells = cells_;
     cells.clear();
@@ -149,6 +152,28 @@ void GridSearch::Prepare(const SessionObservations& s) {
     while (k < grids_.size() && grids_[k].frame < f) ++k;
     frame_first_cluster_[static_cast<size_t>(f)] = static_cast<int>(k);
   }
+}
+
+long GridSearch::InViewPoints(const SessionObservations& s, const Pose& T_prior) const {
+  auto off_axis = [](const Eigen::Vector3d& p_camera) {
+    return std::atan2(p_camera.head<2>().norm(), p_camera.z());
+  };
+  std::vector<bool> has_board(static_cast<size_t>(s.num_frames), false);
+  double widest = 0.0;
+  for (const auto& cam : s.camera) {
+    if (Rank(cam.frame, s.num_frames) < 0) continue;
+    has_board[static_cast<size_t>(cam.frame)] = true;
+    widest = std::max(widest, off_axis(cam.T_camera_board.translation()));
+  }
+  const double reach = config_.range_deg + (config_.refine ? config_.refine_range_deg : 0.0);
+  const double cone = widest + (reach + kViewConeMarginDeg) * kDeg;
+  long total = 0;
+  for (size_t k = 0; k < grids_.size(); ++k) {
+    const ClusterGrid& g = grids_[k];
+    if (Rank(g.frame, s.num_frames) < 0 || !has_board[static_cast<size_t>(g.frame)]) continue;
+    if (off_axis(T_prior * g.centroid) <= cone) total += s.lidar[k].num_points;
+  }
+  return total;
 }
 
 long GridSearch::ClusterCount(const ClusterGrid& g, const Roi& roi) const {
@@ -229,8 +254,7 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
   }
   max_frames_ = max_frames;
   Prepare(s);
-  for (const auto& c : s.lidar)
-    if (Rank(c.frame, s.num_frames) >= 0) result.total_points += c.num_points;
+  result.total_points = InViewPoints(s, T_prior);
   result.prior_count = CountFast(s, T_prior, nullptr);
   const int taking_part = max_frames > 0 && max_frames < s.num_frames ? max_frames : s.num_frames;
   const int stride =

@@ -24,6 +24,11 @@
 
 namespace calibd {
 
+/// Added to the camera's view cone of the point-fraction gate: a board's angular radius at the
+/// closest range a workshop uses (a 1 m board at 1.5 m is about 18 deg) and the prior's error
+/// beyond the search's reach that still leaves a board's edge inside.
+inline constexpr double kViewConeMarginDeg = 20.0;
+
 struct GridSearchConfig {
   double range_deg = 9.0;  ///< perturbations in [-range, +range] on roll, pitch and yaw (paper: 9)
   double step_deg = 1.5;   ///< paper: 1.5
@@ -31,7 +36,11 @@ struct GridSearchConfig {
   double refine_range_deg = 1.0;
   double refine_step_deg = 0.5;  ///< enough to land in the optimiser's basin (about 1 deg wide)
   /// The best candidate must put at least this many LiDAR board points in the regions, and at
-  /// least min_point_fraction of all clustered points; otherwise the result is kNoCandidate.
+  /// least min_point_fraction of the clustered points the camera could have seen: those of frames
+  /// with a camera board, in clusters within the camera's view cone (the widest board direction
+  /// from its axis under the prior, widened by the search's reach and kViewConeMarginDeg).
+  /// Otherwise the result is kNoCandidate. A 360 deg LiDAR's clusters behind the camera do not
+  /// count.
   int min_points = 30;
   double min_point_fraction = 0.2;
   /// Candidates are scored on at most this many frame pairs, evenly spaced over the session (the
@@ -49,7 +58,7 @@ struct GridSearchResult {
   Eigen::Vector3d perturbation_rpy_deg = Eigen::Vector3d::Zero();  ///< of the best, LiDAR axes
   long best_count = 0;    ///< points in the regions for the best candidate
   long prior_count = 0;   ///< the same for the unperturbed prior
-  long total_points = 0;  ///< all clustered LiDAR points of the session
+  long total_points = 0;  ///< clustered LiDAR points the camera could have seen (see above)
   int candidates = 0;     ///< candidates scored (both passes)
   double search_ms = 0.0;
 };
@@ -104,8 +113,9 @@ class GridSearch {
   };
   struct ClusterGrid {  // integral image of a cluster's points over its cell bounding box
     int frame, row0, col0, rows, cols;
-    size_t offset;   // into integral_
-    double range_m;  // mean range of its points
+    size_t offset;             // into integral_
+    double range_m;            // mean range of its points
+    Eigen::Vector3d centroid;  // mean of its points, LiDAR frame
   };
   bool RegionOf(const Eigen::Vector3d& centre_lidar, double side, Roi* roi) const;
   /// The region of one camera-detected board under T_lidar_camera, and the range band
@@ -115,6 +125,9 @@ class GridSearch {
   /// Mean range of a cluster's points.
   static double ClusterRange(const SessionObservations& session,
                              const SessionObservations::LidarCluster& cluster);
+  /// Points of the clusters the camera could have seen (GridSearchConfig::min_points), over the
+  /// frames taking part.
+  long InViewPoints(const SessionObservations& session, const Pose& T_camera_lidar_prior) const;
   long CountFast(const SessionObservations& session, const Pose& T_camera_lidar,
                  std::vector<int>* best_cluster, int frame_stride = 1) const;
   long ClusterCount(const ClusterGrid& g, const Roi& roi) const;
