@@ -42,6 +42,52 @@ TEST(CalibrationEngineTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
       << verified.reason << ": " << verified.detail << " delta " << verified.delta_rotation_deg;
 }
 
+// The reprojection gate (paper Table I metric) follows the LiDAR's point spacing on the boards:
+// a Mid-360 (non-repetitive, about 1 point per square degree a sweep) puts tens of points on a
+// board, whose own fit then places the tag corners tens of pixels off whatever the extrinsic.
+// Still poses of a board, 3 sweeps each, are calibrated within tolerance and accepted although
+// their mean error is above the configured 8 px (a dense LiDAR's drive keeps the 8 px:
+// PerCorrespondenceReprojectionErrorsAreTheQualityFigures).
+TEST(CalibrationEngineTest, TheReprojectionGateFollowsTheLidarsPointSpacing) {
+  sim::SessionOptions o;
+  o.seed = 4;
+  o.lidar_model = "mid360";
+  o.trajectory.mode = "stills";
+  o.trajectory.rate_hz = 0.5;
+  o.trajectory.duration_s = 40 / o.trajectory.rate_hz;
+  o.stills.frames_per_pose = 3;
+  o.stills.min_distance_m = 3.0;
+  o.stills.max_distance_m = 6.0;
+  o.workshop.num_boards = 1;
+  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
+  o.workshop.tag_size_m = 0.702;
+  o.camera.width = 1920;
+  o.camera.height = 1200;
+  o.camera.fx = o.camera.fy = 2200.0;
+  o.camera.cx = 959.5;
+  o.camera.cy = 599.5;
+  auto sparse = testing::Record(o, 120, 1);
+  // 40 poses of one board measure the extrinsic to about 0.12 deg (formal): the precision gates
+  // are widened so that the verdict is the reprojection gate's.
+  EngineConfig engine;
+  engine.verdict.max_rotation_sigma_deg = 0.15;
+  engine.verdict.max_translation_sigma_m = 0.02;
+  const CalibrationOutcome out = Calibrate(sparse->config, sparse->obs, sparse->projection, engine);
+  const QualityFigures& q = out.quality;
+  std::printf("mid360 stills: reprojection %.2f px, point spacing %.1f px, gate %.2f px\n",
+              q.reprojection_mean_px, q.lidar_spacing_px, q.reprojection_gate_px);
+  ASSERT_EQ(out.verdict, CalibrationOutcome::Verdict::kUpdated) << out.reason << ": " << out.detail;
+  const Pose truth = sparse->session.T_camera_lidar();
+  std::printf("error %.3f deg / %.4f m\n",
+              RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg,
+              (out.T_camera_lidar.translation() - truth.translation()).norm());
+  EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg, 0.15);
+  EXPECT_LT((out.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
+  const VerdictConfig v;
+  EXPECT_GT(q.reprojection_mean_px, v.max_reprojection_mean_px);
+  EXPECT_DOUBLE_EQ(q.reprojection_gate_px, kReprojectionSpacingShare * q.lidar_spacing_px);
+}
+
 TEST(CalibrationEngineTest, OneBoardIsRejectedForObservability) {
   sim::SessionOptions o;
   o.workshop.num_boards = 1;
@@ -300,6 +346,10 @@ TEST(CalibrationEngineTest, PerCorrespondenceReprojectionErrorsAreTheQualityFigu
   EXPECT_GT(finite, static_cast<int>(px.size()) * 9 / 10);
   EXPECT_NEAR(sum / finite, out.quality.reprojection_mean_px,
               0.05 * out.quality.reprojection_mean_px);
+  // An OT128's drive resolves the boards finely: the configured gate holds.
+  const VerdictConfig v;
+  EXPECT_DOUBLE_EQ(out.quality.reprojection_gate_px, v.max_reprojection_mean_px);
+  EXPECT_LT(kReprojectionSpacingShare * out.quality.lidar_spacing_px, v.max_reprojection_mean_px);
   // Stopped before the solve: none.
   SessionObservations camera_only = r->obs;
   camera_only.lidar.clear();

@@ -80,9 +80,18 @@ void CoverageFigures(const CalibConfig& config, const ObservationSet& set, Quali
   std::set<int> frames, cells;
   q->min_distance_m = 1e9;
   q->max_distance_m = 0.0;
+  const double f = 0.5 * (config.camera.fx + config.camera.fy);
+  double spacing_sum = 0.0;
+  int spaced = 0;
   for (const auto& o : set.observations) {
     frames.insert(o.frame);
     const double d = o.T_camera_board.translation().norm();
+    if (o.num_points > 0 && d > 0.0 && o.board_index >= 0 &&
+        o.board_index < static_cast<int>(config.boards.size())) {
+      const BoardGeometry& b = config.boards[static_cast<size_t>(o.board_index)];
+      spacing_sum += f * std::sqrt(b.width_m * b.height_m / o.num_points) / d;
+      ++spaced;
+    }
     q->min_distance_m = std::min(q->min_distance_m, d);
     q->max_distance_m = std::max(q->max_distance_m, d);
     Eigen::Vector2d uv;
@@ -97,6 +106,7 @@ void CoverageFigures(const CalibConfig& config, const ObservationSet& set, Quali
   if (set.observations.empty()) q->min_distance_m = 0.0;
   q->frames_used = static_cast<int>(frames.size());
   q->boards_used = static_cast<int>(set.observations.size());
+  q->lidar_spacing_px = spaced > 0 ? spacing_sum / spaced : 0.0;
   q->image_coverage =
       static_cast<double>(cells.size()) / static_cast<double>(kImageGridSide * kImageGridSide);
 }
@@ -594,6 +604,8 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
     }
   }
   ReprojectionFigures(std::move(errors_px), &q);
+  q.reprojection_gate_px =
+      std::max(v.max_reprojection_mean_px, kReprojectionSpacingShare * q.lidar_spacing_px);
   for (const DirectResult& h : half) {
     if (!h.usable) continue;
     q.rotation_spread_deg =
@@ -718,10 +730,15 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                       " deg / " + Fmt(q.start_translation_m) +
                       " m from it: the cost has more than one minimum (boards too few or too "
                       "alike, or paired with the wrong LiDAR cluster); record more, varied poses");
-  if (q.reprojection_mean_px > v.max_reprojection_mean_px)
+  if (q.reprojection_mean_px > q.reprojection_gate_px)
     return Reject(out, "high_reprojection_error",
                   "mean " + Fmt(q.reprojection_mean_px, 2) + " px above " +
-                      Fmt(v.max_reprojection_mean_px, 2) + " px");
+                      Fmt(q.reprojection_gate_px, 2) + " px" +
+                      (q.reprojection_gate_px > v.max_reprojection_mean_px
+                           ? " (" + Fmt(kReprojectionSpacingShare, 1) +
+                                 " of the LiDAR's point spacing on the boards, " +
+                                 Fmt(q.lidar_spacing_px, 1) + " px)"
+                           : std::string()));
   if (q.residual_rms_m > v.max_residual_rms_m)
     return Reject(out, "high_residual",
                   "point-to-board RMS " + Fmt(q.residual_rms_m, 4) + " m above " +

@@ -136,6 +136,13 @@ double Mean(const std::vector<double>& v) {
 }
 
 // Bar chart: mean reprojection error of each configured board over its correspondences.
+// The reprojection gate the verdict applied (raised for a sparse LiDAR); the configured one
+// where the session stopped before the quality figures.
+double ReprojectionGate(const HtmlReportInput& in) {
+  const double gate = in.outcome.quality.reprojection_gate_px;
+  return gate > 0.0 ? gate : in.gates.max_reprojection_mean_px;
+}
+
 std::string PerBoardPlot(const HtmlReportInput& in) {
   const size_t boards = in.board_names.size();
   std::vector<std::vector<double>> errors(boards);
@@ -144,7 +151,7 @@ std::string PerBoardPlot(const HtmlReportInput& in) {
         std::isfinite(r.mean_px))
       errors[static_cast<size_t>(r.board_index)].push_back(r.mean_px);
   if (boards == 0) return "<p class=\"na\">No boards configured.</p>";
-  double top = in.gates.max_reprojection_mean_px * 1.15;
+  double top = ReprojectionGate(in) * 1.15;
   for (const auto& e : errors)
     if (!e.empty()) top = std::max(top, Mean(e) * 1.15);
   PlotFrame f;
@@ -179,7 +186,7 @@ std::string PerBoardPlot(const HtmlReportInput& in) {
     s += buf;
     s += HtmlEscape(in.board_names[b]) + "</text>";
   }
-  GateLine(f, in.gates.max_reprojection_mean_px, &s);
+  GateLine(f, ReprojectionGate(in), &s);
   s += "</svg>";
   return s;
 }
@@ -201,7 +208,7 @@ std::string DistancePlot(const HtmlReportInput& in) {
   const double x_step = NiceStep(std::max(d_max - d_min, 1.0), 8);
   f.x0 = std::floor(d_min / x_step) * x_step;
   f.x1 = std::max(f.x0 + x_step, std::ceil(d_max / x_step) * x_step);
-  const double top = std::max(e_max, in.gates.max_reprojection_mean_px) * 1.1;
+  const double top = std::max(e_max, ReprojectionGate(in)) * 1.1;
   const double step = NiceStep(top, 5);
   f.y1 = std::ceil(top / step) * step;
   std::string s = "<svg width=\"760\" height=\"320\" ";
@@ -247,7 +254,7 @@ std::string DistancePlot(const HtmlReportInput& in) {
     s += buf;
   }
   s += "<polyline fill=\"none\" stroke=\"#202124\" stroke-width=\"2\" points=\"" + line + "\"/>";
-  GateLine(f, in.gates.max_reprojection_mean_px, &s);
+  GateLine(f, ReprojectionGate(in), &s);
   s += "</svg>";
   return s;
 }
@@ -502,7 +509,7 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
                      ", corrected for " + Num(q.time_offset_corrected_s * 1e3, 1) + ")",
                  std::fabs(q.time_offset_s) * 1e3, 1, v.max_time_offset_s * 1e3, 1);
   s += at_most("reprojection error mean [px] (p95 " + Num(q.reprojection_p95_px, 2) + ")",
-               q.reprojection_mean_px, 2, v.max_reprojection_mean_px, 2);
+               q.reprojection_mean_px, 2, ReprojectionGate(in), 2);
   s += at_most("LiDAR residual RMS [m]", q.residual_rms_m, 4, v.max_residual_rms_m, 4);
   s += at_most("change vs prior, rotation [deg]", out.delta_rotation_deg, 4, v.max_rotation_deg, 2);
   s += at_most("change vs prior, translation [m]", out.delta_translation_m, 4, v.max_translation_m,

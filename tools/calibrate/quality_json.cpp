@@ -7,6 +7,8 @@ namespace calibd {
 nlohmann::json QualityJson(const QualityFigures& q) {
   nlohmann::json j = {{"reprojection_mean_px", q.reprojection_mean_px},
                       {"reprojection_p95_px", q.reprojection_p95_px},
+                      {"reprojection_gate_px", q.reprojection_gate_px},
+                      {"lidar_spacing_px", q.lidar_spacing_px},
                       {"residual_rms_m", q.residual_rms_m},
                       {"frames_used", q.frames_used},
                       {"boards_used", q.boards_used},
