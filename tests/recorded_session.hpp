@@ -20,9 +20,12 @@ struct RecordedSession {
   CalibConfig config;     ///< what a user would have written (prior = the simulator's prior)
 };
 
-/// Frames first_frame, first_frame + stride, ... (`count` of them) of a session with `options`.
+/// Frames first_frame, first_frame + stride, ... (`count` of them) of a session with `options`;
+/// the LiDAR detector and the range image with `configured` when given (a user's wrong model),
+/// else the simulated LiDAR's.
 inline std::unique_ptr<RecordedSession> Record(const sim::SessionOptions& options, int count,
-                                               int stride, int first_frame = 0) {
+                                               int stride, int first_frame = 0,
+                                               const LidarModel* configured = nullptr) {
   auto r = std::make_unique<RecordedSession>();
   std::string error;
   if (!r->session.Init(options, &error)) {
@@ -32,10 +35,12 @@ inline std::unique_ptr<RecordedSession> Record(const sim::SessionOptions& option
   r->config = r->session.UserConfig();
   const auto& boards = r->config.boards;
   CameraDetector camera(CameraDetectorConfig{}, options.camera, boards);
-  LidarDetector lidar(LidarDetectorConfig{}, r->session.lidar_model(), boards);
+  const LidarModel& model = configured ? *configured : r->session.lidar_model();
+  if (configured) r->config.lidar_model = configured->name;
+  LidarDetector lidar(LidarDetectorConfig{}, model, boards);
   EXPECT_TRUE(camera.ok()) << camera.error();
   EXPECT_TRUE(lidar.ok()) << lidar.error();
-  r->projection.Configure(r->session.lidar_model(), 0.5, 200.0, 1);
+  r->projection.Configure(model, 0.5, 200.0, 1);
   r->obs.Reserve(count, static_cast<int>(boards.size()) + 4, 4096);
   cv::Mat image;
   sim::LidarScan scan;

@@ -357,6 +357,25 @@ TEST(CalibrationEngineTest, PerCorrespondenceReprojectionErrorsAreTheQualityFigu
   EXPECT_TRUE(px.empty());
 }
 
+// An OT128's clouds under a Mid-360's model (a user's config naming the wrong LiDAR): a third of
+// the points fall outside the model's field of view, and the verdict says so before the
+// detections made on the wrong grid are used. The right model leaves none out.
+TEST(CalibrationEngineTest, CloudsFromAnotherLidarModelAreRefused) {
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  LidarKind kind;
+  ASSERT_TRUE(LidarKindFromName("mid360", &kind, nullptr));
+  const LidarModel mid360 = MakeLidarModel(kind);
+  auto wrong = testing::Record(o, 8, 20, 0, &mid360);
+  const CalibrationOutcome out = Calibrate(wrong->config, wrong->obs, wrong->projection, {});
+  EXPECT_EQ(out.reason, "lidar_model_mismatch") << out.detail;
+  EXPECT_NE(out.detail.find("(mid360)"), std::string::npos) << out.detail;
+  EXPECT_GT(wrong->obs.lidar_outside_points, wrong->obs.lidar_valid_points / 5);
+  auto right = testing::Record(o, 8, 20);
+  EXPECT_GT(right->obs.lidar_valid_points, 8 * 10000);
+  EXPECT_EQ(right->obs.lidar_outside_points, 0);
+}
+
 TEST(CalibrationEngineTest, NoLidarBoardsOrNoCameraBoardsAreExplicit) {
   sim::SessionOptions o;
   auto r = Drive(o);

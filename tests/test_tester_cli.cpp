@@ -240,7 +240,7 @@ TEST(RoutineReasonTest, EveryCodeRoundTripsBetweenAgentAndTester) {
     const std::string agent_text = name == "store_write_failed" ? "commit_failed" : name;
     EXPECT_EQ(static_cast<int>(uds::RoutineReasonCode(agent_text)), code) << name;
   }
-  EXPECT_EQ(named, 0x18) << "codes 0x01..0x18 each have a name";
+  EXPECT_EQ(named, 0x19) << "codes 0x01..0x19 each have a name";
   // The sensor faults of issue 9 have their own codes, not "other".
   EXPECT_EQ(uds::RoutineReasonCode("lidar_timeout"), uds::RoutineReason::kLidarTimeout);
   EXPECT_EQ(uds::RoutineReasonCode("camera_timeout"), uds::RoutineReason::kCameraTimeout);
@@ -248,6 +248,8 @@ TEST(RoutineReasonTest, EveryCodeRoundTripsBetweenAgentAndTester) {
   EXPECT_EQ(uds::RoutineReasonCode("camera_scale_mismatch"),
             uds::RoutineReason::kCameraScaleMismatch);
   EXPECT_EQ(uds::RoutineReasonCode("lidar_range_offset"), uds::RoutineReason::kLidarRangeOffset);
+  EXPECT_EQ(uds::RoutineReasonCode("lidar_model_mismatch"),
+            uds::RoutineReason::kLidarModelMismatch);
   EXPECT_EQ(uds::RoutineReasonCode("time_offset_beyond_tolerance"),
             uds::RoutineReason::kTimeOffset);
   EXPECT_EQ(uds::RoutineReasonCode("principal_point_mismatch"),

@@ -342,6 +342,19 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
   if (!engine.grid.IsValid(&why) || !engine.motion.IsValid(&why) || !engine.direct.IsValid(&why) ||
       !engine.scenery.IsValid(&why))
     return Reject(out, "invalid_config", "engine config: " + why);
+  if (observed.lidar_valid_points > 0 &&
+      static_cast<double>(observed.lidar_outside_points) >
+          kMaxLidarOutsideShare * static_cast<double>(observed.lidar_valid_points))
+    return Reject(
+        out, "lidar_model_mismatch",
+        Fmt(100.0 * static_cast<double>(observed.lidar_outside_points) /
+                static_cast<double>(observed.lidar_valid_points),
+            1) +
+            " % of the LiDAR's points fall outside the field of view of the configured model (" +
+            config.lidar_model +
+            "): the clouds come from another LiDAR, or in other axes (x forward, z up), than the "
+            "configuration says; configure the model that recorded them (calibd-calibrate "
+            "--inspect estimates one), or 'generic'");
   if (observed.camera.empty())
     return Reject(out, "no_camera_boards", "the camera saw no configured board in any frame pair");
   if (observed.lidar.empty())

@@ -663,6 +663,7 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
   out->point_time_s.clear();
   out->candidates.clear();
   out->clusters.clear();
+  out->cloud_points = static_cast<int>(cloud.size);
   out->invalid_points = out->outside_points = out->dropped_points = out->overflow_points = 0;
   out->chained_points = 0;
   out->num_clusters = out->dropped_candidates = out->dropped_boards = 0;

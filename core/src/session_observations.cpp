@@ -1,4 +1,5 @@
 #include "calibd/core/session_observations.hpp"
+#include <algorithm>
 #include <cassert>
 
 namespace calibd {
@@ -21,6 +22,7 @@ void SessionObservations::Clear() {
   point_dt.clear();
   frame_times.clear();
   num_frames = 0;
+  lidar_valid_points = lidar_outside_points = 0;
 }
 
 bool SessionObservations::BeginFrame(const FrameTimes& times) {
@@ -59,6 +61,8 @@ bool SessionObservations::AddFrame(const CameraDetections& cam, const LidarDetec
                                    const std::vector<BoardGeometry>& boards,
                                    const FrameTimes& times) {
   if (!BeginFrame(times)) return false;
+  lidar_valid_points += lid.cloud_points - lid.overflow_points - lid.invalid_points;
+  lidar_outside_points += lid.outside_points;
   bool ok = true;
   for (const auto& d : cam.boards) {
     int index = -1;
@@ -81,43 +85,48 @@ bool SessionObservations::AddFrame(const CameraDetections& cam, const LidarDetec
   return ok;
 }
 
-SessionObservations Subset(const SessionObservations& s, const std::vector<char>& keep_frame,
-                           const std::vector<char>& keep_camera,
-                           const std::vector<char>& keep_lidar) {
-  // Capacities: kept frames, the most kept entries of one frame, the largest kept cluster.
-  std::vector<int> camera_per_frame(static_cast<size_t>(s.num_frames), 0);
-  std::vector<int> lidar_per_frame(camera_per_frame.size(), 0);
-  int max_points = 1;
-  for (size_t i = 0; i < s.camera.size(); ++i)
-    if (keep_camera[i]) ++camera_per_frame[static_cast<size_t>(s.camera[i].frame)];
-  for (size_t j = 0; j < s.lidar.size(); ++j) {
-    if (!keep_lidar[j]) continue;
-    ++lidar_per_frame[static_cast<size_t>(s.lidar[j].frame)];
-    max_points = std::max(max_points, s.lidar[j].num_points);
+SessionObservations SelectFrames(const SessionObservations& s, const std::vector<int>& frames,
+                                 const std::vector<char>& keep_camera,
+                                 const std::vector<char>& keep_lidar) {
+  // Entries are in frame order: the first camera and LiDAR entry of every frame.
+  std::vector<size_t> first_camera(static_cast<size_t>(s.num_frames) + 1, s.camera.size());
+  std::vector<size_t> first_lidar(first_camera.size(), s.lidar.size());
+  for (size_t i = s.camera.size(); i-- > 0;)
+    first_camera[static_cast<size_t>(s.camera[i].frame)] = i;
+  for (size_t j = s.lidar.size(); j-- > 0;) first_lidar[static_cast<size_t>(s.lidar[j].frame)] = j;
+  for (size_t f = first_camera.size() - 1; f-- > 0;) {
+    first_camera[f] = std::min(first_camera[f], first_camera[f + 1]);
+    first_lidar[f] = std::min(first_lidar[f], first_lidar[f + 1]);
   }
-  int frames = 0, max_entries = 1;
-  for (size_t f = 0; f < camera_per_frame.size(); ++f) {
-    if (!keep_frame[f]) continue;
-    ++frames;
-    max_entries = std::max({max_entries, camera_per_frame[f], lidar_per_frame[f]});
+  // Capacities: the frames, the most kept entries of one frame, the largest kept cluster.
+  int max_entries = 1, max_points = 1;
+  for (const int f : frames) {
+    int cameras = 0, clusters = 0;
+    for (size_t i = first_camera[f]; i < first_camera[f + 1]; ++i) cameras += keep_camera[i];
+    for (size_t j = first_lidar[f]; j < first_lidar[f + 1]; ++j) {
+      if (!keep_lidar[j]) continue;
+      ++clusters;
+      max_points = std::max(max_points, s.lidar[j].num_points);
+    }
+    max_entries = std::max({max_entries, cameras, clusters});
   }
 
   SessionObservations out;
-  out.Reserve(frames, max_entries, max_points);
+  out.Reserve(static_cast<int>(frames.size()), max_entries, max_points);
+  out.lidar_valid_points = s.lidar_valid_points;  // the session's clouds, whichever frames
+  out.lidar_outside_points = s.lidar_outside_points;
   std::vector<float> time_s;
-  size_t i = 0, j = 0;  // camera and lidar entries are in frame order
-  for (int f = 0; f < s.num_frames; ++f) {
-    const bool keep = keep_frame[static_cast<size_t>(f)] != 0;
+  for (const int f : frames) {
     const FrameTimes& t = s.frame_times[static_cast<size_t>(f)];
-    [[maybe_unused]] bool ok = !keep || out.BeginFrame(t);
+    [[maybe_unused]] bool ok = out.BeginFrame(t);
     // AddLidarCluster takes firing times after the sweep start; the store keeps them relative to
     // the camera time (point_dt = sweep start - camera time + firing time).
     const float sweep_dt =
         static_cast<float>(static_cast<double>(t.lidar_utime - t.camera_utime) * 1e-6);
-    for (; i < s.camera.size() && s.camera[i].frame == f; ++i)
-      if (keep && keep_camera[i]) ok = out.AddCameraBoard(s.camera[i]) && ok;
-    for (; j < s.lidar.size() && s.lidar[j].frame == f; ++j) {
-      if (!keep || !keep_lidar[j]) continue;
+    for (size_t i = first_camera[f]; i < first_camera[f + 1]; ++i)
+      if (keep_camera[i]) ok = out.AddCameraBoard(s.camera[i]) && ok;
+    for (size_t j = first_lidar[f]; j < first_lidar[f + 1]; ++j) {
+      if (!keep_lidar[j]) continue;
       const auto& c = s.lidar[j];
       const auto first = static_cast<size_t>(c.first_point);
       time_s.resize(static_cast<size_t>(c.num_points));
@@ -127,6 +136,15 @@ SessionObservations Subset(const SessionObservations& s, const std::vector<char>
     assert(ok && "capacities are sized to fit");
   }
   return out;
+}
+
+SessionObservations Subset(const SessionObservations& s, const std::vector<char>& keep_frame,
+                           const std::vector<char>& keep_camera,
+                           const std::vector<char>& keep_lidar) {
+  std::vector<int> frames;
+  for (int f = 0; f < s.num_frames; ++f)
+    if (keep_frame[static_cast<size_t>(f)]) frames.push_back(f);
+  return SelectFrames(s, frames, keep_camera, keep_lidar);
 }
 
 }  // namespace calibd

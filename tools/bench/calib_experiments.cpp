@@ -121,10 +121,15 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
   drive->lidar_true.clear();
   drive->lidar_found_boards.clear();
   drive->lidar_visible_boards.clear();
+  int64_t first_camera_utime = 0;
   for (int k = 0; k < frames; ++k) {
     detected.Detect(k, true, &frame);
     ScoreLidar(frame, &board_of_point, drive);
-    FrameTimes times{frame.truth.camera_utime + faults.camera_stamp_shift_us,
+    if (k == 0) first_camera_utime = frame.truth.camera_utime;
+    const auto drift_us =
+        std::llround(static_cast<double>(frame.truth.camera_utime - first_camera_utime) *
+                     faults.camera_clock_drift_ppm * 1e-6);
+    FrameTimes times{frame.truth.camera_utime + faults.camera_stamp_shift_us + drift_us,
                      frame.truth.lidar_utime};
     if (faults.one_time_per_pair) times.camera_utime = times.lidar_utime;
     if (faults.no_times) times = FrameTimes{};

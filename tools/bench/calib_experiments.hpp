@@ -55,7 +55,10 @@ struct RecordingFaults {
   /// the detectors and the engine use it. Empty: UserConfig() as it is.
   std::function<void(CalibConfig*)> edit_config;
   int64_t camera_stamp_shift_us = 0;  ///< added to every camera stamp (a wrong clock)
-  bool no_times = false;              ///< frame pairs without capture times (paired by file name)
+  /// The camera's clock runs this much fast against the LiDAR's, parts per million: its stamps
+  /// drift from the truth by that share of the time since the first frame.
+  double camera_clock_drift_ppm = 0.0;
+  bool no_times = false;  ///< frame pairs without capture times (paired by file name)
   /// Each pair stamped with one time, its LiDAR sweep's start, for both sensors: a folder whose
   /// frames.csv a user wrote for pairs matched by file name, at the sensors' nominal rate.
   bool one_time_per_pair = false;

@@ -9,6 +9,7 @@
 #include <random>
 
 #include "calib_experiments.hpp"
+#include "calibd/core/camera_model.hpp"
 #include "calibd/core/geometry.hpp"
 #include "calibd/core/grid_search.hpp"
 #include "calibd/core/lidar_model.hpp"
@@ -33,9 +34,26 @@ struct Session {
   /// Applied to the simulator's UserConfig() (the user's config with a wrong figure).
   std::function<void(CalibConfig*)> edit_config;
   RecordingFaults recording;
+  /// The LiDAR model the user configured (detector and range image); empty: the true one.
+  std::string config_lidar;
+  /// The frame pairs as the calibration receives them: as recorded, in a shuffled order (times
+  /// intact), or each twice.
+  enum class FrameOrder { kRecorded, kShuffled, kDuplicated } frame_order = FrameOrder::kRecorded;
+  uint64_t order_seed = 0;
+  int drive_frames = 0;  ///< frame pairs of this campaign's drives (quick or full)
 };
 
 using Rng = std::mt19937_64;
+
+/// How far `wrong` puts the image corner's ray from where `truth` does, px.
+double CornerDisplacementPx(const CameraIntrinsics& truth, const CameraIntrinsics& wrong) {
+  const CameraModel t(truth), w(wrong);
+  Eigen::Vector2d xy, uv;
+  if (!t.Unproject(Eigen::Vector2d(0.0, 0.0), &xy) ||
+      !w.Project(Eigen::Vector3d(xy.x(), xy.y(), 1.0), &uv, 1e6))
+    return std::numeric_limits<double>::infinity();
+  return uv.norm();
+}
 
 double Draw(Rng* rng, double lo, double hi) {
   return std::uniform_real_distribution<double>(lo, hi)(*rng);
@@ -119,6 +137,68 @@ constexpr Fault kFaults[] = {
        s->sim.lidar_noise.range_bias_m = sign * Draw(rng, 0.02, 0.05);
        s->magnitude = Num(s->sim.lidar_noise.range_bias_m * 100.0, 1) + " cm";
      }},
+    {"tag_off_centre",
+     "the config puts the tag 10-40 mm off the board's centre; it is printed centred",
+     [](Rng* rng, Session* s) {
+       const double r = Draw(rng, 0.01, 0.04), a = Draw(rng, 0.0, 2.0 * M_PI);
+       s->magnitude = Num(r * 1e3, 1) + " mm";
+       s->edit_config = [r, a](CalibConfig* c) {
+         for (auto& b : c->boards) b.tag_offset_m = r * Eigen::Vector2d(std::cos(a), std::sin(a));
+       };
+     }},
+    {"distortion", "the config's lens distortion is another lens's (k1 -0.3..0.1, k2 -0.1..0.2)",
+     [](Rng* rng, Session* s) {
+       const double k1 = Draw(rng, -0.3, 0.1), k2 = Draw(rng, -0.1, 0.2);
+       CameraIntrinsics wrong = s->sim.camera;
+       wrong.k1 = k1;
+       wrong.k2 = k2;
+       wrong.p1 = wrong.p2 = wrong.k3 = 0.0;
+       s->magnitude = Num(CornerDisplacementPx(s->sim.camera, wrong), 1) + " px at the corner";
+       s->edit_config = [wrong](CalibConfig* c) { c->camera = wrong; };
+     }},
+    {"frames_1s_apart",
+     "driving, a frame pair a second, the camera 10-100 ms late (stamped at its trigger)",
+     [](Rng* rng, Session* s) {
+       const int64_t delay = std::llround(Draw(rng, 10e3, 100e3));
+       sim::TrajectoryOptions& t = s->sim.trajectory;
+       t.mode = "drive";
+       t.min_distance_m = 4.0;
+       t.max_distance_m = 14.0;
+       t.rate_hz = 1.0;
+       t.duration_s = s->drive_frames / t.rate_hz;
+       s->sim.workshop.num_boards = std::max(2, s->sim.workshop.num_boards);
+       s->sim.workshop.board_width_m = s->sim.workshop.board_height_m = 0.6;
+       s->sim.workshop.tag_size_m = 0.48;
+       s->sim.camera_delay_us = delay;
+       s->recording.camera_stamp_shift_us = -delay;
+       s->magnitude = Num(static_cast<double>(delay) * 1e-3, 1) + " ms";
+     }},
+    {"clock_drift", "the camera's clock runs 200-3000 ppm fast or slow against the LiDAR's",
+     [](Rng* rng, Session* s) {
+       const double sign = Sign(rng);
+       s->recording.camera_clock_drift_ppm = sign * Draw(rng, 200.0, 3000.0);
+       s->magnitude = Num(s->recording.camera_clock_drift_ppm, 0) + " ppm";
+     }},
+    {"wrong_lidar_model", "the config names another LiDAR model than the one recorded",
+     [](Rng* rng, Session* s) {
+       const int n = static_cast<int>(std::size(kLidars));
+       std::string other = s->sim.lidar_model;
+       while (other == s->sim.lidar_model)
+         other = kLidars[std::uniform_int_distribution<int>(0, n - 1)(*rng)];
+       s->config_lidar = other;
+       s->magnitude = other;
+     }},
+    {"frames_reordered", "the frame pairs arrive in a shuffled order (their times intact)",
+     [](Rng* rng, Session* s) {
+       s->frame_order = Session::FrameOrder::kShuffled;
+       s->order_seed = (*rng)();
+       s->magnitude = "shuffled";
+     }},
+    {"frames_duplicated", "every frame pair arrives twice",
+     [](Rng*, Session* s) {
+       s->frame_order = Session::FrameOrder::kDuplicated;
+       s->magnitude = "x2";
+     }},
     {"prior_far", "the prior 12-20 deg off (beyond the grid search's 10 deg)",
      [](Rng* rng, Session* s) {
        const double deg = Draw(rng, 12.0, 20.0);
@@ -175,6 +255,7 @@ Session MakeSession(int i, unsigned long long seed, bool quick) {
     o.trajectory.rate_hz = 5.0;
     o.trajectory.duration_s = (quick ? 40 : 80) / o.trajectory.rate_hz;
   }
+  s.drive_frames = quick ? 40 : 80;
   s.fault = fault.name;
   fault.apply(&rng, &s);
   return s;
@@ -193,16 +274,33 @@ bool RunSession(const Session& s, SessionResult* out) {
   out->session = s;
   std::string error;
   RecordingFaults faults = s.recording;
-  faults.edit_config = s.edit_config;
+  const std::string lidar_name = s.config_lidar.empty() ? s.sim.lidar_model : s.config_lidar;
+  faults.edit_config = [&s, &lidar_name](CalibConfig* c) {
+    if (s.edit_config) s.edit_config(c);
+    c->lidar_model = lidar_name;
+  };
+  LidarKind kind;
+  LidarKindFromName(lidar_name, &kind, nullptr);
+  const LidarModel model = MakeLidarModel(kind);
   RecordedDrive drive;
-  if (!RecordDrive(s.sim, &drive, &error, LidarDetectorConfig{}, nullptr, faults)) {
+  if (!RecordDrive(s.sim, &drive, &error, LidarDetectorConfig{}, &model, faults)) {
     out->error = error;
     return false;
   }
+  if (s.frame_order != Session::FrameOrder::kRecorded) {
+    const SessionObservations& recorded = drive.observations;
+    std::vector<int> frames;
+    for (int f = 0; f < recorded.num_frames; ++f)
+      for (int copy = 0; copy < (s.frame_order == Session::FrameOrder::kDuplicated ? 2 : 1); ++copy)
+        frames.push_back(f);
+    if (s.frame_order == Session::FrameOrder::kShuffled)
+      std::shuffle(frames.begin(), frames.end(), Rng(s.order_seed));
+    drive.observations =
+        SelectFrames(recorded, frames, std::vector<char>(recorded.camera.size(), 1),
+                     std::vector<char>(recorded.lidar.size(), 1));
+  }
   RangeImage projection;  // as calibd-calibrate configures it
-  LidarKind kind;
-  LidarKindFromName(s.sim.lidar_model, &kind, nullptr);
-  projection.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
+  projection.Configure(model, 0.5, 200.0, 1);
   EngineConfig engine;
   engine.direct.threads = 1;
   out->detect_seconds = drive.detect_s;

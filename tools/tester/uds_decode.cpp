@@ -419,7 +419,8 @@ const char* RoutineReasonName(uint8_t reason) {
                                            "camera_scale_mismatch",
                                            "lidar_range_offset",
                                            "time_offset_beyond_tolerance",
-                                           "principal_point_mismatch"};
+                                           "principal_point_mismatch",
+                                           "lidar_model_mismatch"};
   if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
   return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
 }

@@ -30,7 +30,8 @@ RoutineReason RoutineReasonCode(std::string_view reason) {
                 {"camera_scale_mismatch", R::kCameraScaleMismatch},
                 {"lidar_range_offset", R::kLidarRangeOffset},
                 {"time_offset_beyond_tolerance", R::kTimeOffset},
-                {"principal_point_mismatch", R::kPrincipalPointMismatch}};
+                {"principal_point_mismatch", R::kPrincipalPointMismatch},
+                {"lidar_model_mismatch", R::kLidarModelMismatch}};
   if (reason.empty()) return R::kNone;
   for (const auto& c : kCodes)
     if (reason == c.text) return c.code;

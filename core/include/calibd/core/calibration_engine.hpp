@@ -7,6 +7,9 @@
 /// tolerance: the prior is kept), `updated` (a plausible change and every quality gate passes),
 /// `rejected` (with one reason code below). Reason codes:
 /// - `invalid_config`: an engine setting is out of range (the detail names it).
+/// - `lidar_model_mismatch`: more than kMaxLidarOutsideShare of the LiDAR's points fall outside
+///   the configured model's field of view: the clouds come from another LiDAR model, or in
+///   other axes, than the configuration says.
 /// - `no_camera_boards`: no board detected by the camera in any frame pair.
 /// - `no_lidar_boards`: no board cluster detected by the LiDAR in any frame pair.
 /// - `no_grid_candidate`: no extrinsic within the search range aligns the detections.
@@ -123,6 +126,13 @@ struct EngineConfig {
   /// still sees every frame).
   int max_solve_frames = 200;
 };
+
+/// Share of the LiDAR's points (SessionObservations::lidar_outside_points) beyond which the
+/// configured model is not the one that recorded them. A model's field of view holds its own
+/// sensor's points (the catalogue's are datasheet figures with a margin); an OT128's clouds under
+/// a Mid-360's model (-7 to 52 deg) leave a third of them out, and the detector then segments
+/// what is left on the wrong grid.
+inline constexpr double kMaxLidarOutsideShare = 0.1;
 
 /// Boards the camera-LiDAR scale fit needs (4 unknowns and a residual to measure), and the
 /// spread of their distances, as a share of the farthest.

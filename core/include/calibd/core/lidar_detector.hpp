@@ -224,6 +224,7 @@ struct LidarDetections {
                                            ///< max_clusters)
   /// With report_clusters: every cluster of at least min_cluster_points (capacity max_clusters).
   std::vector<LidarClusterReport> clusters;
+  int cloud_points = 0;        ///< points in the input cloud
   int invalid_points = 0;      ///< NaN/inf or out of range, skipped
   int outside_points = 0;      ///< outside the model's field of view, skipped
   int dropped_points = 0;      ///< farther points of a shared range-image cell (paper §III-C-1)

@@ -44,6 +44,11 @@ struct SessionObservations {
   std::vector<float> point_dt;
   std::vector<FrameTimes> frame_times;  ///< one per frame pair
   int num_frames = 0;
+  /// Over the LiDAR clouds AddFrame recorded: points with a finite range in the model's range
+  /// limits, and how many of them fell outside the configured model's field of view (a cloud from
+  /// another LiDAR model, or in other axes, than the configuration names).
+  int64_t lidar_valid_points = 0;
+  int64_t lidar_outside_points = 0;
 
   /// Reserves room for `max_frames` frame pairs of up to `max_boards` boards and clusters each,
   /// with up to `max_points_per_cluster` points each.
@@ -66,6 +71,14 @@ struct SessionObservations {
  private:
   int max_frames_ = 0;
 };
+
+/// A copy of `s` holding its frame pairs `frames` in that order (a frame may repeat), renumbered
+/// 0, 1, ..., and in them only the camera boards with keep_camera[i] and the LiDAR clusters with
+/// keep_lidar[j] (indices into s.camera and s.lidar). Built through the store's public API,
+/// capacities sized to fit.
+SessionObservations SelectFrames(const SessionObservations& s, const std::vector<int>& frames,
+                                 const std::vector<char>& keep_camera,
+                                 const std::vector<char>& keep_lidar);
 
 /// A copy of `s` holding the frame pairs with keep_frame[f] (renumbered in order) and in them only
 /// the camera boards with keep_camera[i] and the LiDAR clusters with keep_lidar[j] (indices into

@@ -107,6 +107,7 @@ enum class RoutineReason : uint8_t {
   kLidarRangeOffset = 0x16,       ///< "lidar_range_offset"
   kTimeOffset = 0x17,             ///< "time_offset_beyond_tolerance"
   kPrincipalPointMismatch = 0x18,  ///< "principal_point_mismatch"
+  kLidarModelMismatch = 0x19,      ///< "lidar_model_mismatch"
   kOther = 0xFF,                   ///< any other reason (the agent's log has the text)
 };
 
