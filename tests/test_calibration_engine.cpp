@@ -3,7 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <numeric>
+#include <random>
 #include <vector>
 
 #include "calibd/core/calibration_engine.hpp"
@@ -374,6 +377,44 @@ TEST(CalibrationEngineTest, CloudsFromAnotherLidarModelAreRefused) {
   auto right = testing::Record(o, 8, 20);
   EXPECT_GT(right->obs.lidar_valid_points, 8 * 10000);
   EXPECT_EQ(right->obs.lidar_outside_points, 0);
+}
+
+// Frame pairs that arrive shuffled, some twice (a log written out of order, a replay repeating
+// pairs): the engine works on them in capture order, each once, and gives the same answer as on
+// the recording; its correspondences still name the frames and clusters it was given.
+TEST(CalibrationEngineTest, PairsOutOfOrderOrRepeatedAreTakenInCaptureOrderOnce) {
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  auto r = testing::Record(o, 20, 10);
+  const CalibrationOutcome recorded = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  ASSERT_TRUE(recorded.solved) << recorded.reason << ": " << recorded.detail;
+  EXPECT_EQ(recorded.frames_out_of_order, 0);
+  EXPECT_EQ(recorded.duplicate_frames, 0);
+
+  std::vector<int> frames(static_cast<size_t>(r->obs.num_frames));
+  std::iota(frames.begin(), frames.end(), 0);
+  std::shuffle(frames.begin(), frames.end(), std::mt19937_64(7));
+  for (int f : {3, 11, 17}) frames.push_back(f);
+  const SessionObservations arrived =
+      SelectFrames(r->obs, frames, std::vector<char>(r->obs.camera.size(), 1),
+                   std::vector<char>(r->obs.lidar.size(), 1));
+  ObservationSet corr;
+  const CalibrationOutcome out =
+      Calibrate(r->config, arrived, r->projection, EngineConfig{}, &corr);
+  EXPECT_EQ(out.verdict, recorded.verdict) << out.reason << ": " << out.detail;
+  EXPECT_GT(out.frames_out_of_order, 5);
+  EXPECT_EQ(out.duplicate_frames, 3);
+  EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), recorded.T_camera_lidar.linear()) / kDeg,
+            1e-6);
+  EXPECT_LT((out.T_camera_lidar.translation() - recorded.T_camera_lidar.translation()).norm(),
+            1e-9);
+  ASSERT_FALSE(corr.observations.empty());
+  for (const BoardObservation& b : corr.observations) {
+    ASSERT_GE(b.lidar_cluster, 0);
+    const auto& cluster = arrived.lidar[static_cast<size_t>(b.lidar_cluster)];
+    EXPECT_EQ(cluster.frame, b.frame);
+    EXPECT_EQ(cluster.num_points, b.num_points);
+  }
 }
 
 TEST(CalibrationEngineTest, NoLidarBoardsOrNoCameraBoardsAreExplicit) {

@@ -329,10 +329,43 @@ const char* VerdictName(CalibrationOutcome::Verdict v) {
   return "rejected";
 }
 
-CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& observed,
-                             const RangeImage& projection, const EngineConfig& engine,
-                             ObservationSet* correspondences,
-                             std::vector<double>* reprojection_px) {
+namespace {
+
+// The frame pairs in capture order, each once: the order a session holds them in is their arrival
+// order, which a log written out of order or a replay that sends pairs twice does not keep, and
+// motion compensation finds a board's neighbours in time among the adjacent frames, while a pair
+// counted twice would weigh double and sit in both halves of a half-data re-solve. Empty when
+// `s` is already so, or carries no capture times (pairs by file name) to order by.
+std::vector<int> CaptureOrder(const SessionObservations& s, int* out_of_order, int* duplicates) {
+  *out_of_order = *duplicates = 0;
+  const auto& t = s.frame_times;
+  if (static_cast<int>(t.size()) != s.num_frames ||
+      std::all_of(t.begin(), t.end(), [](const FrameTimes& f) { return f.camera_utime == 0; }))
+    return {};
+  std::vector<int> order(t.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return t[a].camera_utime < t[b].camera_utime; });
+  for (size_t f = 1; f < t.size(); ++f) *out_of_order += t[f].camera_utime < t[f - 1].camera_utime;
+  std::vector<int> once;
+  once.reserve(order.size());
+  for (const int f : order) {
+    if (!once.empty() && t[once.back()].camera_utime == t[f].camera_utime &&
+        t[once.back()].lidar_utime == t[f].lidar_utime) {
+      ++*duplicates;
+      continue;
+    }
+    once.push_back(f);
+  }
+  if (*out_of_order == 0 && *duplicates == 0) return {};
+  return once;
+}
+
+CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
+                                           const SessionObservations& observed,
+                                           const RangeImage& projection, const EngineConfig& engine,
+                                           ObservationSet* correspondences,
+                                           std::vector<double>* reprojection_px) {
   if (reprojection_px) reprojection_px->clear();
   CalibrationOutcome out;
   out.prior_T_camera_lidar = config.prior_T_camera_lidar;
@@ -775,6 +808,34 @@ CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservation
                   (q.camera_scale_corrected > 0.0 ? "longer" : "shorter") +
                   " than the LiDAR's and were corrected: measure the printed tag (or checkerboard "
                   "square) and check the camera's focal length";
+  return out;
+}
+
+}  // namespace
+
+CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& observed,
+                             const RangeImage& projection, const EngineConfig& engine,
+                             ObservationSet* correspondences,
+                             std::vector<double>* reprojection_px) {
+  int out_of_order = 0, duplicates = 0;
+  const std::vector<int> order = CaptureOrder(observed, &out_of_order, &duplicates);
+  if (order.empty())
+    return CalibrateInCaptureOrder(config, observed, projection, engine, correspondences,
+                                   reprojection_px);
+  std::vector<int> source_cluster;
+  const SessionObservations ordered =
+      SelectFrames(observed, order, std::vector<char>(observed.camera.size(), 1),
+                   std::vector<char>(observed.lidar.size(), 1), &source_cluster);
+  CalibrationOutcome out = CalibrateInCaptureOrder(config, ordered, projection, engine,
+                                                   correspondences, reprojection_px);
+  out.frames_out_of_order = out_of_order;
+  out.duplicate_frames = duplicates;
+  if (correspondences)
+    for (BoardObservation& o : correspondences->observations) {
+      o.frame = order[static_cast<size_t>(o.frame)];
+      if (o.lidar_cluster >= 0)
+        o.lidar_cluster = source_cluster[static_cast<size_t>(o.lidar_cluster)];
+    }
   return out;
 }
 

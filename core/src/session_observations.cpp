@@ -87,7 +87,9 @@ bool SessionObservations::AddFrame(const CameraDetections& cam, const LidarDetec
 
 SessionObservations SelectFrames(const SessionObservations& s, const std::vector<int>& frames,
                                  const std::vector<char>& keep_camera,
-                                 const std::vector<char>& keep_lidar) {
+                                 const std::vector<char>& keep_lidar,
+                                 std::vector<int>* source_lidar) {
+  if (source_lidar) source_lidar->clear();
   // Entries are in frame order: the first camera and LiDAR entry of every frame.
   std::vector<size_t> first_camera(static_cast<size_t>(s.num_frames) + 1, s.camera.size());
   std::vector<size_t> first_lidar(first_camera.size(), s.lidar.size());
@@ -132,6 +134,7 @@ SessionObservations SelectFrames(const SessionObservations& s, const std::vector
       time_s.resize(static_cast<size_t>(c.num_points));
       for (size_t p = 0; p < time_s.size(); ++p) time_s[p] = s.point_dt[first + p] - sweep_dt;
       ok = out.AddLidarCluster(s.points.data() + first, time_s.data(), c.num_points) && ok;
+      if (source_lidar) source_lidar->push_back(static_cast<int>(j));
     }
     assert(ok && "capacities are sized to fit");
   }

@@ -443,6 +443,8 @@ int main(int argc, char** argv) {
   report["frames"] = {{"camera", stats.camera_frames},
                       {"lidar", stats.lidar_frames},
                       {"pairs", stats.pairs},
+                      {"pairs_out_of_order", out.frames_out_of_order},
+                      {"pairs_repeated", out.duplicate_frames},
                       {"unpaired_camera", stats.unpaired_camera},
                       {"unpaired_lidar", stats.unpaired_lidar},
                       {"bad_messages", stats.bad_messages},

@@ -247,6 +247,9 @@ struct CalibrationOutcome {
   double delta_rotation_deg = 0.0, delta_translation_m = 0.0;
   QualityFigures quality;
   int static_scenery_clusters = 0;  ///< LiDAR clusters dropped as static scenery
+  /// Frame pairs that arrived earlier than a pair captured before them, and pairs that arrived
+  /// again (the same capture times): the engine works on the pairs in capture order, each once.
+  int frames_out_of_order = 0, duplicate_frames = 0;
   /// Correspondences dropped before the final solve: the grid search had paired the camera's
   /// board with a cluster whose points do not lie on that board at the solution (furniture in
   /// its predicted region). See DropBoardsThatDoNotFit in calibration_engine.cpp.
@@ -328,7 +331,10 @@ bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeomet
 /// `reprojection_px` (optional, for reports) receives the paper Table I error of each of those
 /// correspondences, index for index: the mean over its tag corners (px) of the errors behind
 /// QualityFigures::reprojection_mean_px, NaN where the board's fit failed; empty when the
-/// calibration stopped before the solve. Without it nothing more is allocated.
+/// calibration stopped before the solve. Without it nothing more is allocated, unless the frame
+/// pairs are out of capture order or repeated (CalibrationOutcome::frames_out_of_order): the
+/// engine then works on a copy in capture order, each pair once, and `correspondences` still name
+/// the frames and clusters of `session`.
 CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& session,
                              const RangeImage& projection, const EngineConfig& engine,
                              ObservationSet* correspondences = nullptr,

@@ -75,10 +75,12 @@ struct SessionObservations {
 /// A copy of `s` holding its frame pairs `frames` in that order (a frame may repeat), renumbered
 /// 0, 1, ..., and in them only the camera boards with keep_camera[i] and the LiDAR clusters with
 /// keep_lidar[j] (indices into s.camera and s.lidar). Built through the store's public API,
-/// capacities sized to fit.
+/// capacities sized to fit. `source_lidar` (optional) receives each kept cluster's index in
+/// s.lidar.
 SessionObservations SelectFrames(const SessionObservations& s, const std::vector<int>& frames,
                                  const std::vector<char>& keep_camera,
-                                 const std::vector<char>& keep_lidar);
+                                 const std::vector<char>& keep_lidar,
+                                 std::vector<int>* source_lidar = nullptr);
 
 /// A copy of `s` holding the frame pairs with keep_frame[f] (renumbered in order) and in them only
 /// the camera boards with keep_camera[i] and the LiDAR clusters with keep_lidar[j] (indices into
