@@ -154,15 +154,16 @@ void GridSearch::Prepare(const SessionObservations& s) {
   }
 }
 
-long GridSearch::InViewPoints(const SessionObservations& s, const Pose& T_prior) const {
+long GridSearch::InViewPoints(const SessionObservations& s, const Pose& T_prior) {
   auto off_axis = [](const Eigen::Vector3d& p_camera) {
     return std::atan2(p_camera.head<2>().norm(), p_camera.z());
   };
-  std::vector<bool> has_board(static_cast<size_t>(s.num_frames), false);
+  std::vector<char>& has_board = frame_has_board_;
+  has_board.assign(static_cast<size_t>(s.num_frames), 0);
   double widest = 0.0;
   for (const auto& cam : s.camera) {
     if (Rank(cam.frame, s.num_frames) < 0) continue;
-    has_board[static_cast<size_t>(cam.frame)] = true;
+    has_board[static_cast<size_t>(cam.frame)] = 1;
     widest = std::max(widest, off_axis(cam.T_camera_board.translation()));
   }
   const double reach = config_.range_deg + (config_.refine ? config_.refine_range_deg : 0.0);

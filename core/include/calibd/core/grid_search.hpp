@@ -127,7 +127,7 @@ class GridSearch {
                              const SessionObservations::LidarCluster& cluster);
   /// Points of the clusters the camera could have seen (GridSearchConfig::min_points), over the
   /// frames taking part.
-  long InViewPoints(const SessionObservations& session, const Pose& T_camera_lidar_prior) const;
+  long InViewPoints(const SessionObservations& session, const Pose& T_camera_lidar_prior);
   long CountFast(const SessionObservations& session, const Pose& T_camera_lidar,
                  std::vector<int>* best_cluster, int frame_stride = 1) const;
   long ClusterCount(const ClusterGrid& g, const Roi& roi) const;
@@ -144,6 +144,7 @@ class GridSearch {
   std::vector<int32_t> integral_;           // all clusters' integral images
   std::vector<int> frame_first_cluster_;    // per frame: first index into grids_ (size frames + 1)
   std::vector<std::pair<int, int>> cells_;  // Prepare's scratch: one cluster's cells
+  std::vector<char> frame_has_board_;       // InViewPoints' scratch: per frame
   int max_frames_ = 0;                      // of the current Run
 };
 
