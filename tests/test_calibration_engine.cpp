@@ -7,6 +7,7 @@
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "calibd/core/calibration_engine.hpp"
@@ -20,6 +21,25 @@ constexpr double kDeg = M_PI / 180.0;
 // 40 frame pairs spread over the default 20 s drive (6-30 m and back).
 std::unique_ptr<testing::RecordedSession> Drive(sim::SessionOptions o) {
   return testing::Record(o, 40, 5);
+}
+
+// `poses` still poses, one every 2 s, of `boards` 0.9 m boards (0.702 m tags), seen by a
+// 1920 x 1200 camera of focal length `f_px` with its principal point in the middle.
+sim::SessionOptions StillPoses(const std::string& lidar, int poses, int boards, double f_px) {
+  sim::SessionOptions o;
+  o.lidar_model = lidar;
+  o.trajectory.mode = "stills";
+  o.trajectory.rate_hz = 0.5;
+  o.trajectory.duration_s = poses / o.trajectory.rate_hz;
+  o.workshop.num_boards = boards;
+  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
+  o.workshop.tag_size_m = 0.702;
+  o.camera.width = 1920;
+  o.camera.height = 1200;
+  o.camera.fx = o.camera.fy = f_px;
+  o.camera.cx = 959.5;
+  o.camera.cy = 599.5;
+  return o;
 }
 
 TEST(CalibrationEngineTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
@@ -52,23 +72,11 @@ TEST(CalibrationEngineTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
 // their mean error is above the configured 8 px (a dense LiDAR's drive keeps the 8 px:
 // PerCorrespondenceReprojectionErrorsAreTheQualityFigures).
 TEST(CalibrationEngineTest, TheReprojectionGateFollowsTheLidarsPointSpacing) {
-  sim::SessionOptions o;
+  sim::SessionOptions o = StillPoses("mid360", 40, 1, 2200.0);
   o.seed = 4;
-  o.lidar_model = "mid360";
-  o.trajectory.mode = "stills";
-  o.trajectory.rate_hz = 0.5;
-  o.trajectory.duration_s = 40 / o.trajectory.rate_hz;
   o.stills.frames_per_pose = 3;
   o.stills.min_distance_m = 3.0;
   o.stills.max_distance_m = 6.0;
-  o.workshop.num_boards = 1;
-  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
-  o.workshop.tag_size_m = 0.702;
-  o.camera.width = 1920;
-  o.camera.height = 1200;
-  o.camera.fx = o.camera.fy = 2200.0;
-  o.camera.cx = 959.5;
-  o.camera.cy = 599.5;
   auto sparse = testing::Record(o, 120, 1);
   // 40 poses of one board measure the extrinsic to about 0.12 deg (formal): the precision gates
   // are widened so that the verdict is the reprojection gate's.
@@ -293,19 +301,7 @@ TEST(CalibrationEngineTest, ALidarRangeOffsetIsMeasuredWhileDriving) {
 // range 4 cm long (a LiDAR's range calibration off) is refused, and the refusal says what to
 // check.
 TEST(CalibrationEngineTest, ALidarRangeOffsetIsRefusedWhereTheBoardsDirectionsShowIt) {
-  sim::SessionOptions o;
-  o.lidar_model = "m1";
-  o.trajectory.mode = "stills";
-  o.trajectory.rate_hz = 0.5;
-  o.trajectory.duration_s = 24 / o.trajectory.rate_hz;
-  o.workshop.num_boards = 2;
-  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
-  o.workshop.tag_size_m = 0.702;
-  o.camera.width = 1920;
-  o.camera.height = 1200;
-  o.camera.fx = o.camera.fy = 1100.0;
-  o.camera.cx = 959.5;
-  o.camera.cy = 599.5;
+  sim::SessionOptions o = StillPoses("m1", 24, 2, 1100.0);
   o.prior_rot_deg = 3.0;
   auto r = testing::Record(o, 24, 1);
   const CalibrationOutcome good = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
