@@ -53,6 +53,7 @@ TEST(FrameIntakeTest, DetectsPairsLikeTheDetectorsDirectly) {
   FrameIntake intake;
   std::string error;
   ASSERT_TRUE(intake.Init(SmallIntake(8), m.config, &error)) << error;
+  ASSERT_TRUE(intake.AwaitStartup()) << intake.startup().error;
   intake.SetActive(true);
   for (size_t k = 0; k < m.camera.size(); ++k) {
     intake.OnCamera(m.camera[k]);
@@ -106,6 +107,7 @@ TEST(FrameIntakeTest, LidarDetectorCapacitiesAreCounted) {
   FrameIntake intake;
   std::string error;
   ASSERT_TRUE(intake.Init(config, m.config, &error)) << error;
+  ASSERT_TRUE(intake.AwaitStartup()) << intake.startup().error;
   intake.SetActive(true);
   for (size_t k = 0; k < m.camera.size(); ++k) {
     intake.OnCamera(m.camera[k]);
@@ -127,6 +129,7 @@ TEST(FrameIntakeTest, FullQueueDropsTheNewestPairAndKeepsTheQueuedOnes) {
   FrameIntake intake;
   std::string error;
   ASSERT_TRUE(intake.Init(SmallIntake(2), m.config, &error)) << error;
+  ASSERT_TRUE(intake.AwaitStartup()) << intake.startup().error;
   intake.SetActive(true);
   // Six pairs at once, nothing drained: 2 queued + 1 filling slot hold 3 pairs; once the slots
   // are all taken the newer pairs are dropped (how many depends on how fast the workers are, but
@@ -155,6 +158,7 @@ TEST(FrameIntakeTest, FramesMissingFromAStreamAreCountedPerSensor) {
   FrameIntake intake;
   std::string error;
   ASSERT_TRUE(intake.Init(SmallIntake(2), m.config, &error)) << error;
+  ASSERT_TRUE(intake.AwaitStartup()) << intake.startup().error;
   // Counted while not collecting too (health reports them all the time). Camera frame 4 never
   // arrives (lost in the network); every sweep does.
   for (size_t k = 0; k < m.camera.size(); ++k) {
@@ -171,6 +175,7 @@ TEST(FrameIntakeTest, BadForeignOutOfOrderAndInactiveMessagesAreCountedAndSkippe
   FrameIntake intake;
   std::string error;
   ASSERT_TRUE(intake.Init(SmallIntake(4), m.config, &error)) << error;
+  ASSERT_TRUE(intake.AwaitStartup()) << intake.startup().error;
   // Not collecting: counted only.
   intake.OnCamera(m.camera[0]);
   intake.OnLidar(m.lidar[0]);

@@ -274,6 +274,22 @@ std::vector<Eigen::Vector3f> Rectangle(double w, double h, double d, double step
   return p;
 }
 
+// A daemon stopping during its start-up stops the reference build (FrameIntake's destructor):
+// a cancelled detector is not ok and says why; the checks that cost nothing still name a bad
+// input without any build.
+TEST(LidarDetectorTest, ACancelledReferenceBuildLeavesADetectorThatIsNotOk) {
+  const LidarModel model = MakeLidarModel(LidarKind::kM1);
+  const std::atomic<bool> cancel{true};
+  LidarDetector detector(LidarDetectorConfig{}, model, {BoardGeometry{}}, &cancel);
+  EXPECT_FALSE(detector.ok());
+  EXPECT_NE(detector.error().find("cancelled"), std::string::npos) << detector.error();
+  EXPECT_EQ(detector.num_references(), 0);
+  std::string error;
+  EXPECT_TRUE(LidarDetector::CheckInputs(LidarDetectorConfig{}, model, {BoardGeometry{}}, &error));
+  EXPECT_FALSE(LidarDetector::CheckInputs(LidarDetectorConfig{}, model, {}, &error));
+  EXPECT_EQ(error, "boards: at least one board is needed");
+}
+
 TEST(LidarDetectorTest, BoardDescriptorScoresHigherThanWallsPolesBoxesAndTheDoorPanel) {
   const LidarModel model = MakeLidarModel(LidarKind::kOt128);
   LidarDetector detector(LidarDetectorConfig{}, model, {BoardGeometry{}});

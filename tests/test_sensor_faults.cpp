@@ -80,6 +80,7 @@ class Rig {
     std::string error;
     EXPECT_TRUE(config_.IsValid(&error)) << error;
     EXPECT_TRUE(intake_.Init(IntakeConfigFrom(config_), config_.calib, &error)) << error;
+    EXPECT_TRUE(intake_.AwaitStartup()) << intake_.startup().error;
     recorder_.Init(config_);
     machine_ = SessionMachine(SessionConfigFrom(config_));
     StartRequest request;

@@ -399,6 +399,10 @@ class PerFramePath {
  public:
   bool Init(const AgentConfig& config, std::string* error) {
     if (!intake_.Init(IntakeConfigFrom(config), config.calib, error)) return false;
+    if (!intake_.AwaitStartup()) {
+      *error = intake_.startup().error;
+      return false;
+    }
     recorder_.Init(config);
     if (!bus_.Open("memq://", error)) return false;
     if (!bus_.Subscribe<camera_frame_t>(

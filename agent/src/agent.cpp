@@ -126,6 +126,19 @@ void Agent::CheckInterruptedSession() {
   if (!RemoveSessionMarker(marker_path_, &error)) Log("session marker: " + error);
 }
 
+bool Agent::CheckDetectorStartup() {
+  const FrameIntake::Startup s = intake_.startup();
+  if (s.failed) {
+    Log(s.error + ": stopping");
+    return false;
+  }
+  if (!s.ready) return true;
+  detectors_ready_ = true;
+  Log("LiDAR detector ready: " + std::to_string(s.references) + " reference descriptors in " +
+      std::to_string(static_cast<int64_t>(s.build_ms)) + " ms");
+  return true;
+}
+
 void Agent::EndSessionMarker() {
   if (marker_session_ == 0) return;
   std::string error;
@@ -230,13 +243,13 @@ void Agent::Publish(std::string_view channel, const Msg& msg) {
 
 void Agent::OnCamera(const camera_frame_t& msg) {
   last_camera_us_ = MonotonicUs();
-  if (msg.camera_id == config_.calib.camera_id)
+  if (detectors_ready_ && msg.camera_id == config_.calib.camera_id)
     machine_.FrameArrived(SensorStream::kCamera, last_camera_us_);
   intake_.OnCamera(msg);
 }
 void Agent::OnLidar(const lidar_frame_t& msg) {
   last_lidar_us_ = MonotonicUs();
-  if (msg.lidar_id == config_.calib.lidar_id)
+  if (detectors_ready_ && msg.lidar_id == config_.calib.lidar_id)
     machine_.FrameArrived(SensorStream::kLidar, last_lidar_us_);
   intake_.OnLidar(msg);
 }
@@ -686,6 +699,7 @@ int Agent::Run() {
       }
     }
     if (fds[2].revents & POLLIN) wake_.Clear();
+    if (!detectors_ready_ && !CheckDetectorStartup()) return 1;
     bool diag_readable = false;
     for (int i = first_diag; i < count; ++i) diag_readable = diag_readable || fds[i].revents != 0;
     if (diag_readable) diag_.OnReadable(MonotonicUs());

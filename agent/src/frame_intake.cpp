@@ -55,6 +55,7 @@ bool IntakeConfig::IsValid(std::string* error) const {
 FrameIntake::FrameIntake() = default;
 
 FrameIntake::~FrameIntake() {
+  cancel_build_ = true;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -75,13 +76,15 @@ bool FrameIntake::Init(const IntakeConfig& config, const CalibConfig& calib, std
     if (error) *error = "camera detector: " + camera_detector_->error();
     return false;
   }
-  LidarDetectorConfig lidar = config.lidar;
-  lidar.report_clusters = lidar.report_clusters || !config.debug_dir.empty();
-  lidar_detector_ = std::make_unique<LidarDetector>(lidar, model, calib.boards);
-  if (!lidar_detector_->ok()) {
-    if (error) *error = "LiDAR detector: " + lidar_detector_->error();
+  lidar_config_ = config.lidar;
+  lidar_config_.report_clusters = lidar_config_.report_clusters || !config.debug_dir.empty();
+  lidar_model_ = model;
+  std::string why;
+  if (!LidarDetector::CheckInputs(lidar_config_, model, calib.boards, &why)) {
+    if (error) *error = "LiDAR detector: " + why;
     return false;
   }
+  startup_ = Startup();
   FramePairingConfig pairing;
   pairing.pair_tolerance_us = config.pair_tolerance_us;
   pairing.sweep_us = static_cast<int64_t>(1e6 / model.frame_rate_hz);
@@ -109,7 +112,6 @@ bool FrameIntake::Init(const IntakeConfig& config, const CalibConfig& calib, std
     // The detections at their largest too: a slot first used late in a session (when the
     // detectors fall behind for once) must not allocate then.
     camera_detector_->ReserveOutput(&slot->camera_detections);
-    lidar_detector_->ReserveOutput(&slot->lidar_detections);
     slots_.push_back(std::move(slot));
   }
   camera_decoded_.create(config.limits.max_height, config.limits.max_width, CV_8UC1);
@@ -170,6 +172,10 @@ void FrameIntake::OnCamera(const camera_frame_t& msg) {
     ++counters_.ignored_inactive;
     return;
   }
+  if (!startup_.ready) {
+    ++counters_.ignored_starting;
+    return;
+  }
   if (msg.data.size() > static_cast<size_t>(config_.max_image_bytes)) {
     Bad("camera_frame_t: " + std::to_string(msg.data.size()) +
         " bytes exceed the configured max_image_bytes " + std::to_string(config_.max_image_bytes));
@@ -212,6 +218,10 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
     AfterObserve(lidar_gaps_, restarts, false);
     if (!active_) {
       ++counters_.ignored_inactive;
+      return;
+    }
+    if (!startup_.ready) {
+      ++counters_.ignored_starting;
       return;
     }
     if (msg.num_points < 0 || msg.num_points > config_.limits.max_points ||
@@ -260,7 +270,46 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
   work_.notify_all();
 }
 
+void FrameIntake::BuildLidarDetector() {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto detector =
+      std::make_unique<LidarDetector>(lidar_config_, lidar_model_, calib_.boards, &cancel_build_);
+  // No slot is queued before the detector is ready (frames are ignored), so the slots' LiDAR
+  // detections are this thread's alone here.
+  if (detector->ok())
+    for (auto& slot : slots_) detector->ReserveOutput(&slot->lidar_detections);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    startup_.build_ms = MsSince(t0);
+    startup_.references = detector->num_references();
+    if (detector->ok()) {
+      lidar_detector_ = std::move(detector);
+      startup_.ready = true;
+    } else {
+      startup_.failed = true;
+      startup_.error = "LiDAR detector: " + detector->error();
+    }
+  }
+  started_.notify_all();
+  if (ready_event_ != nullptr) ready_event_->Signal();
+}
+
+FrameIntake::Startup FrameIntake::startup() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return startup_;
+}
+
+bool FrameIntake::AwaitStartup() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  started_.wait(lock, [&] { return startup_.ready || startup_.failed; });
+  return startup_.ready;
+}
+
 void FrameIntake::Worker(bool camera) {
+  if (!camera) {
+    BuildLidarDetector();
+    if (!lidar_detector_) return;  // failed: the poll loop reads startup()
+  }
   for (;;) {
     Slot* slot = nullptr;
     {
@@ -364,7 +413,7 @@ bool FrameIntake::Idle() const {
 
 bool FrameIntake::Full() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return filling_ < 0 && FreeSlot() < 0;
+  return !startup_.ready || (filling_ < 0 && FreeSlot() < 0);
 }
 
 }  // namespace calibd

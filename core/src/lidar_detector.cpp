@@ -470,10 +470,9 @@ struct LidarDetector::Impl {
   }
 
   // The reference descriptors of every distinct board size (paper §III-C-2), built on two
-  // threads at start-up (views x reference_samples descriptors per board size: about half the
-  // agent's time to ready). Each view has its own noise seed, so the result does not depend on the
-  // thread count.
-  void BuildReferences() {
+  // threads (views x reference_samples descriptors per board size). Each view has its own noise
+  // seed, so the result does not depend on the thread count. False when `cancel` stopped it.
+  bool BuildReferences(const std::atomic<bool>* cancel) {
     struct Task {
       double width_m, height_m;
       BoardView view;
@@ -489,14 +488,16 @@ struct LidarDetector::Impl {
     }
     std::vector<std::vector<float>> descs(tasks.size());
     std::atomic<size_t> next{0};
+    auto cancelled = [cancel] { return cancel != nullptr && cancel->load(); };
     auto work = [&](Describer* scratch) {
-      for (size_t t = next++; t < tasks.size(); t = next++)
+      for (size_t t = next++; t < tasks.size() && !cancelled(); t = next++)
         DescribeView(tasks[t].width_m, tasks[t].height_m, tasks[t].view, t + 1, scratch, &descs[t]);
     };
     Describer second(M2dpOf(config), static_cast<int>(describer.aligned.size()));
     std::thread helper(work, &second);
     work(&describer);
     helper.join();
+    if (cancelled()) return false;
     num_references = 0;
     for (const auto& d : descs) num_references += d.empty() ? 0 : 1;
     references.resize(describer.m2dp.size(), num_references);
@@ -505,32 +506,37 @@ struct LidarDetector::Impl {
       if (!d.empty())
         references.col(r++) = Eigen::Map<const Eigen::VectorXf>(d.data(), describer.m2dp.size());
     scores.resize(num_references);
+    return true;
   }
 };
 
-LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel& model,
-                             const std::vector<BoardGeometry>& boards)
-    : impl_(std::make_unique<Impl>(config, model)) {
-  Impl& d = *impl_;
-  if (!config.IsValid(&d.error)) return;
-  if (boards.empty()) {
-    d.error = "boards: at least one board is needed";
-    return;
-  }
+bool LidarDetector::CheckInputs(const LidarDetectorConfig& config, const LidarModel& model,
+                                const std::vector<BoardGeometry>& boards, std::string* error) {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!config.IsValid(error)) return false;
+  if (boards.empty()) return fail("boards: at least one board is needed");
   for (const BoardGeometry& g : boards) {
     std::string e;
-    if (!g.IsValid(&e)) {
-      d.error = "boards: " + e;
-      return;
-    }
+    if (!g.IsValid(&e)) return fail("boards: " + e);
   }
   if (!(model.azimuth_resolution_deg > 0.0) ||
       (!model.has_rings && !(model.elevation_resolution_deg > 0.0)) ||
       !(model.azimuth_max_deg > model.azimuth_min_deg) ||
-      (model.has_rings && model.ring_elevation_deg.empty())) {
-    d.error = "lidar model: needs positive resolutions, a field of view and, with rings, a table";
-    return;
-  }
+      (model.has_rings && model.ring_elevation_deg.empty()))
+    return fail(
+        "lidar model: needs positive resolutions, a field of view and, with rings, a table");
+  return true;
+}
+
+LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel& model,
+                             const std::vector<BoardGeometry>& boards,
+                             const std::atomic<bool>* cancel)
+    : impl_(std::make_unique<Impl>(config, model)) {
+  Impl& d = *impl_;
+  if (!CheckInputs(config, model, boards, &d.error)) return;
   d.boards = boards;
   d.min_side_m = 1e300;
   for (const BoardGeometry& g : boards)
@@ -579,7 +585,10 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   d.trim_cells.resize(d.cluster_points.size());
   d.window_scratch.resize(d.cluster_points.size());
   d.describer = Describer(Impl::M2dpOf(config), config.max_descriptor_points);
-  d.BuildReferences();
+  if (!d.BuildReferences(cancel)) {
+    d.error = "cancelled while its reference descriptors were built";
+    return;
+  }
   if (d.num_references == 0) {
     d.error = "boards: no reference cluster has min_cluster_points points for this LiDAR model";
     return;

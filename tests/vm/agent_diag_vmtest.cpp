@@ -520,6 +520,13 @@ class AgentDiagVm : public ::testing::Test {
     ASSERT_EQ(r.code, 0) << "no UDS answer from the agent: " << r.err << "\nits log:\n"
                          << ReadFile(agent_log_);
     ASSERT_EQ(r.out, "F195 software version: " + std::string(kSoftwareVersion) + "\n");
+    // The LiDAR detector builds its references after the agent answers (frame_intake.hpp): the
+    // tests that calibrate start once it is ready.
+    ASSERT_TRUE(WaitInLog("LiDAR detector ready", 1, 120))
+        << "the LiDAR detector not ready after 120 s; the agent's log:\n"
+        << ReadFile(agent_log_);
+    std::printf("LiDAR detector ready after %.2f s\n",
+                static_cast<double>(NowUs() - spawn_us) * 1e-6);
   }
 
   /// The first request after a start: 0x22 F195 with a long P2 (the agent's first answer can

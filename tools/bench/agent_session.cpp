@@ -101,6 +101,21 @@ bool RunAgentSession(const AgentSessionSpec& spec, AgentSessionRun* run, std::st
   }
   run->ready_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   notify.Close();
+  const std::string agent_log =
+      (std::filesystem::path(spec.out_log).parent_path() / "agent.log").string();
+  const auto give_up = t0 + std::chrono::duration<double>(spec.ready_timeout_s);
+  for (std::string log, ignored; run->detectors_ready_ms < 0.0; ::usleep(10000)) {
+    if (ReadWholeFile(agent_log, &log, &ignored) &&
+        log.find("LiDAR detector ready") != std::string::npos)
+      run->detectors_ready_ms =
+          std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    else if (Clock::now() > give_up) {
+      Stop(pid);
+      *error = "calibd-agent's LiDAR detector not ready within " +
+               std::to_string(static_cast<int>(spec.ready_timeout_s)) + " s; its log: " + agent_log;
+      return false;
+    }
+  }
 
   sim::LivePublishOptions live;
   live.log_path = spec.drive_log;

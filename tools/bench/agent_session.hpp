@@ -29,6 +29,10 @@ struct AgentSessionRun {
   double cpu_s = 0.0;        ///< user + system CPU time of the agent process, start to exit
   double wall_s = 0.0;       ///< start to exit
   double ready_ms = -1.0;    ///< start (fork) to READY=1; -1 when it never came
+  /// Start (fork) to the LiDAR detector ready (its references are built after READY=1, on the
+  /// intake's worker: the agent's log line "LiDAR detector ready"); the drive is published after
+  /// it, since the agent ignores frames until then. -1 when it never came.
+  double detectors_ready_ms = -1.0;
   /// The result message's time (the agent's wall clock) minus the time the publisher sent the
   /// drive's last frame; meaningful only with has_result.
   double last_frame_to_result_ms = 0.0;

@@ -196,6 +196,8 @@ void PrintModel(const ModelResult& m, std::ostream& out) {
     const health_t& h = a.outputs.last_health;
     out << "| agent: start to READY=1 | " << Ms(a.ready_ms)
         << " | | | | <= 1 s: " << Mark(a.ready_ms <= kReadyTargetMs) << " | |\n";
+    out << "| agent: start to LiDAR detector ready (references built after READY=1) | "
+        << Ms(a.detectors_ready_ms) << " | | | | | |\n";
     out << "| agent: last frame to result | "
         << (a.has_result ? Ms(a.last_frame_to_result_ms) : std::string("no result")) << " | | | | "
         << "<= 0.5 s: " << Mark(a.has_result && a.last_frame_to_result_ms <= kResultTargetMs)
@@ -247,6 +249,7 @@ nlohmann::json ModelJson(const ModelResult& m) {
     const AgentSessionRun& a = *m.agent;
     j["agent"] = {
         {"ready_ms", a.ready_ms},
+        {"detectors_ready_ms", a.detectors_ready_ms},
         {"has_result", a.has_result},
         {"last_frame_to_result_ms", a.last_frame_to_result_ms},
         {"cpu_s", a.cpu_s},

@@ -129,6 +129,9 @@ class Agent : private uds::UdsBackend {
   void CheckInterruptedSession();
   /// Removes the session marker once the session has ended (any outcome) or on a clean stop.
   void EndSessionMarker();
+  /// Until the intake's LiDAR detector is ready: logs it once ready; false (the agent stops, as
+  /// for a config it cannot run) when it could not be built.
+  bool CheckDetectorStartup();
 
   AgentConfig config_;
   AgentOptions options_;
@@ -163,6 +166,9 @@ class Agent : private uds::UdsBackend {
   int64_t last_status_us_ = 0, last_health_us_ = 0;
   int64_t rate_camera_frames_ = 0, rate_lidar_frames_ = 0, rate_since_us_ = 0;  ///< health rates
   bool end_of_log_ = false;
+  /// The intake's LiDAR detector is built (it builds on its worker after Init): until then the
+  /// sensors' frames are not taken as arrived by the session (the intake ignores them).
+  bool detectors_ready_ = false;
   /// Malformed messages (intake bad_messages): the first logged at once, then one line per 10 s
   /// with their count at most.
   RateLimitedLog malformed_log_;

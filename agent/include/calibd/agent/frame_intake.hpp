@@ -17,6 +17,7 @@
 /// replaced by the next camera frame (unpaired_camera); a sweep without a camera frame in its
 /// window is skipped (unpaired_lidar).
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
@@ -87,7 +88,9 @@ struct IntakeCounters {
   /// (agent.max_points_per_board: kept as an even subsample).
   int64_t lidar_boards_dropped = 0, lidar_candidates_dropped = 0;
   int64_t lidar_points_overflow = 0, lidar_boards_subsampled = 0;
-  int64_t ignored_inactive = 0;      ///< frames received while not collecting
+  int64_t ignored_inactive = 0;  ///< frames received while not collecting
+  /// Frames received while collecting but before the LiDAR detector was built (FrameIntake::Init).
+  int64_t ignored_starting = 0;
   std::string last_error;            ///< what was wrong with the latest bad message
   int64_t debug_write_failures = 0;  ///< IntakeConfig::debug_dir files not written
   std::string first_debug_error;
@@ -100,9 +103,27 @@ class FrameIntake {
   FrameIntake(const FrameIntake&) = delete;
   FrameIntake& operator=(const FrameIntake&) = delete;
 
-  /// Builds both detectors (the LiDAR references take a few hundred ms), the slots and the two
-  /// worker threads. False with `error` naming what is wrong (config, intrinsics, boards, model).
+  /// Checks both detectors' inputs, builds the camera detector, the slots and the two worker
+  /// threads. False with `error` naming what is wrong (config, intrinsics, boards, model). The
+  /// LiDAR worker then builds the LiDAR detector first: its reference descriptors take about a
+  /// second on one core of a PC, many times that on an embedded CPU or in an emulator, and a
+  /// daemon must answer its diagnostics meanwhile. Until it is ready (Startup()), frames are
+  /// counted in ignored_starting and Full() holds a replay back.
   bool Init(const IntakeConfig& config, const CalibConfig& calib, std::string* error);
+
+  /// Where the LiDAR detector's build stands: ready, or failed with the reason (no reference
+  /// board has enough points under this LiDAR model), with its time and reference count.
+  struct Startup {
+    bool ready = false;
+    bool failed = false;
+    std::string error;
+    double build_ms = 0.0;
+    int references = 0;
+  };
+  Startup startup() const;
+  /// Blocks until the LiDAR detector is built or failed; true when ready. For programs that feed
+  /// frames without a poll loop (tests, benches).
+  bool AwaitStartup();
 
   /// While inactive, messages are only counted (ignored_inactive), nothing is detected. Turning
   /// it on starts a fresh pairing; turning it off drops a half-filled pair (queued pairs are
@@ -137,6 +158,8 @@ class FrameIntake {
   struct Slot;
   enum class SlotState { kFree, kFilling, kQueued, kDone };
   void Worker(bool camera);
+  /// LiDAR worker, first: builds the detector and reserves every slot's LiDAR detections.
+  void BuildLidarDetector();
   void Bad(const std::string& what);
   /// After `gaps` observed a frame: copies its counts into the counters and, when the frame was
   /// a clock step back while collecting, restarts the pairing on the new timeline.
@@ -148,7 +171,12 @@ class FrameIntake {
   IntakeConfig config_;
   CalibConfig calib_;
   std::unique_ptr<CameraDetector> camera_detector_;
-  std::unique_ptr<LidarDetector> lidar_detector_;
+  LidarDetectorConfig lidar_config_;
+  LidarModel lidar_model_;
+  std::unique_ptr<LidarDetector> lidar_detector_;  ///< set by the LiDAR worker (BuildLidarDetector)
+  Startup startup_;                                ///< under mutex_
+  std::atomic<bool> cancel_build_{false};          ///< the destructor stops a build still running
+  std::condition_variable started_;
   std::vector<std::unique_ptr<Slot>> slots_;
   /// JPEG and bgr8 frames are decoded here (camera thread only; allocated once at the largest
   /// size): one image per thread, not per slot, since a slot's image is decoded only while its

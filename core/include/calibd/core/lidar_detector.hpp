@@ -9,6 +9,7 @@
 /// m2dp.hpp and board_references.hpp.
 
 #include <Eigen/Core>
+#include <atomic>
 #include <memory>
 #include <string>
 #include <vector>
@@ -240,13 +241,23 @@ class LidarDetector {
  public:
   /// Builds the range-image workspace and the reference descriptors (simulated board clusters of
   /// the configured board sizes seen by `model` at several distances and angles). Check ok().
+  /// When `cancel` is given and turns true while the references are built, the build stops
+  /// early and the detector is not ok() (a daemon stopping during its start-up).
   LidarDetector(const LidarDetectorConfig& config, const LidarModel& model,
-                const std::vector<BoardGeometry>& boards);
+                const std::vector<BoardGeometry>& boards,
+                const std::atomic<bool>* cancel = nullptr);
   ~LidarDetector();
   LidarDetector(const LidarDetector&) = delete;
   LidarDetector& operator=(const LidarDetector&) = delete;
 
-  /// False when the config, the model or the boards are invalid; error() says which field.
+  /// The checks of the constructor that cost nothing (the config, the boards, the model), without
+  /// building the references: for a caller that builds the detector later, e.g. on a worker
+  /// thread, and must refuse a bad config at once. False with `error` naming the field.
+  static bool CheckInputs(const LidarDetectorConfig& config, const LidarModel& model,
+                          const std::vector<BoardGeometry>& boards, std::string* error);
+
+  /// False when the config, the model or the boards are invalid (error() says which field), or
+  /// when no reference board has min_cluster_points points under this model.
   bool ok() const;
   const std::string& error() const;
 
