@@ -135,7 +135,8 @@ bool Agent::CheckDetectorStartup() {
   if (!s.ready) return true;
   detectors_ready_ = true;
   Log("LiDAR detector ready: " + std::to_string(s.references) + " reference descriptors in " +
-      std::to_string(static_cast<int64_t>(s.build_ms)) + " ms");
+      std::to_string(static_cast<int64_t>(s.build_ms)) + " ms (built at nice " +
+      std::to_string(s.build_nice) + ")");
   return true;
 }
 

@@ -1,5 +1,9 @@
 #include "calibd/agent/frame_intake.hpp"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <chrono>
 
 #include "calibd/core/lidar_model.hpp"
@@ -22,6 +26,8 @@ struct FrameIntake::Slot {
 };
 
 namespace {
+
+constexpr int kReferenceBuildNice = 10;
 
 double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -272,8 +278,19 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
 
 void FrameIntake::BuildLidarDetector() {
   const auto t0 = std::chrono::steady_clock::now();
-  auto detector =
-      std::make_unique<LidarDetector>(lidar_config_, lidar_model_, calib_.boards, &cancel_build_);
+  // On a thread of its own at nice 10 (its helper inherits it): on a small CPU the poll loop,
+  // which answers diagnostics within P2, keeps the upper hand meanwhile. The worker itself stays
+  // at the process's priority for detection (raising it back would need CAP_SYS_NICE). Where
+  // setpriority is refused (a sandbox), the build runs at the process's priority.
+  std::unique_ptr<LidarDetector> detector;
+  bool niced = false;
+  std::thread builder([&] {
+    niced =
+        setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kReferenceBuildNice) == 0;
+    detector =
+        std::make_unique<LidarDetector>(lidar_config_, lidar_model_, calib_.boards, &cancel_build_);
+  });
+  builder.join();
   // No slot is queued before the detector is ready (frames are ignored), so the slots' LiDAR
   // detections are this thread's alone here.
   if (detector->ok())
@@ -282,6 +299,7 @@ void FrameIntake::BuildLidarDetector() {
     std::lock_guard<std::mutex> lock(mutex_);
     startup_.build_ms = MsSince(t0);
     startup_.references = detector->num_references();
+    startup_.build_nice = niced ? kReferenceBuildNice : 0;
     if (detector->ok()) {
       lidar_detector_ = std::move(detector);
       startup_.ready = true;

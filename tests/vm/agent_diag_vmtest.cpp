@@ -469,9 +469,15 @@ class AgentDiagVm : public ::testing::Test {
     }
   }
 
+  /// Whether StartAgent also waits for the LiDAR detector, whose references are built after the
+  /// agent answers (frame_intake.hpp): the tests that need detections (a calibration to its
+  /// verdict) wait, the others go on while it builds.
+  enum class Detector { kBuilding, kReady };
+
   /// Writes the agent's config (calib.yaml + an agent section: CAN on vcan0, UDS, GPIO, the
-  /// store) and starts it; returns once it answers on the bus.
-  void StartAgent() {
+  /// store) and starts it; returns once it answers on the bus (and, with Detector::kReady, once
+  /// its LiDAR detector is ready).
+  void StartAgent(Detector detector = Detector::kBuilding) {
     std::filesystem::create_directories(uds_state_dir());
     {
       std::ofstream(secret()) << kSecret;
@@ -520,8 +526,7 @@ class AgentDiagVm : public ::testing::Test {
     ASSERT_EQ(r.code, 0) << "no UDS answer from the agent: " << r.err << "\nits log:\n"
                          << ReadFile(agent_log_);
     ASSERT_EQ(r.out, "F195 software version: " + std::string(kSoftwareVersion) + "\n");
-    // The LiDAR detector builds its references after the agent answers (frame_intake.hpp): the
-    // tests that calibrate start once it is ready.
+    if (detector == Detector::kBuilding) return;
     ASSERT_TRUE(WaitInLog("LiDAR detector ready", 1, 120))
         << "the LiDAR detector not ready after 120 s; the agent's log:\n"
         << ReadFile(agent_log_);
@@ -1093,7 +1098,7 @@ TEST_F(AgentDiagVm, TransportSurvivesLinkLossFunctionalInterruptedRequestsAndBus
 // then the store's current.json holds the truth within tolerance and DID FD00 reads it back.
 // The status frame follows: collecting while it runs, done + updated after, valid once stored.
 TEST_F(AgentDiagVm, WorkshopFlowCalibratesCommitsAndStores) {
-  StartAgent();
+  StartAgent(Detector::kReady);
   // An empty store: 5A0054 calibration not performed, failed at this start (dtc_store.hpp:
   // testFailed, ...ThisOperationCycle, pending, confirmed, ...SinceLastClear).
   std::map<uint32_t, int> dtcs = ReadDtcs();
@@ -1290,7 +1295,7 @@ TEST_F(AgentDiagVm, SlowStorageHearsResponsePendingWithinP2AndTheAnswerWithinP2S
 // jitter). So P2 is asserted on 95% of the requests, every request must be answered, and
 // CALIBD_FLOOD_FPS sets another rate by hand.
 TEST_F(AgentDiagVm, CanFloodDuringACalibrationLeavesEveryResponseWithinP2) {
-  StartAgent();
+  StartAgent(Detector::kReady);
   const double kFloodFps =
       Env("CALIBD_FLOOD_FPS").empty() ? 1000.0 : std::atof(Env("CALIBD_FLOOD_FPS").c_str());
   std::atomic<bool> flooding{true};
@@ -1390,7 +1395,7 @@ TEST_F(AgentDiagVm, CanFloodDuringACalibrationLeavesEveryResponseWithinP2) {
 // starts a session; the lamp is off while idle, blinks at 1 Hz while collecting, and is on
 // steadily once the session succeeded.
 TEST_F(AgentDiagVm, StartButtonStartsASessionAndTheLampFollows) {
-  StartAgent();
+  StartAgent(Detector::kReady);
   const LampTrace idle = SampleLamp(1500);
   EXPECT_EQ(idle.on, 0) << "lamp not off while idle (" << idle.on << " of " << idle.samples
                         << " samples on)";

@@ -107,6 +107,10 @@ check "no effective capabilities" grep -q $'^CapEff:\t0000000000000000$' <<<"$st
 check "no new privileges" grep -q $'^NoNewPrivs:\t1$' <<<"$status"
 check "seccomp filter in force" grep -q $'^Seccomp:\t2$' <<<"$status"
 check "UDS answers on vcan0" uds_answers 10
+# The LiDAR references build after READY=1, under the poll loop's priority (the unit lets the
+# agent lower its own build thread's priority: setpriority).
+check "LiDAR references built at nice 10" wait_for 1200 \
+  sh -c 'journalctl -u calibd --no-pager | grep -q "LiDAR detector ready: .* (built at nice 10)"'
 
 # --- a workshop session to a committed calibration ---
 # The agent answers at once; its start routine refuses (0x22 conditionsNotCorrect) until it hears

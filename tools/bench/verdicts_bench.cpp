@@ -9,6 +9,8 @@
 #include <random>
 
 #include "calib_experiments.hpp"
+#include "calibd/agent/agent_config.hpp"
+#include "calibd/agent/session_machine.hpp"
 #include "calibd/core/camera_model.hpp"
 #include "calibd/core/geometry.hpp"
 #include "calibd/core/grid_search.hpp"
@@ -214,6 +216,28 @@ constexpr Fault kFaults[] = {
              Eigen::AngleAxisd(deg * M_PI / 180.0, axis).toRotationMatrix();
        };
      }},
+    {"ring_elevation",
+     "each laser of a ring LiDAR fires 0.05-0.2 deg above or below its table's elevation",
+     [](Rng* rng, Session* s) {
+       // Ring LiDARs only: a session drawn with another takes the next ring LiDAR in kLidars.
+       const int n = static_cast<int>(std::size(kLidars));
+       int k = static_cast<int>(
+           std::find(std::begin(kLidars), std::end(kLidars), std::string(s->sim.lidar_model)) -
+           std::begin(kLidars));
+       LidarModel model;
+       for (int tries = 0; tries < n; ++tries, k = (k + 1) % n) {
+         LidarKind kind;
+         LidarKindFromName(kLidars[k], &kind, nullptr);
+         model = MakeLidarModel(kind);
+         if (model.has_rings) break;
+       }
+       s->sim.lidar_model = kLidars[k];
+       const double size = Draw(rng, 0.05, 0.2);
+       std::vector<double>& errors = s->sim.lidar_noise.ring_elevation_error_deg;
+       errors.resize(model.ring_elevation_deg.size());
+       for (double& e : errors) e = Sign(rng) * size * Draw(rng, 0.5, 1.0);
+       s->magnitude = "up to " + Num(size, 3) + " deg";
+     }},
 };
 constexpr int kNumFaults = static_cast<int>(std::size(kFaults));
 
@@ -238,10 +262,14 @@ Session MakeSession(int i, unsigned long long seed, bool quick) {
   o.workshop.num_boards = stills ? 1 + variant : 2 + variant % 2;
   o.prior_rot_deg = Draw(&rng, 2.0, 8.0);
   o.prior_trans_m = Draw(&rng, 0.03, 0.15);
+  // As long as the agent collects (SessionConfig: it solves from min_frames pairs with boards,
+  // 50, and stops at target_frames, 200): quick sessions just above the minimum, full ones at
+  // the target. Still poses: a few sweeps each, as the sensors keep sending while a pose stands.
   if (stills) {
     o.trajectory.mode = "stills";
     o.trajectory.rate_hz = 0.5;
     o.trajectory.duration_s = (quick ? 14 : 20) / o.trajectory.rate_hz;
+    o.stills.frames_per_pose = quick ? 4 : 10;
     o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
     o.workshop.tag_size_m = 0.702;
     o.stills.min_distance_m = 1.5;
@@ -253,9 +281,9 @@ Session MakeSession(int i, unsigned long long seed, bool quick) {
     o.trajectory.min_distance_m = 4.0;
     o.trajectory.max_distance_m = 14.0;
     o.trajectory.rate_hz = 5.0;
-    o.trajectory.duration_s = (quick ? 40 : 80) / o.trajectory.rate_hz;
+    o.trajectory.duration_s = (quick ? 60 : 200) / o.trajectory.rate_hz;
   }
-  s.drive_frames = quick ? 40 : 80;
+  s.drive_frames = quick ? 60 : 200;
   s.fault = fault.name;
   fault.apply(&rng, &s);
   return s;
@@ -299,6 +327,36 @@ bool RunSession(const Session& s, SessionResult* out) {
         SelectFrames(recorded, frames, std::vector<char>(recorded.camera.size(), 1),
                      std::vector<char>(recorded.lidar.size(), 1));
   }
+  // The agent solves only once it holds min_frames pairs in which both sensors saw a board and
+  // min_boards such boards (SessionRecorder counts them, SessionMachine::FinishCollection
+  // decides); fewer, and its session fails as the agent's would.
+  const SessionConfig agent = SessionConfigFrom(AgentConfig{});
+  const SessionObservations& obs = drive.observations;
+  int frames_with_boards = 0, boards = 0;
+  for (int f = 0; f < obs.num_frames; ++f) {
+    const auto count = [f](const auto& entries) {
+      return static_cast<int>(std::count_if(entries.begin(), entries.end(),
+                                            [f](const auto& e) { return e.frame == f; }));
+    };
+    const int cameras = count(obs.camera), lidars = count(obs.lidar);
+    if (cameras > 0 && lidars > 0) {
+      ++frames_with_boards;
+      boards += std::min(cameras, lidars);
+    }
+  }
+  if (frames_with_boards < agent.min_frames || boards < agent.min_boards) {
+    const bool frames_short = frames_with_boards < agent.min_frames;
+    out->run.verdict = "failed";
+    out->run.reason = frames_short ? "too_few_frames" : "too_few_boards";
+    out->run.detail = "collection: " + std::to_string(frames_short ? frames_with_boards : boards) +
+                      (frames_short ? " frame pairs with boards, " : " board observations, ") +
+                      std::to_string(frames_short ? agent.min_frames : agent.min_boards) +
+                      " needed (the agent would not solve)";
+    out->run.frames = obs.num_frames;
+    out->detect_seconds = drive.detect_s;
+    out->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return true;
+  }
   RangeImage projection;  // as calibd-calibrate configures it
   projection.Configure(model, 0.5, 200.0, 1);
   EngineConfig engine;
@@ -317,6 +375,12 @@ struct Tally {
 };
 
 }  // namespace
+
+int VerdictSessionIndex(const std::string& fault, int round) {
+  for (int f = 0; f < kNumFaults; ++f)
+    if (fault == kFaults[f].name) return round * kNumFaults + f;
+  return -1;
+}
 
 std::string VerdictFaultNames() {
   std::string out;

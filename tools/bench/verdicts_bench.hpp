@@ -15,7 +15,8 @@ namespace calibd::bench {
 struct VerdictsBenchOptions {
   int sessions = 400;  ///< drawn round-robin over the fault families, LiDAR models and modes
   unsigned long long seed = 1;
-  /// Short drives and few poses: 144 sessions in 4-5 minutes (not yet in make test).
+  /// Sessions just above the agent's minimum (60-pair drives, 14 poses of 4 sweeps) instead of
+  /// at its target (200 pairs): several times faster (not yet in make test).
   bool quick = false;
   int threads = 2;  ///< sessions calibrated at once
   /// Only these sessions (indices of a full run with the same seed and mode): to look again at
@@ -26,6 +27,12 @@ struct VerdictsBenchOptions {
 
 /// The fault families' names, comma-separated (for --help).
 std::string VerdictFaultNames();
+
+/// The index of the session of `fault` in round `round` (sessions are drawn round-robin over the
+/// fault families: even rounds drive, odd rounds pose still, the LiDAR model changes every two
+/// rounds in the order ot128, m1, falcon, vlp16, vlp32c, os1-64, avia, mid360); -1 for an
+/// unknown fault.
+int VerdictSessionIndex(const std::string& fault, int round);
 
 /// Runs the campaign and prints the tables; false with `error` when a session could not be
 /// simulated, or when any session was a false accept (an accepted answer beyond 2x the

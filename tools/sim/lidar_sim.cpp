@@ -404,11 +404,18 @@ void LidarSimulator::RebuildPatternIfNeeded(int frame_index) {
   if (key == pattern_key_) return;
   MakeScanPattern(model_, frame_index, &beams_);
   nominal_dir_.resize(beams_.size() * 3);
+  fired_dir_.resize(beams_.size() * 3);
+  const std::vector<double>& errors = noise_.ring_elevation_error_deg;
   for (size_t i = 0; i < beams_.size(); ++i) {
     const double az = beams_[i].azimuth_rad, el = beams_[i].elevation_rad;
-    nominal_dir_[3 * i + 0] = static_cast<float>(std::cos(el) * std::cos(az));
-    nominal_dir_[3 * i + 1] = static_cast<float>(std::cos(el) * std::sin(az));
-    nominal_dir_[3 * i + 2] = static_cast<float>(std::sin(el));
+    const int ring = beams_[i].ring;
+    const double fired =
+        el + (ring >= 0 && ring < static_cast<int>(errors.size()) ? errors[ring] * kDegToRad : 0.0);
+    for (const auto& [dir, e] : {std::pair{&nominal_dir_, el}, std::pair{&fired_dir_, fired}}) {
+      (*dir)[3 * i + 0] = static_cast<float>(std::cos(e) * std::cos(az));
+      (*dir)[3 * i + 1] = static_cast<float>(std::cos(e) * std::sin(az));
+      (*dir)[3 * i + 2] = static_cast<float>(std::sin(e));
+    }
   }
   state_.resize(beams_.size());
   out_.resize(beams_.size());
@@ -430,7 +437,7 @@ void LidarSimulator::CastMainRays(const Scene& scene, const Pose& T_world_lidar_
   for (size_t i = begin; i < end; ++i) {
     BeamState& st = state_[i];
     st.dropped = uniform(rng) < noise_.dropout_probability;
-    Eigen::Vector3d d(nominal_dir_[3 * i], nominal_dir_[3 * i + 1], nominal_dir_[3 * i + 2]);
+    Eigen::Vector3d d(fired_dir_[3 * i], fired_dir_[3 * i + 1], fired_dir_[3 * i + 2]);
     if (jitter_rad > 0.0) {
       TangentBasis(d, &e_az, &e_el);
       const double a = normal(rng), b = normal(rng);

@@ -24,6 +24,11 @@ struct LidarNoise {
   /// Constant added to every range (a miscalibrated range offset; real 16-ring units are often
   /// 2-3 cm off): a fault to inject, 0 on a healthy sensor.
   double range_bias_m = 0.0;
+  /// Per laser (index: ring), how much higher than the model's table the beam fires, deg: a wrong
+  /// or aged intrinsic table (a fault to inject). The points are still reported along the
+  /// table's direction, so a flat board comes out stepped. Empty: none; ringless patterns ignore
+  /// it.
+  std::vector<double> ring_elevation_error_deg;
 };
 
 struct PatternShape;  // lidar_sim.cpp: which beams neighbour which in a scan pattern
@@ -94,6 +99,7 @@ class LidarSimulator {
   LidarNoise noise_;
   std::vector<Beam> beams_;         ///< reused between frames
   std::vector<float> nominal_dir_;  ///< 3 per beam: reported direction (LiDAR frame)
+  std::vector<float> fired_dir_;    ///< 3 per beam: where it fires (ring_elevation_error_deg)
   int pattern_key_ = -1;            ///< which frame phase beams_ holds, -1 before the first
   std::vector<BeamState> state_;    ///< reused between frames
   std::vector<BeamOut> out_;        ///< reused between frames

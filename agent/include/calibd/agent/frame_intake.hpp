@@ -119,6 +119,7 @@ class FrameIntake {
     std::string error;
     double build_ms = 0.0;
     int references = 0;
+    int build_nice = 0;  ///< the build thread's nice value (0: setpriority was refused)
   };
   Startup startup() const;
   /// Blocks until the LiDAR detector is built or failed; true when ready. For programs that feed
