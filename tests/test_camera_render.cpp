@@ -305,6 +305,26 @@ TEST(CameraRender, ImageDoesNotDependOnTheThreadCount) {
   EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
 }
 
+// A still pose's next frame (RenderRepeat) is the frame a full Render gives for its seed, but
+// for the rounding of the radiance kept in float: at most 1 grey level, on few pixels.
+TEST(CameraRender, ARepeatedViewIsTheRenderOfItsSeedWithinRounding) {
+  TestScene ts;
+  ts.AddBoard(0, BoardPose({6.0, 0.0, 1.5}, 0.2));
+  ts.Add(Pole({8.0, 1.0, 0.0}, 0.1, 2.5, 0.4f));
+  ts.scene.Finalize();
+  const CameraRenderer renderer(CameraIntrinsics{}, CameraImaging{});
+  cv::Mat first, full, repeat;
+  EXPECT_FALSE(renderer.RenderRepeat(8, &repeat)) << "nothing rendered yet";
+  renderer.Render(ts.scene, ts.faces, CameraPose(), 8, &full);
+  renderer.Render(ts.scene, ts.faces, CameraPose(), 7, &first);
+  ASSERT_TRUE(renderer.RenderRepeat(8, &repeat));
+  EXPECT_LE(cv::norm(full, repeat, cv::NORM_INF), 1.0);
+  cv::Mat differ;
+  cv::compare(full, repeat, differ, cv::CMP_NE);
+  EXPECT_LT(cv::countNonZero(differ), full.total() / 1000) << "pixels off by rounding";
+  EXPECT_GT(cv::norm(first, repeat, cv::NORM_INF), 0.0) << "exposure and noise drawn anew";
+}
+
 TEST_F(CameraRenderTest, WorkshopFrameTimingAndAllTagsFound) {
   // About 30 primitives: ground, walls, clutter, stands and three boards at 6, 15 and 30 m.
   TestScene ts;

@@ -50,7 +50,8 @@ TEST(VerdictsBenchTest, ACleanSessionIsAcceptedAndSizeAndCentreFaultsAreRefusedF
   EXPECT_EQ(tag["fault"], "tag_size");
   EXPECT_EQ(tag["reason"], "camera_scale_mismatch") << tag["detail"];
   EXPECT_GT(std::fabs(tag["quality"]["camera_scale_error"].get<double>()), 0.01);
-  EXPECT_NE(table.find("| none | clean session | 1 | 1 | 0 | 0 | 0 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| none | clean session | 1 | 1 | 0 | 0 | 0 | 0 |"), std::string::npos)
+      << table;
   EXPECT_NE(table.find("camera_scale_mismatch 1"), std::string::npos) << table;
   const nlohmann::json& centre = first["sessions"][2];
   EXPECT_EQ(centre["fault"], "principal_point");

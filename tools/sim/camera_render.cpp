@@ -185,6 +185,26 @@ CameraRenderer::CameraRenderer(const CameraIntrinsics& intrinsics, const CameraI
     }
   }
   shaded_.create(H, W, CV_8UC1);
+  radiance_.create(H, W, CV_32FC1);
+}
+
+void CameraRenderer::DrawFrame(uint64_t seed, double* exposure, uint64_t* noise_seed) const {
+  // Exposure first, then the noise seed (std::mt19937_64 is fully specified, so the sequence is
+  // the same on every platform).
+  std::mt19937_64 rng(seed);
+  const double u01 = static_cast<double>(rng() >> 11) * 0x1.0p-53;
+  *exposure = imaging_.exposure_min + (imaging_.exposure_max - imaging_.exposure_min) * u01;
+  *noise_seed = rng();
+}
+
+bool CameraRenderer::RenderRepeat(uint64_t seed, cv::Mat* image) const {
+  if (!has_radiance_) return false;
+  double exposure = 0.0;
+  uint64_t noise_seed = 0;
+  DrawFrame(seed, &exposure, &noise_seed);
+  radiance_.convertTo(shaded_, CV_8UC1, 255.0 * exposure);  // saturating, as Render's
+  Finish(noise_seed, image);
+  return true;
 }
 
 Eigen::Vector2d CameraRenderer::RayAt(int u, int v) const {
@@ -203,13 +223,9 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
   // Fixed key light from above and slightly behind a camera looking along +x in the workshop.
   const Eigen::Vector3d light = Eigen::Vector3d(-0.4, 0.3, 0.85).normalized();
 
-  // Per-frame draws: exposure first, then the noise seed (std::mt19937_64 is fully specified, so
-  // the sequence is the same on every platform).
-  std::mt19937_64 rng(seed);
-  const double u01 = static_cast<double>(rng() >> 11) * 0x1.0p-53;
-  const double exposure =
-      imaging_.exposure_min + (imaging_.exposure_max - imaging_.exposure_min) * u01;
-  const uint64_t noise_seed = rng();
+  double exposure = 0.0;
+  uint64_t noise_seed = 0;
+  DrawFrame(seed, &exposure, &noise_seed);
 
   // Prepare primitives and their screen rectangles (normalised coordinates).
   std::vector<FramePrimitive> prims;
@@ -380,6 +396,7 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
   ParallelRows(H, imaging_.num_threads, [&](int v0, int v1) {
     for (int v = v0; v < v1; ++v) {
       uint8_t* out = shaded_.ptr<uint8_t>(v);
+      float* kept = radiance_.ptr<float>(v);
       const float* lut_row = &ray_lut_[static_cast<size_t>(v) * static_cast<size_t>(W) * 2];
       const int ty = v / kTile;
       for (int u = 0; u < W; ++u) {
@@ -421,10 +438,17 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
           }
         }
         out[u] = cv::saturate_cast<uint8_t>(gain * value);
+        kept[u] = static_cast<float>(value);
       }
     }
   });
 
+  has_radiance_ = true;
+  Finish(noise_seed, image);
+}
+
+void CameraRenderer::Finish(uint64_t noise_seed, cv::Mat* image) const {
+  const int W = shaded_.cols, H = shaded_.rows;
   image->create(H, W, CV_8UC1);
   if (imaging_.blur_sigma_px > 0.0) {
     cv::GaussianBlur(shaded_, *image, cv::Size(0, 0), imaging_.blur_sigma_px,

@@ -37,6 +37,11 @@ class CameraRenderer {
   /// concurrently on one renderer.
   void Render(const Scene& scene, const std::vector<BoardFace>& faces, const Pose& T_world_camera,
               uint64_t seed, cv::Mat* image) const;
+  /// The last Render's scene from the same view again (a still pose's next frame): the
+  /// exposure and the sensor noise are drawn anew from `seed`, the rays are not traced again.
+  /// The image equals a Render's but for rounding of the radiance kept between the calls (float).
+  /// False (nothing rendered) before any Render.
+  bool RenderRepeat(uint64_t seed, cv::Mat* image) const;
 
   const CameraModel& model() const { return model_; }
 
@@ -55,7 +60,13 @@ class CameraRenderer {
   std::vector<float> ray_lut_;  ///< per pixel, undistorted normalised (x, y)
   int tiles_x_ = 0, tiles_y_ = 0;
   std::vector<TileBounds> tile_bounds_;
-  mutable cv::Mat shaded_;  ///< workspace: the noiseless, unblurred frame
+  mutable cv::Mat shaded_;    ///< workspace: the noiseless, unblurred frame
+  mutable cv::Mat radiance_;  ///< the last Render's linear radiance per pixel (CV_32FC1)
+  mutable bool has_radiance_ = false;
+  /// Exposure and noise seed of a frame, drawn from its seed in that order.
+  void DrawFrame(uint64_t seed, double* exposure, uint64_t* noise_seed) const;
+  /// shaded_ at `exposure` into `image`: the lens blur, then the sensor noise.
+  void Finish(uint64_t noise_seed, cv::Mat* image) const;
 };
 
 }  // namespace calibd::sim

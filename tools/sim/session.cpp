@@ -182,8 +182,12 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
       VehiclePoseAt(traj, lidar_x, seconds(lidar_utime) + sweep_s) * T_vehicle_lidar_;
 
   if (image) {
-    camera_->Render(workshop.scene, workshop.faces, T_world_camera, Mix(options_.seed, k, 1),
-                    image);
+    // A still pose's later frames see the same scene from the same place: traced once.
+    const uint64_t seed = Mix(options_.seed, k, 1);
+    const bool repeat = k % per_pose != 0 && k == last_rendered_ + 1;
+    if (!repeat || !camera_->RenderRepeat(seed, image))
+      camera_->Render(workshop.scene, workshop.faces, T_world_camera, seed, image);
+    last_rendered_ = k;
   }
   lidar_->Scan(workshop.scene, T_world_lidar_start, T_world_lidar_end, k, Mix(options_.seed, k, 2),
                scan);

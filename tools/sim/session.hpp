@@ -115,6 +115,7 @@ class SessionSimulator {
   int64_t camera_phase_us_ = 0;
   std::vector<Workshop> still_poses_;  // one scene per pose of a still-pose session, else empty
   int last_frame_ = 0;                 // its pose
+  int last_rendered_ = -2;             // the frame the camera rendered last (RenderRepeat)
 
   const Workshop& WorkshopOf(int k) const {
     return still_poses_.empty() ? workshop_ : still_poses_[static_cast<size_t>(k)];
