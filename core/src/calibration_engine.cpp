@@ -707,22 +707,14 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     const double turn_deg = q.principal_point_turn_deg;
     const double chi2 = (d.cwiseQuotient(q.principal_point_sigma_px)).squaredNorm();
     const double max_turn_deg = kPrincipalPointTurnTolerances * v.verify_rotation_deg;
-    // The turn at one sigma above its estimate (the sigma of |d| along d's direction): a
-    // shift measured short (an ot128 drive's 6.9 px measured 4.9 +-1.6 px along it) must not
-    // pass for one that leaves the result within tolerance.
-    const double norm = d.norm();
-    const double along_px =
-        norm > 0.0 ? d.cwiseProduct(q.principal_point_sigma_px).norm() / norm : 0.0;
-    const double turn_upper_deg = norm > 0.0 ? turn_deg * (1.0 + along_px / norm) : 0.0;
-    if (turn_upper_deg > max_turn_deg && chi2 > kPrincipalPointChiSquare)
+    if (turn_deg > max_turn_deg && chi2 > kPrincipalPointChiSquare)
       return Reject(
           out, "principal_point_mismatch",
           "the tags put the camera's principal point " + Fmt(d.x(), 1) + " px (+-" +
               Fmt(q.principal_point_sigma_px.x(), 1) + ") right and " + Fmt(d.y(), 1) + " px (+-" +
               Fmt(q.principal_point_sigma_px.y(), 1) +
               ") down of the configured one, which turns the result by " + Fmt(turn_deg, 2) +
-              " deg (up to " + Fmt(turn_upper_deg, 2) + " at one sigma), more than " +
-              Fmt(max_turn_deg, 2) +
+              " deg, more than " + Fmt(max_turn_deg, 2) +
               " deg: the camera's intrinsic calibration (its principal point, or its focal "
               "length) is wrong or belongs to another camera; calibrate the camera's "
               "intrinsics again");

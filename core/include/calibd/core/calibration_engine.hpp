@@ -160,8 +160,7 @@ inline constexpr double kRangeOffsetSigmaTolerances = 4.0;
 /// A principal point shift counts only when its chi-square (two degrees of freedom, each axis
 /// over its sigma) is beyond this: the 3-sigma probability, 0.27 %.
 inline constexpr double kPrincipalPointChiSquare = 11.83;
-/// ... and when the turn it gives the result, at one sigma above its estimate, is beyond this
-/// many verification tolerances
+/// ... and when the turn it gives the result is beyond this many verification tolerances
 /// (VerdictConfig::verify_rotation_deg): the tags' fit carries biases of its own beyond its sigma
 /// (corner localisation under perspective), so the gate refuses what would make the result wrong,
 /// not what a correct camera's fit scatters by.
