@@ -100,7 +100,9 @@ class Rig {
   void Lidar(const lidar_frame_t& m, int64_t arrival_us) {
     AdvanceTo(arrival_us);
     machine_.FrameArrived(SensorStream::kLidar, now_);
+    const int64_t pairs_formed = intake_.counters().pairs_formed;
     intake_.OnLidar(m);
+    if (intake_.counters().pairs_formed > pairs_formed) machine_.PairFormed(now_);
     Step();
   }
   void Pair(int i) {
@@ -141,6 +143,14 @@ class Rig {
   // waits for it) and the malformed-message log.
   void Step() {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    if (hold_detections_) {  // detection lags: nothing is drained
+      machine_.Tick(now_);
+      if (machine_.state() != SessionState::kCollecting && intake_.active()) {
+        intake_.SetActive(false);
+        ended_us_ = now_;
+      }
+      return;
+    }
     for (;;) {
       if (machine_.state() == SessionState::kCollecting) {
         if (recorder_.DrainFrom(&intake_) > 0) machine_.FrameRecorded(recorder_.figures(), now_);
@@ -187,6 +197,10 @@ class Rig {
                 recorder_.session().num_frames);
   }
 
+  // While held, Step drains nothing: the pairs wait in the intake (or are dropped once every
+  // slot is busy), as when detection runs slower than the sensors on a loaded CPU.
+  void HoldDetections(bool hold) { hold_detections_ = hold; }
+
   const IntakeCounters& counters() const { return intake_.counters(); }
   const SessionMachine& machine() const { return machine_; }
   const CollectionFigures& figures() const { return recorder_.figures(); }
@@ -203,6 +217,7 @@ class Rig {
   RateLimitedLog malformed_log_;
   std::vector<std::string> log_;
   int64_t now_ = kT0, next_tick_ = kT0, ended_us_ = 0;
+  bool hold_detections_ = false;
 };
 
 // The pairs before a fault, so that every intake slot, the detectors' scratch and the session
@@ -469,6 +484,29 @@ TEST(SensorFaultsTest, CameraClockJumpAheadAloneFailsWithNoPairs) {
   EXPECT_EQ(c.unpaired_lidar, 8);
   EXPECT_EQ(c.unpaired_camera, 7);
   EXPECT_EQ(c.camera_missed + c.lidar_missed + c.out_of_order, 0);
+}
+
+// (f2) Detection lags 5 s behind healthy streams (a loaded CPU): no pair reaches the session for
+// twice the sensor timeout, but the streams keep pairing, so the collection goes on (the pairs
+// that found no free slot meanwhile are counted dropped) and the drive calibrates.
+TEST(SensorFaultsTest, DetectionLaggingBeyondTheSensorTimeoutIsNotNoPairs) {
+  const Drive& d = SimulatedDrive();
+  Rig rig(d);
+  constexpr int kLagFrom = kWarmup, kLagTo = kWarmup + 20;  // 20 periods: 5 s
+  static_assert((kLagTo - kLagFrom) * kPeriodUs > 2 * kTimeoutUs, "longer than the timeout");
+  for (int i = 0; i < kLagFrom; ++i) rig.Pair(i);
+  rig.HoldDetections(true);
+  for (int i = kLagFrom; i < kLagTo; ++i) rig.Pair(i);
+  ASSERT_EQ(rig.machine().state(), SessionState::kCollecting)
+      << rig.machine().reason() << ": " << rig.machine().detail();
+  rig.HoldDetections(false);
+  for (int i = kLagTo; i < kPairs; ++i) rig.Pair(i);
+  rig.EndOfData();
+  const IntakeCounters& c = rig.counters();
+  EXPECT_EQ(c.pairs_formed, kPairs);
+  EXPECT_GT(c.dropped_queue_full, 0) << "the lag outlasts the intake's slots";
+  EXPECT_EQ(c.pairs_detected + c.dropped_queue_full, kPairs);
+  rig.ExpectCorrectCalibration();
 }
 
 // (g) The camera runs at 3x its rate (12 Hz against the LiDAR's 4 Hz pairs): each sweep pairs

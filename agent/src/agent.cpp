@@ -252,7 +252,9 @@ void Agent::OnLidar(const lidar_frame_t& msg) {
   last_lidar_us_ = MonotonicUs();
   if (detectors_ready_ && msg.lidar_id == config_.calib.lidar_id)
     machine_.FrameArrived(SensorStream::kLidar, last_lidar_us_);
+  const int64_t pairs_formed = intake_.counters().pairs_formed;
   intake_.OnLidar(msg);
+  if (intake_.counters().pairs_formed > pairs_formed) machine_.PairFormed(last_lidar_us_);
 }
 
 void Agent::OnSensorInfo(const sensor_info_t& msg) {
@@ -471,16 +473,16 @@ void Agent::Step(int64_t now_us) {
     const IntakeCounters& c = intake_.counters();
     Log("collection ended (" + std::string(CollectionEndName(machine_.collection_end())) +
         "): " + std::to_string(c.camera_frames) + " camera and " + std::to_string(c.lidar_frames) +
-        " LiDAR frames, " + std::to_string(c.pairs_detected) + " pairs detected, " +
-        std::to_string(c.dropped_queue_full) + " dropped (queue full), " +
-        std::to_string(c.camera_missed) + "/" + std::to_string(c.lidar_missed) +
-        " camera/LiDAR missing from the streams, " + std::to_string(c.unpaired_camera) + "/" +
-        std::to_string(c.unpaired_lidar) + " unpaired camera/LiDAR, " +
-        std::to_string(c.out_of_order) + " out of order (camera/LiDAR duplicates " +
-        std::to_string(c.camera_duplicates) + "/" + std::to_string(c.lidar_duplicates) + ", late " +
-        std::to_string(c.camera_late) + "/" + std::to_string(c.lidar_late) + ", restarts " +
-        std::to_string(c.camera_restarts) + "/" + std::to_string(c.lidar_restarts) + "), " +
-        std::to_string(c.bad_messages) + " bad" +
+        " LiDAR frames, " + std::to_string(c.pairs_formed) + " pairs formed, " +
+        std::to_string(c.pairs_detected) + " detected, " + std::to_string(c.dropped_queue_full) +
+        " dropped (queue full), " + std::to_string(c.camera_missed) + "/" +
+        std::to_string(c.lidar_missed) + " camera/LiDAR missing from the streams, " +
+        std::to_string(c.unpaired_camera) + "/" + std::to_string(c.unpaired_lidar) +
+        " unpaired camera/LiDAR, " + std::to_string(c.out_of_order) +
+        " out of order (camera/LiDAR duplicates " + std::to_string(c.camera_duplicates) + "/" +
+        std::to_string(c.lidar_duplicates) + ", late " + std::to_string(c.camera_late) + "/" +
+        std::to_string(c.lidar_late) + ", restarts " + std::to_string(c.camera_restarts) + "/" +
+        std::to_string(c.lidar_restarts) + "), " + std::to_string(c.bad_messages) + " bad" +
         (c.last_error.empty() ? "" : " (last: " + c.last_error + ")") + ", " +
         std::to_string(c.over_capacity) + " over the session store's capacity; LiDAR detector: " +
         std::to_string(c.lidar_boards_dropped) + " boards and " +

@@ -251,6 +251,7 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
     }
     if (!r.paired || filling_ < 0) {
       if (pair_dropped_) {
+        ++counters_.pairs_formed;
         ++counters_.lidar_dropped_queue_full;
         pair_dropped_ = false;
       } else {
@@ -272,6 +273,7 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
     slot.sequence = next_sequence_++;
     slot.state = SlotState::kQueued;
     filling_ = -1;
+    ++counters_.pairs_formed;
   }
   work_.notify_all();
 }

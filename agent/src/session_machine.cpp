@@ -148,6 +148,10 @@ void SessionMachine::FrameArrived(SensorStream sensor, int64_t now_us) {
   if (both_sending_us_ == 0 && last_camera_us_ > 0 && last_lidar_us_ > 0) both_sending_us_ = now_us;
 }
 
+void SessionMachine::PairFormed(int64_t now_us) {
+  if (state_ == SessionState::kCollecting) last_pair_us_ = now_us;
+}
+
 void SessionMachine::Tick(int64_t now_us) {
   if (state_ == SessionState::kCollecting) CheckCollectionEnd(now_us);
 }

@@ -62,7 +62,10 @@ struct IntakeConfig {
 struct IntakeCounters {
   int64_t camera_frames = 0, lidar_frames = 0;  ///< messages for the configured sensors
   int64_t pairs_detected = 0;                   ///< pairs drained into the session
-  int64_t dropped_queue_full = 0;               ///< pairs dropped: every slot busy
+  /// Camera frames and sweeps whose capture times paired (queued for detection, or dropped with
+  /// a full queue): the streams pair, however long detection takes.
+  int64_t pairs_formed = 0;
+  int64_t dropped_queue_full = 0;  ///< pairs dropped: every slot busy
   /// Sweeps lost with their pair: the camera frame they would pair with was dropped (queue full).
   int64_t lidar_dropped_queue_full = 0;
   /// Frames missing from each stream before the agent (network, LCM queue), from the gaps in

@@ -125,6 +125,10 @@ class SessionMachine {
   /// A message of the configured sensor arrived (well-formed or not: this watches for silence).
   /// Ignored unless collecting.
   void FrameArrived(SensorStream sensor, int64_t now_us);
+  /// A camera frame and a sweep paired by their capture times (before detection, which may lag
+  /// behind on a loaded CPU): the streams are not "sending, but unpaired". Ignored unless
+  /// collecting.
+  void PairFormed(int64_t now_us);
   /// Advances the time: may end the collection at its time limit or on a sensor timeout.
   void Tick(int64_t now_us);
   /// The input ended (a replayed log was read to its end): the collection ends as at its time
