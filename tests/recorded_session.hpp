@@ -22,10 +22,12 @@ struct RecordedSession {
 
 /// Frames first_frame, first_frame + stride, ... (`count` of them) of a session with `options`;
 /// the LiDAR detector and the range image with `configured` when given (a user's wrong model),
-/// else the simulated LiDAR's.
+/// else the simulated LiDAR's; the detectors with the user's config as `edit_config` changes it
+/// when given (a user's wrong boards).
 inline std::unique_ptr<RecordedSession> Record(const sim::SessionOptions& options, int count,
                                                int stride, int first_frame = 0,
-                                               const LidarModel* configured = nullptr) {
+                                               const LidarModel* configured = nullptr,
+                                               void (*edit_config)(CalibConfig*) = nullptr) {
   auto r = std::make_unique<RecordedSession>();
   std::string error;
   if (!r->session.Init(options, &error)) {
@@ -33,6 +35,7 @@ inline std::unique_ptr<RecordedSession> Record(const sim::SessionOptions& option
     return r;
   }
   r->config = r->session.UserConfig();
+  if (edit_config != nullptr) edit_config(&r->config);
   const auto& boards = r->config.boards;
   CameraDetector camera(CameraDetectorConfig{}, options.camera, boards);
   const LidarModel& model = configured ? *configured : r->session.lidar_model();

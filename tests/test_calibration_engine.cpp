@@ -42,6 +42,38 @@ sim::SessionOptions StillPoses(const std::string& lidar, int poses, int boards, 
   return o;
 }
 
+// Two boards, the second 70 % the size of the first, and a config that gives each the other's id:
+// the camera puts both at the wrong distance, nothing lines up, and the refusal names the swap
+// (board_swap_check.hpp). The same frames with the ids right calibrate.
+TEST(CalibrationEngineTest, BoardIdsSwappedBetweenBoardsOfDifferentSizesAreNamed) {
+  sim::SessionOptions o;
+  o.workshop.num_boards = 2;
+  o.workshop.board_scales = {1.0, 0.7};
+  o.prior_rot_deg = 3.0;
+  o.prior_trans_m = 0.03;
+  auto swapped = testing::Record(o, 40, 5, 0, nullptr, [](CalibConfig* c) {
+    std::swap(c->boards[0].board_id, c->boards[1].board_id);
+    std::swap(c->boards[0].tag_id, c->boards[1].tag_id);
+  });
+  const CalibrationOutcome refused =
+      Calibrate(swapped->config, swapped->obs, swapped->projection, EngineConfig{});
+  EXPECT_EQ(refused.verdict, CalibrationOutcome::Verdict::kRejected);
+  EXPECT_EQ(refused.reason, "board_ids_swapped") << refused.detail;
+  EXPECT_NE(refused.detail.find("boards 1 (tag id 1, 0.600 x 0.600 m) and 0 (tag id 0, 0.420 x "
+                                "0.420 m) are each other's"),
+            std::string::npos)
+      << refused.detail;
+  auto right = testing::Record(o, 40, 5);
+  const CalibrationOutcome updated =
+      Calibrate(right->config, right->obs, right->projection, EngineConfig{});
+  EXPECT_EQ(updated.verdict, CalibrationOutcome::Verdict::kUpdated)
+      << updated.reason << ": " << updated.detail;
+  EXPECT_LT(
+      RotationAngle(updated.T_camera_lidar.linear(), right->session.T_camera_lidar().linear()) /
+          kDeg,
+      0.1);
+}
+
 TEST(CalibrationEngineTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
   sim::SessionOptions o;
   o.prior_rot_deg = 3.0;

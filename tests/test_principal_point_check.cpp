@@ -30,21 +30,23 @@ CameraIntrinsics Camera() {
   return k;
 }
 
-// `views` tags of 0.7 m at 2-8 m, turned up to `max_turn_deg` about both axes, seen through
-// `truth` (its principal point, its distortion), corners with 0.2 px of noise.
+// `views` tags of 0.7 m at 2-8 m (or as far as `min_m` to `min_m` + 6 m), turned up to
+// `max_turn_deg` about both axes, seen through `truth` (its principal point, its distortion),
+// corners with `noise_px` of noise plus `bias` on corner `biased_corner` (none: -1).
 SessionObservations Views(const CameraIntrinsics& truth, int views, double max_turn_deg,
-                          const BoardGeometry& board) {
+                          const BoardGeometry& board, double noise_px = 0.2, double min_m = 2.0,
+                          int biased_corner = -1, const Eigen::Vector2d& bias = {0.0, 0.0}) {
   SessionObservations s;
   s.Reserve(views, 1, 4);
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::normal_distribution<double> noise(0.0, 0.2);
+  std::normal_distribution<double> noise(0.0, noise_px);
   const CameraModel model(truth);
   const auto corners = board.TagCornersInBoard();
   while (s.num_frames < views) {
     SessionObservations::CameraBoard b;
     b.board_index = 0;
-    const double z = 2.0 + 3.0 * (1.0 + u(rng));
+    const double z = min_m + 3.0 * (1.0 + u(rng));
     b.T_camera_board.linear() = RotationFromRpy(M_PI + max_turn_deg * kDeg * u(rng),
                                                 max_turn_deg * kDeg * u(rng), 0.3 * u(rng));
     b.T_camera_board.translation() = Eigen::Vector3d(0.4 * z * u(rng), 0.25 * z * u(rng), z);
@@ -52,6 +54,7 @@ SessionObservations Views(const CameraIntrinsics& truth, int views, double max_t
     for (int c = 0; c < 4 && seen; ++c) {
       seen = model.Project(b.T_camera_board * corners[c], &b.corners_px[c]);
       b.corners_px[c] += Eigen::Vector2d(noise(rng), noise(rng));
+      if (c == biased_corner) b.corners_px[c] += bias;
     }
     if (!seen) continue;
     EXPECT_TRUE(s.BeginFrame());
@@ -106,6 +109,48 @@ TEST(PrincipalPointCheckTest, TagsFacingTheCameraCannotTellAndTooFewAreNotFitted
       EstimatePrincipalPoint(configured, {Board()}, Views(truth, 5, 35.0, Board()));
   EXPECT_FALSE(few.fitted);
   EXPECT_EQ(few.observations, 5);
+}
+
+}  // namespace
+}  // namespace calibd
+
+namespace calibd {
+namespace {
+
+// A corner bias the same in every view is what no resampling sees: the systematic bound owns up
+// to it. Noise-free views, one corner of every tag moved by kCornerBiasPx along x, then along y:
+// the shift moves by no more than systematic_px (which sums all eight such biases), and by a
+// good part of it for at least one of them. Far, little-slanted tags leave a bound many times
+// that of near, slanted ones.
+TEST(PrincipalPointCheckTest, ACornerBiasCommonToEveryTagMovesTheShiftWithinTheSystematicBound) {
+  const CameraIntrinsics k = Camera();
+  const PrincipalPointEstimate clean =
+      EstimatePrincipalPoint(k, {Board()}, Views(k, 200, 40.0, Board(), 0.0));
+  ASSERT_TRUE(clean.fitted);
+  EXPECT_LT(clean.shift_px.norm(), 1e-6);
+  double largest_share = 0.0;
+  for (int corner = 0; corner < 4; ++corner) {
+    for (int axis = 0; axis < 2; ++axis) {
+      const Eigen::Vector2d bias = Eigen::Vector2d::Unit(axis) * kCornerBiasPx;
+      const PrincipalPointEstimate e = EstimatePrincipalPoint(
+          k, {Board()}, Views(k, 200, 40.0, Board(), 0.0, 2.0, corner, bias));
+      ASSERT_TRUE(e.fitted);
+      for (int a = 0; a < 2; ++a) {
+        EXPECT_LE(std::fabs(e.shift_px[a]), e.systematic_px[a] * 1.05)
+            << "corner " << corner << " axis " << axis;
+        largest_share = std::max(largest_share, std::fabs(e.shift_px[a]) / e.systematic_px[a]);
+      }
+    }
+  }
+  EXPECT_GT(largest_share, 0.3);
+  const PrincipalPointEstimate far =
+      EstimatePrincipalPoint(k, {Board()}, Views(k, 200, 10.0, Board(), 0.0, 15.0));
+  ASSERT_TRUE(far.fitted);
+  EXPECT_GT(far.systematic_px.minCoeff(), 5.0 * clean.systematic_px.maxCoeff())
+      << far.systematic_px.transpose() << " against " << clean.systematic_px.transpose();
+  std::printf("systematic bound: near slanted tags %.2f, %.2f px; far, little slanted %.2f, %.2f\n",
+              clean.systematic_px.x(), clean.systematic_px.y(), far.systematic_px.x(),
+              far.systematic_px.y());
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "calibd/core/calibration_engine.hpp"
 
+#include "calibd/core/board_swap_check.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
@@ -367,6 +369,21 @@ std::vector<int> CaptureOrder(const SessionObservations& s, int* out_of_order, i
   return once;
 }
 
+/// The detail of a `board_ids_swapped` refusal: `claim` boards A and B "are each other's
+/// (`evidence`)", and what to do.
+std::string SwappedBoardsDetail(const std::vector<BoardGeometry>& boards, const BoardSwap& swap,
+                                const std::string& claim, const std::string& evidence) {
+  const BoardGeometry& a = boards[static_cast<size_t>(swap.board_a)];
+  const BoardGeometry& b = boards[static_cast<size_t>(swap.board_b)];
+  auto name = [](const BoardGeometry& g) {
+    return std::to_string(g.board_id) + " (tag id " + std::to_string(g.tag_id) + ", " +
+           Fmt(g.width_m, 3) + " x " + Fmt(g.height_m, 3) + " m)";
+  };
+  return claim + " boards " + name(a) + " and " + name(b) + " are each other's (" + evidence +
+         "): the configuration gives each of them the other's id or sizes; check which id is "
+         "printed on which board and correct the configuration";
+}
+
 CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
                                            const SessionObservations& observed,
                                            const RangeImage& projection, const EngineConfig& engine,
@@ -422,8 +439,16 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   ObservationSet& corr = correspondences ? *correspondences : local;
   corr.Reserve(static_cast<int>(session.camera.size()), static_cast<int>(session.points.size()));
   out.grid = grid.Run(session, config.prior_T_camera_lidar, &corr, engine.max_solve_frames);
-  if (out.grid.status != GridSearchResult::Status::kOk)
-    return Reject(out, "no_grid_candidate", out.grid.reason);
+  if (out.grid.status != GridSearchResult::Status::kOk) {
+    const BoardSwap swap = FindSwappedBoards(engine.grid, projection, config.boards, session,
+                                             config.prior_T_camera_lidar, engine.max_solve_frames);
+    if (!swap.found) return Reject(out, "no_grid_candidate", out.grid.reason);
+    return Reject(out, "board_ids_swapped",
+                  SwappedBoardsDetail(config.boards, swap, "the LiDAR finds the boards only if",
+                                      std::to_string(swap.grid.best_count) +
+                                          " LiDAR board points in their regions then, too few "
+                                          "without"));
+  }
   if (scenery.num_scenery > 0) {
     // Each correspondence names its cluster in the caller's session, not in the subset.
     std::vector<int> original;
@@ -439,6 +464,15 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   QualityFigures& q = out.quality;
   std::string few;
   if (const char* reason = TooFewCorrespondences(q, v, "", &few)) return Reject(out, reason, few);
+  {
+    const BoardSwap swap = FindSwapInDistances(
+        config.boards, BoardDistances(corr, out.grid.T_camera_lidar, &config.boards));
+    if (swap.found)
+      return Reject(out, "board_ids_swapped",
+                    SwappedBoardsDetail(config.boards, swap, "the camera's distances say",
+                                        "it puts them at " + Fmt(swap.ratio_a, 2) + " and " +
+                                            Fmt(swap.ratio_b, 2) + " times the LiDAR's"));
+  }
 
   const CameraModel camera(config.camera);
   const auto t_opt = Clock::now();
@@ -571,6 +605,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     q.principal_point_fitted = pp.fitted;
     q.principal_point_shift_px = pp.shift_px;
     q.principal_point_sigma_px = pp.sigma_px;
+    q.principal_point_systematic_px = pp.systematic_px;
     q.principal_point_turn_deg =
         std::hypot(pp.shift_px.x() / config.camera.fx, pp.shift_px.y() / config.camera.fy) *
         kRad2Deg;

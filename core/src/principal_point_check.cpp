@@ -46,8 +46,10 @@ struct CornerResidual {
   Eigen::Matrix2d J_;
 };
 
-/// The shift fitted to views[i] for every i with use[i]; false when the solve failed.
-bool FitShift(std::vector<View> views, const std::vector<char>& use, Eigen::Vector2d* shift) {
+/// The shift fitted to views[i] for every i with use[i]; false when the solve failed. The views'
+/// poses are left at the solution.
+bool FitShift(std::vector<View>* views_io, const std::vector<char>& use, Eigen::Vector2d* shift) {
+  std::vector<View>& views = *views_io;
   ceres::Problem problem;
   double s[2] = {shift->x(), shift->y()};
   ceres::ParameterBlockOrdering* ordering = new ceres::ParameterBlockOrdering;
@@ -73,6 +75,56 @@ bool FitShift(std::vector<View> views, const std::vector<char>& use, Eigen::Vect
   if (!summary.IsSolutionUsable() || !std::isfinite(s[0]) || !std::isfinite(s[1])) return false;
   *shift = Eigen::Vector2d(s[0], s[1]);
   return true;
+}
+
+/// The linearised response of the fitted shift at `shift` (views at the solution): with P_i the
+/// 8 x 6 Jacobian of view i's residuals over its pose, M_i = I - P_i (P_i' P_i)^-1 P_i' leaves
+/// what the pose cannot absorb, and S = [I I I I]' is the residuals' Jacobian over the shift.
+/// Eliminating the poses (Schur complement), a change e_i of the detected corners moves the shift
+/// by R^-1 sum_i S' M_i e_i with R = sum_i S' M_i S.
+struct Sensitivity {
+  /// For corner errors of the fit's residual RMS, independent from corner to corner.
+  Eigen::Vector2d formal_px = Eigen::Vector2d::Zero();
+  /// For a bias of kCornerBiasPx on one coordinate of one corner, the same in every view, each of
+  /// the eight added in quadrature.
+  Eigen::Vector2d systematic_px = Eigen::Vector2d::Zero();
+};
+
+Sensitivity ShiftSensitivity(const std::vector<View>& views, const Eigen::Vector2d& shift) {
+  Eigen::Matrix2d R = Eigen::Matrix2d::Zero();
+  Eigen::Matrix<double, 2, 8> Q = Eigen::Matrix<double, 2, 8>::Zero();
+  double sum_squares = 0.0;
+  Eigen::Matrix<double, 8, 2> S;
+  for (int c = 0; c < 4; ++c) S.block<2, 2>(2 * c, 0).setIdentity();
+  const double s[2] = {shift.x(), shift.y()};
+  for (const View& v : views) {
+    Eigen::Matrix<double, 8, 6> P;
+    for (int c = 0; c < 4; ++c) {
+      const ceres::AutoDiffCostFunction<CornerResidual, 2, 6, 2> cost(
+          new CornerResidual(v.board[c], v.xy[c], v.J[c]));
+      const double* parameters[2] = {v.pose.data(), s};
+      double r[2];
+      Eigen::Matrix<double, 2, 6, Eigen::RowMajor> J_pose;
+      double* jacobians[2] = {J_pose.data(), nullptr};
+      if (!cost.Evaluate(parameters, r, jacobians)) return {};
+      P.block<2, 6>(2 * c, 0) = J_pose;
+      sum_squares += r[0] * r[0] + r[1] * r[1];
+    }
+    const Eigen::Matrix<double, 8, 8> M = Eigen::Matrix<double, 8, 8>::Identity() -
+                                          P * (P.transpose() * P).ldlt().solve(P.transpose());
+    R += S.transpose() * M * S;
+    Q += S.transpose() * M;
+  }
+  Sensitivity out;
+  if (!(R.determinant() > 0.0)) return out;
+  const Eigen::Matrix2d R_inv = R.inverse();
+  // Residual RMS per coordinate: 8 per view, less the 6 pose and 2 shift parameters fitted.
+  const double dof = static_cast<double>(8 * views.size() - 6 * views.size() - 2);
+  const double rms = dof > 0.0 ? std::sqrt(sum_squares / dof) : 0.0;
+  out.formal_px = rms * R_inv.diagonal().cwiseSqrt();
+  const Eigen::Matrix<double, 2, 8> response = R_inv * Q;
+  out.systematic_px = kCornerBiasPx * response.rowwise().norm();
+  return out;
 }
 
 }  // namespace
@@ -114,7 +166,9 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
   if (est.observations < kMinPrincipalPointObservations) return est;
   const std::vector<char> all(views.size(), 1);
   Eigen::Vector2d shift = Eigen::Vector2d::Zero();
-  if (!FitShift(views, all, &shift)) return est;
+  std::vector<View> solved = views;
+  if (!FitShift(&solved, all, &shift)) return est;
+  const Sensitivity sensitivity = ShiftSensitivity(solved, shift);
   // Delete-a-group jackknife: var = (G - 1) / G sum (theta_g - mean)^2.
   std::array<Eigen::Vector2d, kPrincipalPointGroups> left_out;
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
@@ -123,7 +177,8 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
     for (size_t i = 0; i < views.size(); ++i)
       if (static_cast<int>(i * kPrincipalPointGroups / views.size()) == g) use[i] = 0;
     left_out[static_cast<size_t>(g)] = shift;
-    if (!FitShift(views, use, &left_out[static_cast<size_t>(g)])) return est;
+    std::vector<View> subset = solved;
+    if (!FitShift(&subset, use, &left_out[static_cast<size_t>(g)])) return est;
     mean += left_out[static_cast<size_t>(g)] / kPrincipalPointGroups;
   }
   Eigen::Vector2d var = Eigen::Vector2d::Zero();
@@ -131,7 +186,10 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
   var *= static_cast<double>(kPrincipalPointGroups - 1) / kPrincipalPointGroups;
   est.fitted = true;
   est.shift_px = shift;
-  est.sigma_px = var.cwiseSqrt();
+  // The corners' scatter, independent from corner to corner (the fit's formal sigma), is the
+  // floor of the jackknife's: consecutive groups of a drive repeat each other's geometry.
+  est.sigma_px = var.cwiseSqrt().cwiseMax(sensitivity.formal_px);
+  est.systematic_px = sensitivity.systematic_px;
   return est;
 }
 

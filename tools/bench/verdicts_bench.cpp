@@ -238,6 +238,20 @@ constexpr Fault kFaults[] = {
        for (double& e : errors) e = Sign(rng) * size * Draw(rng, 0.5, 1.0);
        s->magnitude = "up to " + Num(size, 3) + " deg";
      }},
+    {"ids_swapped",
+     "two boards of different sizes (the second 60-85 % of the first); the config swaps their ids",
+     [](Rng* rng, Session* s) {
+       const double scale = Draw(rng, 0.6, 0.85);
+       sim::WorkshopOptions& w = s->sim.workshop;
+       w.num_boards = std::max(2, w.num_boards);
+       w.board_scales.assign(static_cast<size_t>(w.num_boards), 1.0);
+       w.board_scales[1] = scale;
+       s->magnitude = Num(scale * 100.0, 0) + " %";
+       s->edit_config = [](CalibConfig* c) {
+         std::swap(c->boards[0].board_id, c->boards[1].board_id);
+         std::swap(c->boards[0].tag_id, c->boards[1].tag_id);
+       };
+     }},
 };
 constexpr int kNumFaults = static_cast<int>(std::size(kFaults));
 

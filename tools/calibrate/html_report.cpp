@@ -502,7 +502,8 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
         "principal point shift as a turn [deg] (" + Num(q.principal_point_shift_px.x(), 1) + ", " +
             Num(q.principal_point_shift_px.y(), 1) + " px, sigma " +
             Num(q.principal_point_sigma_px.x(), 1) + ", " + Num(q.principal_point_sigma_px.y(), 1) +
-            ")",
+            ", blind to a common corner bias up to " + Num(q.principal_point_systematic_px.x(), 1) +
+            ", " + Num(q.principal_point_systematic_px.y(), 1) + ")",
         q.principal_point_turn_deg, 3, kPrincipalPointTurnTolerances * v.verify_rotation_deg, 3);
   if (q.time_offset_fitted)
     s += at_most("camera time offset [ms] (sigma " + Num(q.time_offset_sigma_s * 1e3, 1) +

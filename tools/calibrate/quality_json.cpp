@@ -43,13 +43,15 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   // times it): what a session that cannot measure the offset rests on the stamps for.
   j["time_offset_translation_m"] =
       sigma.is_null() ? nullptr : nlohmann::json(q.time_offset_sigma_s * q.board_normal_speed_mps);
-  nlohmann::json shift = nullptr, shift_sigma = nullptr;
+  nlohmann::json shift = nullptr, shift_sigma = nullptr, shift_systematic = nullptr;
   if (q.principal_point_fitted) {
     shift = {q.principal_point_shift_px.x(), q.principal_point_shift_px.y()};
     shift_sigma = {q.principal_point_sigma_px.x(), q.principal_point_sigma_px.y()};
+    shift_systematic = {q.principal_point_systematic_px.x(), q.principal_point_systematic_px.y()};
   }
   j["principal_point_shift_px"] = shift;
   j["principal_point_sigma_px"] = shift_sigma;
+  j["principal_point_systematic_px"] = shift_systematic;
   j["principal_point_turn_deg"] = q.principal_point_turn_deg;
   j["principal_point_ms"] = q.principal_point_ms;
   return j;

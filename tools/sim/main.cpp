@@ -74,6 +74,8 @@ Boards and scene:
   --tag-size M             side of the tag's black square, m (default 0.48)
   --tag-family NAME        tag36h11 | tag25h9 | tag16h5 | tagStandard41h12 (default tag36h11)
   --tag-ids A,B,...        tag id of each board (default 0,1,2,...)
+  --board-scales A,B,...   each board's sizes (board, tag, checker squares) times this factor,
+                           0.2-1: boards of several sizes (default all 1)
   --checkerboard I,R,C,S   board I (0-based) carries a checkerboard instead of a tag: R x C
                            inner corners, squares of S m (e.g. 2,5,7,0.07)
   --layout NAME            spread | line | stack (default spread)
@@ -233,6 +235,8 @@ int main(int argc, char** argv) {
       {"--tag-size", number(&o.workshop.tag_size_m, 0.01, 5)},
       {"--tag-family", text(&o.workshop.tag_family)},
       {"--tag-ids", list(1, 12, [&](auto& n) { o.workshop.tag_ids.assign(n.begin(), n.end()); })},
+      {"--board-scales",
+       list(1, 12, [&](auto& n) { o.workshop.board_scales.assign(n.begin(), n.end()); })},
       {"--checkerboard", list(4, 4,
                               [&](auto& n) {
                                 o.workshop.checkerboard_board = static_cast<int>(n[0]);

@@ -98,6 +98,11 @@ bool WorkshopOptions::IsValid(std::string* error) const {
                 ")");
   if (std::set<int>(tag_ids.begin(), tag_ids.end()).size() != tag_ids.size())
     return fail("--tag-ids must be distinct");
+  if (!board_scales.empty() && static_cast<int>(board_scales.size()) != num_boards)
+    return fail("--board-scales must list exactly one factor per board (" +
+                std::to_string(num_boards) + ")");
+  for (const double s : board_scales)
+    if (!(s >= 0.2 && s <= 1.0)) return fail("--board-scales must be in [0.2, 1]");
   if (checkerboard_board >= num_boards)
     return fail("--checkerboard: board index " + std::to_string(checkerboard_board) +
                 " but there are " + std::to_string(num_boards) + " boards");
@@ -112,15 +117,16 @@ BoardGeometry WorkshopBoardGeometry(const WorkshopOptions& o, int i) {
   BoardGeometry g;
   g.board_id = o.tag_ids.empty() ? i : o.tag_ids[i];
   g.tag_id = g.board_id;
-  g.width_m = o.board_width_m;
-  g.height_m = o.board_height_m;
+  const double scale = o.board_scales.empty() ? 1.0 : o.board_scales[static_cast<size_t>(i)];
+  g.width_m = o.board_width_m * scale;
+  g.height_m = o.board_height_m * scale;
   g.tag_family = o.tag_family;
-  g.tag_size_m = o.tag_size_m;
+  g.tag_size_m = o.tag_size_m * scale;
   if (i == o.checkerboard_board) {
     g.pattern = BoardGeometry::PatternKind::kCheckerboard;
     g.checker_inner_rows = o.checker_inner_rows;
     g.checker_inner_cols = o.checker_inner_cols;
-    g.checker_square_size_m = o.checker_square_m;
+    g.checker_square_size_m = o.checker_square_m * scale;
   }
   return g;
 }

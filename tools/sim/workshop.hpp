@@ -22,6 +22,9 @@ struct WorkshopOptions {
   std::string tag_family = "tag36h11";
   double tag_size_m = 0.48;  ///< side of the tag's black square
   std::vector<int> tag_ids;  ///< one per board; empty: 0, 1, 2, ...
+  /// One per board: its board, tag and checker square sizes times this, in [0.2, 1] (boards of
+  /// several sizes in one workshop); empty: all 1.
+  std::vector<double> board_scales;
   /// Index of the board printed with a checkerboard instead of a tag (-1: none; the camera
   /// detector takes one checkerboard beside any number of tags), its inner corners per row and
   /// per column and its square side.

@@ -420,7 +420,8 @@ const char* RoutineReasonName(uint8_t reason) {
                                            "lidar_range_offset",
                                            "time_offset_beyond_tolerance",
                                            "principal_point_mismatch",
-                                           "lidar_model_mismatch"};
+                                           "lidar_model_mismatch",
+                                           "board_ids_swapped"};
   if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
   return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
 }

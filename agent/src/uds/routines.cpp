@@ -31,7 +31,8 @@ RoutineReason RoutineReasonCode(std::string_view reason) {
                 {"lidar_range_offset", R::kLidarRangeOffset},
                 {"time_offset_beyond_tolerance", R::kTimeOffset},
                 {"principal_point_mismatch", R::kPrincipalPointMismatch},
-                {"lidar_model_mismatch", R::kLidarModelMismatch}};
+                {"lidar_model_mismatch", R::kLidarModelMismatch},
+                {"board_ids_swapped", R::kBoardIdsSwapped}};
   if (reason.empty()) return R::kNone;
   for (const auto& c : kCodes)
     if (reason == c.text) return c.code;

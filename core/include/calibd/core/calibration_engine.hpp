@@ -13,6 +13,8 @@
 /// - `no_camera_boards`: no board detected by the camera in any frame pair.
 /// - `no_lidar_boards`: no board cluster detected by the LiDAR in any frame pair.
 /// - `no_grid_candidate`: no extrinsic within the search range aligns the detections.
+/// - `board_ids_swapped`: no extrinsic aligns them as configured, but one does with two boards of
+///   different sizes taking each other's ids (board_swap_check.hpp).
 /// - `too_few_frames`, `too_few_boards`: fewer frame pairs / board correspondences than required.
 /// - `solver_failed`: the optimiser did not converge to a usable solution.
 /// - `poor_observability`: the boards constrain some direction too weakly (one board, parallel
@@ -228,6 +230,9 @@ struct QualityFigures {
   bool principal_point_fitted = false;
   Eigen::Vector2d principal_point_shift_px = Eigen::Vector2d::Zero();
   Eigen::Vector2d principal_point_sigma_px =
+      Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  /// What a corner bias common to every tag could move the shift by (PrincipalPointEstimate).
+  Eigen::Vector2d principal_point_systematic_px =
       Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   /// The turn that shift gives the result: about |(dx / fx, dy / fy)|, deg.
   double principal_point_turn_deg = 0.0;

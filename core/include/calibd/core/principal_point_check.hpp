@@ -27,12 +27,21 @@ struct PrincipalPointEstimate {
   /// The principal point the tags fit minus the configured one, px.
   Eigen::Vector2d shift_px = Eigen::Vector2d::Zero();
   Eigen::Vector2d sigma_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  /// What a corner localisation bias of kCornerBiasPx, common to every observation, could move
+  /// the shift by (per axis, px): the fit's blind spot, which no resampling of the observations
+  /// reveals. Where the tags are small or little slanted it exceeds sigma_px many times.
+  Eigen::Vector2d systematic_px =
+      Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   int observations = 0;  ///< used (at most kMaxPrincipalPointObservations, spread evenly)
 };
 
 inline constexpr int kPrincipalPointGroups = 8;
 inline constexpr int kMinPrincipalPointObservations = 8;
 inline constexpr int kMaxPrincipalPointObservations = 800;
+/// The systematic error assumed of a detected tag corner, px, per coordinate: AprilTag's refined
+/// corners on ideally rendered images carry a mean error of this order per corner of the tag
+/// (blur and the pixel grid; real lenses, demosaicing and compression add to it).
+inline constexpr double kCornerBiasPx = 0.05;
 
 /// Fits the principal point shift to the camera observations of `session` (tag corners of the
 /// configured boards; checkerboards by their four outer corners), starting from each one's PnP

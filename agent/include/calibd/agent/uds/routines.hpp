@@ -108,6 +108,7 @@ enum class RoutineReason : uint8_t {
   kTimeOffset = 0x17,             ///< "time_offset_beyond_tolerance"
   kPrincipalPointMismatch = 0x18,  ///< "principal_point_mismatch"
   kLidarModelMismatch = 0x19,      ///< "lidar_model_mismatch"
+  kBoardIdsSwapped = 0x1A,         ///< "board_ids_swapped"
   kOther = 0xFF,                   ///< any other reason (the agent's log has the text)
 };
 
