@@ -121,6 +121,49 @@ TEST(SessionTest, RangeBiasAndCameraDelayAreWhatTheTruthSays) {
   }
 }
 
+// The occlusion fault of calibd-bench verdicts: someone in front of the board hides about the
+// requested share of its width from the LiDAR. Still poses of one board on a tripod (no other
+// clutter), dense LiDAR, no noise: the board's points with 30 % hidden against the same poses
+// with nobody in front.
+TEST(SessionTest, AnOccluderHidesAboutItsShareOfTheBoard) {
+  SessionOptions o = SmallCamera(SessionOptions{});
+  o.lidar_model = "ot128";
+  o.trajectory.mode = "stills";
+  o.trajectory.rate_hz = 0.5;
+  o.trajectory.duration_s = 8 / o.trajectory.rate_hz;
+  o.workshop.num_boards = 1;
+  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
+  o.workshop.tag_size_m = 0.702;
+  o.stills.clutter = false;
+  o.lidar_noise = LidarNoise{};
+  o.lidar_noise.range_sigma_m = 0.0;
+  o.lidar_noise.dropout_probability = 0.0;
+  SessionOptions hidden = o;
+  hidden.stills.occluded_share = 0.3;
+  SessionSimulator clean_sim, hidden_sim;
+  std::string error;
+  ASSERT_TRUE(clean_sim.Init(o, &error)) << error;
+  ASSERT_TRUE(hidden_sim.Init(hidden, &error)) << error;
+  LidarScan scan;
+  FrameTruth clean, occluded;
+  size_t clean_points = 0, occluded_points = 0;
+  for (int pose = 0; pose < 8; ++pose) {
+    clean_sim.SimulateFrame(pose, nullptr, &scan, &clean);
+    hidden_sim.SimulateFrame(pose, nullptr, &scan, &occluded);
+    ASSERT_EQ(clean.boards.size(), 1u);
+    ASSERT_EQ(occluded.boards.size(), 1u);
+    EXPECT_TRUE(clean.boards[0].T_lidar_board.isApprox(occluded.boards[0].T_lidar_board))
+        << "pose " << pose << ": the same board pose with and without the occluder";
+    clean_points += clean.boards[0].lidar_point_indices.size();
+    occluded_points += occluded.boards[0].lidar_point_indices.size();
+  }
+  ASSERT_GT(clean_points, 1000u);
+  const double kept = static_cast<double>(occluded_points) / static_cast<double>(clean_points);
+  std::printf("30 %% hidden: %.3f of the board's points kept\n", kept);
+  EXPECT_GT(kept, 0.55);
+  EXPECT_LT(kept, 0.85);
+}
+
 TEST(SessionTest, BadOptionsAreRejectedWithTheirName) {
   std::string error;
   SessionOptions o;

@@ -606,6 +606,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     q.principal_point_shift_px = pp.shift_px;
     q.principal_point_sigma_px = pp.sigma_px;
     q.principal_point_systematic_px = pp.systematic_px;
+    q.principal_point_residual_px = pp.residual_rms_px;
     q.principal_point_turn_deg =
         std::hypot(pp.shift_px.x() / config.camera.fx, pp.shift_px.y() / config.camera.fy) *
         kRad2Deg;
@@ -742,6 +743,23 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     const double turn_deg = q.principal_point_turn_deg;
     const double chi2 = (d.cwiseQuotient(q.principal_point_sigma_px)).squaredNorm();
     const double max_turn_deg = kPrincipalPointTurnTolerances * v.verify_rotation_deg;
+    // Groups of observations that disagree by far more than the turn that matters: the tags
+    // cannot vouch for the principal point, and a wrong lens model is what makes them disagree.
+    const Eigen::Vector2d s = q.principal_point_sigma_px;
+    const double sigma_turn_deg =
+        std::hypot(s.x() / config.camera.fx, s.y() / config.camera.fy) * kRad2Deg;
+    const double max_sigma_turn_deg = kPrincipalPointSigmaTurns * max_turn_deg;
+    if (sigma_turn_deg > max_sigma_turn_deg)
+      return Reject(
+          out, "principal_point_mismatch",
+          "the tags do not agree on the camera's principal point: +-" + Fmt(s.x(), 1) + " / +-" +
+              Fmt(s.y(), 1) + " px from one group of observations to the next, a turn of " +
+              Fmt(sigma_turn_deg, 2) + " deg, more than " + Fmt(max_sigma_turn_deg, 2) +
+              " deg; their corners fit the configured lens with " +
+              Fmt(q.principal_point_residual_px, 2) +
+              " px RMS: the camera's intrinsic calibration (its lens distortion or principal "
+              "point) is likely wrong; calibrate the camera's intrinsics again (if they are "
+              "right, boards closer to the camera and turned 20-40 deg let the tags check them)");
     if (turn_deg > max_turn_deg && chi2 > kPrincipalPointChiSquare)
       return Reject(
           out, "principal_point_mismatch",

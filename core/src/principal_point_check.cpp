@@ -83,8 +83,9 @@ bool FitShift(std::vector<View>* views_io, const std::vector<char>& use, Eigen::
 /// Eliminating the poses (Schur complement), a change e_i of the detected corners moves the shift
 /// by R^-1 sum_i S' M_i e_i with R = sum_i S' M_i S.
 struct Sensitivity {
-  /// For corner errors of the fit's residual RMS, independent from corner to corner.
+  /// For corner errors of kCornerNoisePx, independent from corner to corner.
   Eigen::Vector2d formal_px = Eigen::Vector2d::Zero();
+  double residual_rms_px = 0.0;  ///< of the fit, per coordinate
   /// For a bias of kCornerBiasPx on one coordinate of one corner, the same in every view, each of
   /// the eight added in quadrature.
   Eigen::Vector2d systematic_px = Eigen::Vector2d::Zero();
@@ -121,7 +122,10 @@ Sensitivity ShiftSensitivity(const std::vector<View>& views, const Eigen::Vector
   // Residual RMS per coordinate: 8 per view, less the 6 pose and 2 shift parameters fitted.
   const double dof = static_cast<double>(8 * views.size() - 6 * views.size() - 2);
   const double rms = dof > 0.0 ? std::sqrt(sum_squares / dof) : 0.0;
-  out.formal_px = rms * R_inv.diagonal().cwiseSqrt();
+  // Not the residuals' own RMS: a wrong lens model inflates it with its misfit, which the fit's
+  // shift is no less sure of.
+  out.formal_px = kCornerNoisePx * R_inv.diagonal().cwiseSqrt();
+  out.residual_rms_px = rms;
   const Eigen::Matrix<double, 2, 8> response = R_inv * Q;
   out.systematic_px = kCornerBiasPx * response.rowwise().norm();
   return out;
@@ -186,10 +190,11 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
   var *= static_cast<double>(kPrincipalPointGroups - 1) / kPrincipalPointGroups;
   est.fitted = true;
   est.shift_px = shift;
-  // The corners' scatter, independent from corner to corner (the fit's formal sigma), is the
+  // The corners' precision, independent from corner to corner (the fit's formal sigma), is the
   // floor of the jackknife's: consecutive groups of a drive repeat each other's geometry.
   est.sigma_px = var.cwiseSqrt().cwiseMax(sensitivity.formal_px);
   est.systematic_px = sensitivity.systematic_px;
+  est.residual_rms_px = sensitivity.residual_rms_px;
   return est;
 }
 

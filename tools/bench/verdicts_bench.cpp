@@ -43,6 +43,7 @@ struct Session {
   enum class FrameOrder { kRecorded, kShuffled, kDuplicated } frame_order = FrameOrder::kRecorded;
   uint64_t order_seed = 0;
   int drive_frames = 0;  ///< frame pairs of this campaign's drives (quick or full)
+  bool quick = false;
 };
 
 using Rng = std::mt19937_64;
@@ -62,6 +63,36 @@ double Draw(Rng* rng, double lo, double hi) {
 }
 double Sign(Rng* rng) { return (*rng)() & 1u ? 1.0 : -1.0; }
 std::string Num(double v, int decimals) { return FixedDecimal(v, decimals); }
+
+/// Still poses at 1.5-8 m of 0.9 m boards (0.702 m tags) as long as the agent collects (it
+/// solves from min_frames pairs with boards, 50, and stops at target_frames, 200): quick sessions
+/// just above the minimum, full ones at the target; a few sweeps a pose, as the sensors keep
+/// sending while a pose stands.
+void UseStillPoses(Session* s) {
+  sim::SessionOptions& o = s->sim;
+  o.trajectory.mode = "stills";
+  o.trajectory.rate_hz = 0.5;
+  o.trajectory.duration_s = (s->quick ? 14 : 20) / o.trajectory.rate_hz;
+  o.stills.frames_per_pose = s->quick ? 6 : 10;
+  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
+  o.workshop.tag_size_m = 0.702;
+  o.stills.min_distance_m = 1.5;
+  o.stills.max_distance_m = 8.0;
+}
+
+/// A frame pair every other sweep of a 10 Hz LiDAR: 2.5 m/s on average (quick), 1.25 m/s (full).
+constexpr double kDrivePairRateHz = 5.0;
+
+/// A drive past the boards at 4-14 m and back (the 1920 px camera sees a 0.6 m board's tag
+/// there), drive_frames pairs at `rate_hz`.
+void UseDrive(Session* s, double rate_hz) {
+  sim::TrajectoryOptions& t = s->sim.trajectory;
+  t.mode = "drive";
+  t.min_distance_m = 4.0;
+  t.max_distance_m = 14.0;
+  t.rate_hz = rate_hz;
+  t.duration_s = s->drive_frames / t.rate_hz;
+}
 
 /// A factor 1 +- [lo, hi] (either sign), written as the session's magnitude in %.
 double DrawFactor(Rng* rng, double lo, double hi, Session* s) {
@@ -162,12 +193,7 @@ constexpr Fault kFaults[] = {
      "driving, a frame pair a second, the camera 10-100 ms late (stamped at its trigger)",
      [](Rng* rng, Session* s) {
        const int64_t delay = std::llround(Draw(rng, 10e3, 100e3));
-       sim::TrajectoryOptions& t = s->sim.trajectory;
-       t.mode = "drive";
-       t.min_distance_m = 4.0;
-       t.max_distance_m = 14.0;
-       t.rate_hz = 1.0;
-       t.duration_s = s->drive_frames / t.rate_hz;
+       UseDrive(s, 1.0);
        s->sim.workshop.num_boards = std::max(2, s->sim.workshop.num_boards);
        s->sim.workshop.board_width_m = s->sim.workshop.board_height_m = 0.6;
        s->sim.workshop.tag_size_m = 0.48;
@@ -252,21 +278,40 @@ constexpr Fault kFaults[] = {
          std::swap(c->boards[0].tag_id, c->boards[1].tag_id);
        };
      }},
+    {"occluded",
+     "still poses, someone standing 0.4-0.8 m in front of every board hides 10-40 % of its width",
+     [](Rng* rng, Session* s) {
+       UseStillPoses(s);
+       s->sim.stills.occluded_share = Draw(rng, 0.1, 0.4);
+       s->magnitude = Num(s->sim.stills.occluded_share * 100.0, 0) + " %";
+     }},
 };
 constexpr int kNumFaults = static_cast<int>(std::size(kFaults));
+
+/// The faults the catalogue had when the sessions' seeds were fixed.
+constexpr int kSeedFaults = 18;
+static_assert(kNumFaults >= kSeedFaults, "faults are appended, never removed");
+
+/// A session's seed key: its index in a catalogue of kSeedFaults faults (round * 18 + fault);
+/// faults appended since draw keys of their own beyond them, so that adding a fault leaves every
+/// other fault's sessions as they were (`--only` picks them by index in the current catalogue).
+int SeedKey(int round, int fault) {
+  return fault < kSeedFaults ? round * kSeedFaults + fault : 1000000 + round * kNumFaults + fault;
+}
 
 // Session i: fault i mod F; over the rounds i / F, drives and stills alternate, then the LiDAR
 // model and the number of boards cycle, so that every fault meets every model in both modes.
 Session MakeSession(int i, unsigned long long seed, bool quick) {
   Session s;
   s.index = i;
-  Rng rng(seed * 1000003ULL + static_cast<unsigned long long>(i));
   const Fault& fault = kFaults[i % kNumFaults];
   const int round = i / kNumFaults;
+  const auto key = static_cast<unsigned long long>(SeedKey(round, i % kNumFaults));
+  Rng rng(seed * 1000003ULL + key);
   const int lidars = static_cast<int>(std::size(kLidars));
   const bool stills = round % 2 == 1;
   sim::SessionOptions& o = s.sim;
-  o.seed = seed * 7919ULL + static_cast<unsigned long long>(i);
+  o.seed = seed * 7919ULL + key;
   o.lidar_model = kLidars[(round / 2) % lidars];
   o.camera = ScenarioCamera(false);
   o.imaging.num_threads = 1;
@@ -278,26 +323,13 @@ Session MakeSession(int i, unsigned long long seed, bool quick) {
   o.prior_trans_m = Draw(&rng, 0.03, 0.15);
   // As long as the agent collects (SessionConfig: it solves from min_frames pairs with boards,
   // 50, and stops at target_frames, 200): quick sessions just above the minimum, full ones at
-  // the target. Still poses: a few sweeps each, as the sensors keep sending while a pose stands.
-  if (stills) {
-    o.trajectory.mode = "stills";
-    o.trajectory.rate_hz = 0.5;
-    o.trajectory.duration_s = (quick ? 14 : 20) / o.trajectory.rate_hz;
-    o.stills.frames_per_pose = quick ? 6 : 10;
-    o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
-    o.workshop.tag_size_m = 0.702;
-    o.stills.min_distance_m = 1.5;
-    o.stills.max_distance_m = 8.0;
-  } else {
-    // A drive past the boards at 4-14 m and back (the 1920 px camera sees a 0.6 m board's tag
-    // there), a frame pair every other sweep: 2.5 m/s on average (quick), 1.25 m/s (full).
-    o.trajectory.mode = "drive";
-    o.trajectory.min_distance_m = 4.0;
-    o.trajectory.max_distance_m = 14.0;
-    o.trajectory.rate_hz = 5.0;
-    o.trajectory.duration_s = (quick ? 80 : 200) / o.trajectory.rate_hz;
-  }
+  // the target.
+  s.quick = quick;
   s.drive_frames = quick ? 80 : 200;
+  if (stills)
+    UseStillPoses(&s);
+  else
+    UseDrive(&s, kDrivePairRateHz);
   s.fault = fault.name;
   fault.apply(&rng, &s);
   return s;

@@ -52,6 +52,7 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["principal_point_shift_px"] = shift;
   j["principal_point_sigma_px"] = shift_sigma;
   j["principal_point_systematic_px"] = shift_systematic;
+  j["principal_point_residual_px"] = q.principal_point_residual_px;
   j["principal_point_turn_deg"] = q.principal_point_turn_deg;
   j["principal_point_ms"] = q.principal_point_ms;
   return j;

@@ -63,6 +63,8 @@ Session:
   --frames-per-pose N      stills: N frame pairs per pose, one LiDAR sweep apart, as a stream
                            recorded while the board stood still (default 1); --frames and
                            --duration count poses
+  --occluded-share S       stills, fault: someone stands 0.4-0.8 m in front of every board,
+                           hiding about this share of its width, 0-0.5 (default 0)
   --distance MIN,MAX       drive range from the LiDAR to the boards, m (default 6,30)
   --static-distance M      distance in static mode, m (default 10)
   --duration S             session length, s (default 20)
@@ -223,6 +225,7 @@ int main(int argc, char** argv) {
                                   o.stills.max_distance_m = n[1];
                                 })},
       {"--frames-per-pose", integer(&o.stills.frames_per_pose, 1, 100)},
+      {"--occluded-share", number(&o.stills.occluded_share, 0, 0.5)},
       {"--duration", number(&o.trajectory.duration_s, 0.1, 3600)},
       {"--rate", number(&o.trajectory.rate_hz, 0.1, 50)},
       {"--frames", integer(&frames, 1, 100000)},

@@ -63,6 +63,8 @@ bool SessionOptions::IsValid(std::string* error) const {
     return fail("--still-distance must satisfy 0.5 <= min < max <= 60 m");
   if (!(stills.frames_per_pose >= 1 && stills.frames_per_pose <= 100))
     return fail("--frames-per-pose must be in [1, 100]");
+  if (!(stills.occluded_share >= 0.0 && stills.occluded_share <= 0.5))
+    return fail("--occluded-share must be in [0, 0.5]");
   if (trajectory.mode == "stills" && stills.frames_per_pose > 1 && kind != LidarKind::kGeneric &&
       (stills.frames_per_pose - 1) / MakeLidarModel(kind).frame_rate_hz >= 1.0 / trajectory.rate_hz)
     return fail(

@@ -124,6 +124,31 @@ void AddTripod(const Pose& T_world_board, const BoardGeometry& g, double thickne
   }
 }
 
+// A person-sized column (0.35 m wide, floor to 2 m) 0.4-0.8 m in front of the board towards the
+// sensor, covering `share` of the board's width as the sensor sees it from one side.
+void AddOccluder(const Pose& T_world_board, const BoardGeometry& g, const Eigen::Vector3d& sensor,
+                 double share, std::mt19937_64& rng, Workshop* out) {
+  static constexpr double kWidth = 0.35, kHeight = 2.0;
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const Eigen::Vector3d centre = T_world_board.translation();
+  Eigen::Vector3d away = centre - sensor;
+  away.z() = 0.0;
+  const double range = away.norm();
+  away /= range;
+  const Eigen::Vector3d across(-away.y(), away.x(), 0.0);
+  // The board's half width across the line of sight, and the column's lateral scale there.
+  const double half = 0.5 * g.width_m * std::fabs(T_world_board.linear().col(0).dot(across));
+  const double gap = 0.4 + 0.4 * u01(rng);
+  const double k = std::max(0.1, (range - gap) / range);
+  const double side = u01(rng) < 0.5 ? 1.0 : -1.0;
+  // Its inner edge at (half - 2 share half) across the board, seen from the sensor.
+  const double inner = (half - 2.0 * share * half) * k;
+  Eigen::Vector3d at = centre - gap * away + side * (inner + 0.5 * kWidth) * across;
+  at.z() = 0.5 * kHeight;
+  out->scene.Add(Box(SurfaceKind::kClutter, at, std::atan2(across.y(), across.x()),
+                     {0.5 * kWidth, 0.12, 0.5 * kHeight}, 0.4f));
+}
+
 }  // namespace
 
 bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& o,
@@ -189,6 +214,7 @@ bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& o,
     const double heading = std::atan2(-away.y(), -away.x());
     const double z = T_world_board.translation().z();
     const bool held = o.clutter && u01(rng) < 0.5 && z > 0.8 && z < 1.9;
+    if (o.occluded_share > 0.0) AddOccluder(T_world_board, g, sensor, o.occluded_share, rng, out);
     if (held) {
       // Holding it out to one side: body 0.25 m behind the board, half of it beside the board,
       // one arm to the board's near edge.

@@ -25,6 +25,10 @@ struct StillPoseOptions {
   /// Frame pairs recorded per pose, one LiDAR sweep apart (a stream recorded while the board
   /// stood still); the poses stay 1 / trajectory.rate_hz apart.
   int frames_per_pose = 1;
+  /// Fault: someone stands between the sensors and every board, 0.4-0.8 m in front of it,
+  /// hiding about this share of its width from the LiDAR (a column 0.35 m wide, floor to 2 m,
+  /// on a side drawn at random); 0: nobody.
+  double occluded_share = 0.0;
 };
 
 /// True when a board at T_world_board is usable by the camera (the caller's camera model).

@@ -167,6 +167,11 @@ inline constexpr double kPrincipalPointChiSquare = 11.83;
 /// (corner localisation under perspective), so the gate refuses what would make the result wrong,
 /// not what a correct camera's fit scatters by.
 inline constexpr double kPrincipalPointTurnTolerances = 2.0;
+/// A principal point whose sigma alone turns the result by more than this many of those turns is
+/// refused too: the tags disagree with each other, as a wrong lens model makes them (another
+/// lens's distortion, 194 px at the image corner, left +-17 px of scatter at f = 1100 px and was
+/// accepted 0.98 deg off; clean drives of a 960 x 480 camera scatter by up to 0.33 deg).
+inline constexpr double kPrincipalPointSigmaTurns = 2.0;
 /// A time offset is corrected for only beyond this many of its standard deviations.
 inline constexpr double kTimeOffsetSigmas = 3.0;
 
@@ -231,6 +236,8 @@ struct QualityFigures {
   Eigen::Vector2d principal_point_shift_px = Eigen::Vector2d::Zero();
   Eigen::Vector2d principal_point_sigma_px =
       Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  /// RMS of the tags' corner residuals in that fit, px (PrincipalPointEstimate).
+  double principal_point_residual_px = 0.0;
   /// What a corner bias common to every tag could move the shift by (PrincipalPointEstimate).
   Eigen::Vector2d principal_point_systematic_px =
       Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());

@@ -32,12 +32,18 @@ struct PrincipalPointEstimate {
   /// reveals. Where the tags are small or little slanted it exceeds sigma_px many times.
   Eigen::Vector2d systematic_px =
       Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  /// RMS of the fit's corner residuals, px per coordinate: AprilTag's precision with the right
+  /// lens model, more with a wrong one.
+  double residual_rms_px = 0.0;
   int observations = 0;  ///< used (at most kMaxPrincipalPointObservations, spread evenly)
 };
 
 inline constexpr int kPrincipalPointGroups = 8;
 inline constexpr int kMinPrincipalPointObservations = 8;
 inline constexpr int kMaxPrincipalPointObservations = 800;
+/// The random error assumed of a detected tag corner, px per coordinate, independent from corner
+/// to corner: the floor of the shift's sigma.
+inline constexpr double kCornerNoisePx = 0.1;
 /// The systematic error assumed of a detected tag corner, px, per coordinate: AprilTag's refined
 /// corners on ideally rendered images carry a mean error of this order per corner of the tag
 /// (blur and the pixel grid; real lenses, demosaicing and compression add to it).
