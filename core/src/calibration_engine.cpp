@@ -743,13 +743,15 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     const double turn_deg = q.principal_point_turn_deg;
     const double chi2 = (d.cwiseQuotient(q.principal_point_sigma_px)).squaredNorm();
     const double max_turn_deg = kPrincipalPointTurnTolerances * v.verify_rotation_deg;
-    // Groups of observations that disagree by far more than the turn that matters: the tags
-    // cannot vouch for the principal point, and a wrong lens model is what makes them disagree.
+    // Groups of observations that disagree by far more than the turn that matters, and corners
+    // that fit the lens model worse than detection explains: a wrong lens model. (Groups of a
+    // short session can scatter as much with corners that fit: not refused for that alone.)
     const Eigen::Vector2d s = q.principal_point_sigma_px;
     const double sigma_turn_deg =
         std::hypot(s.x() / config.camera.fx, s.y() / config.camera.fy) * kRad2Deg;
     const double max_sigma_turn_deg = kPrincipalPointSigmaTurns * max_turn_deg;
-    if (sigma_turn_deg > max_sigma_turn_deg)
+    if (sigma_turn_deg > max_sigma_turn_deg &&
+        q.principal_point_residual_px > kLensMisfitResidualPx)
       return Reject(
           out, "principal_point_mismatch",
           "the tags do not agree on the camera's principal point: +-" + Fmt(s.x(), 1) + " / +-" +

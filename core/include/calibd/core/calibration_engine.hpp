@@ -172,6 +172,11 @@ inline constexpr double kPrincipalPointTurnTolerances = 2.0;
 /// lens's distortion, 194 px at the image corner, left +-17 px of scatter at f = 1100 px and was
 /// accepted 0.98 deg off; clean drives of a 960 x 480 camera scatter by up to 0.33 deg).
 inline constexpr double kPrincipalPointSigmaTurns = 2.0;
+/// ... when their corners also fit the lens model worse than this (RMS, px): three times the
+/// corner precision the fit assumes (kCornerNoisePx). A short session's groups can scatter as
+/// much with corners that fit (+-19 / +-88 px over 70 pairs of a 960 x 480 drive, 0.15 px RMS);
+/// the wrong lens above left 0.52 px.
+inline constexpr double kLensMisfitResidualPx = 3.0 * kCornerNoisePx;
 /// A time offset is corrected for only beyond this many of its standard deviations.
 inline constexpr double kTimeOffsetSigmas = 3.0;
 
