@@ -43,33 +43,35 @@ int SessionRecorder::DrainFrom(FrameIntake* intake) {
   const int first = session_.num_frames;
   const int pairs = intake->Drain(&session_);
   if (pairs > 0) {
-    CountFrames(first);  // every pair counts, kept or not
+    // Every pair counts, kept or not.
+    CountCollectionFigures(session_, first, image_width_, image_height_, &figures_);
     thinning_.Apply(first, &session_);
   }
   return pairs;
 }
 
-void SessionRecorder::CountFrames(int first) {
+void CountCollectionFigures(const SessionObservations& session, int first_frame, int image_width,
+                            int image_height, CollectionFigures* figures) {
   // The new frames' entries are at the end of the store, in frame order.
-  size_t c = session_.camera.size(), l = session_.lidar.size();
-  while (c > 0 && session_.camera[c - 1].frame >= first) --c;
-  while (l > 0 && session_.lidar[l - 1].frame >= first) --l;
-  for (int f = first; f < session_.num_frames; ++f) {
+  size_t c = session.camera.size(), l = session.lidar.size();
+  while (c > 0 && session.camera[c - 1].frame >= first_frame) --c;
+  while (l > 0 && session.lidar[l - 1].frame >= first_frame) --l;
+  for (int f = first_frame; f < session.num_frames; ++f) {
     int cameras = 0, lidars = 0;
-    for (; c < session_.camera.size() && session_.camera[c].frame == f; ++c) {
-      const auto& cam = session_.camera[c];
+    for (; c < session.camera.size() && session.camera[c].frame == f; ++c) {
+      const auto& cam = session.camera[c];
       ++cameras;
       const int bin = DistanceBin(cam.T_camera_board.translation().norm());
-      if (bin >= 0) figures_.distance_bins |= 1u << bin;
+      if (bin >= 0) figures->distance_bins |= 1u << bin;
       Eigen::Vector2d centre = Eigen::Vector2d::Zero();
       for (const auto& p : cam.corners_px) centre += p / 4.0;
-      const int cell = ImageCell(centre.x(), centre.y(), image_width_, image_height_);
-      if (cell >= 0) figures_.image_cells |= 1u << cell;
+      const int cell = ImageCell(centre.x(), centre.y(), image_width, image_height);
+      if (cell >= 0) figures->image_cells |= 1u << cell;
     }
-    for (; l < session_.lidar.size() && session_.lidar[l].frame == f; ++l) ++lidars;
+    for (; l < session.lidar.size() && session.lidar[l].frame == f; ++l) ++lidars;
     if (cameras > 0 && lidars > 0) {
-      ++figures_.frames_with_boards;
-      figures_.boards += std::min(cameras, lidars);
+      ++figures->frames_with_boards;
+      figures->boards += std::min(cameras, lidars);
     }
   }
 }

@@ -100,7 +100,7 @@ void ParallelTasks(int count, int threads, const std::function<void(int)>& task,
 
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
                  const LidarDetectorConfig& lidar, const LidarModel* model,
-                 const RecordingFaults& faults) {
+                 const RecordingFaults& faults, const KeepRecording& keep_going) {
   const auto t0 = std::chrono::steady_clock::now();
   DetectedSession detected;
   if (!detected.Init(options, error, lidar, model, faults.edit_config)) return false;
@@ -138,6 +138,7 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
     drive->vehicle_positions.push_back(frame.truth.T_world_vehicle.translation());
     drive->timings.push_back({frame.lidar_ms, frame.camera_ms, frame.lidar_cpu_ms,
                               frame.camera_cpu_ms, frame.camera.full_frame_search});
+    if (keep_going && !keep_going(drive->observations, frame.truth)) break;
   }
   drive->detect_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return true;

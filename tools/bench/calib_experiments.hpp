@@ -73,10 +73,15 @@ void ParallelTasks(int count, int threads, const std::function<void(int)>& task,
 
 /// Simulates every frame pair of a drive and runs the real detectors on it into
 /// `drive->observations`, the way tests/recorded_session.hpp does; the LiDAR detector with
-/// `model` when given (DetectedSession::Init).
+/// `model` when given (DetectedSession::Init). With `keep_going`, asked after each pair with the
+/// observations so far and the pair's truth, recording stops at the first false (e.g. where the
+/// agent's session machine would end its collection).
+using KeepRecording =
+    std::function<bool(const SessionObservations& observations, const sim::FrameTruth& truth)>;
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
                  const LidarDetectorConfig& lidar = LidarDetectorConfig{},
-                 const LidarModel* model = nullptr, const RecordingFaults& faults = {});
+                 const LidarModel* model = nullptr, const RecordingFaults& faults = {},
+                 const KeepRecording& keep_going = nullptr);
 
 /// Board observations at camera-to-board distances in (min_m, max_m) only (paper Table II: close
 /// < 8.5 m, far > 25 m). Camera boards are kept by their PnP distance. A LiDAR cluster's board is

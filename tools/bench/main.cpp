@@ -155,16 +155,17 @@ verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-
          someone in front of every board hiding 10-40 % of it (still poses), two boards of
          different sizes with their ids swapped in the config (19 faults: 304 sessions meet
          every LiDAR in both modes with each). Each is detected
-         and calibrated by the real detectors and engine, once it holds what the agent needs to
-         solve (50 pairs with boards, 20 boards; short sessions are counted apart, not judged);
+         and calibrated by the real detectors and engine; the agent's session machine decides
+         when its collection ends (short of 50 pairs with boards or 20 boards when the drive or
+         the 120 s of still poses end: counted apart, not judged);
          per fault and overall: accepted within tolerance, false accepts (`updated` or `verified`
          beyond twice the verification tolerance, 0.3 deg or 3 cm), false rejects (clean
          sessions refused), refusals and their reason codes. Deterministic per seed. Fails on
          any false accept.
   --sessions N        sessions (default 400; 2000 for the issue's campaign)
-  --quick             sessions just above the agent's minimum (80-pair drives, 14 poses of 6
-                      sweeps) instead of at its target (200 pairs): about 6 s a session on
-                      one core
+  --quick             sessions that end at the agent's minimum (50 pairs with boards; 80-pair
+                      drives, still poses of 6 sweeps) instead of at its target (200 pairs;
+                      200-pair drives, 10 sweeps a pose)
   --seed N            simulation seed (default 1)
   --threads N         sessions at once (default 2)
   --only LIST         only these sessions (comma-separated indices, as in --json): to look

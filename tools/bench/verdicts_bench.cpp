@@ -11,6 +11,7 @@
 #include "calib_experiments.hpp"
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/session_machine.hpp"
+#include "calibd/agent/session_recorder.hpp"
 #include "calibd/core/camera_model.hpp"
 #include "calibd/core/geometry.hpp"
 #include "calibd/core/grid_search.hpp"
@@ -64,15 +65,15 @@ double Draw(Rng* rng, double lo, double hi) {
 double Sign(Rng* rng) { return (*rng)() & 1u ? 1.0 : -1.0; }
 std::string Num(double v, int decimals) { return FixedDecimal(v, decimals); }
 
-/// Still poses at 1.5-8 m of 0.9 m boards (0.702 m tags) as long as the agent collects (it
-/// solves from min_frames pairs with boards, 50, and stops at target_frames, 200): quick sessions
-/// just above the minimum, full ones at the target; a few sweeps a pose, as the sensors keep
-/// sending while a pose stands.
+/// Still poses at 1.5-8 m of 0.9 m boards (0.702 m tags), a new one every 2 s for as long as the
+/// agent may collect (its time limit; RunSession stops where the agent's session machine does);
+/// a few sweeps a pose, as the sensors keep sending while a pose stands.
 void UseStillPoses(Session* s) {
   sim::SessionOptions& o = s->sim;
   o.trajectory.mode = "stills";
   o.trajectory.rate_hz = 0.5;
-  o.trajectory.duration_s = (s->quick ? 14 : 20) / o.trajectory.rate_hz;
+  o.trajectory.duration_s =
+      static_cast<double>(SessionConfigFrom(AgentConfig{}).max_duration_us) * 1e-6;
   o.stills.frames_per_pose = s->quick ? 6 : 10;
   o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
   o.workshop.tag_size_m = 0.702;
@@ -339,7 +340,8 @@ struct SessionResult {
   Session session;
   ScoredRun run;
   double seconds = 0.0, detect_seconds = 0.0;
-  std::string error;  ///< the session could not be simulated
+  std::string error;           ///< the session could not be simulated
+  std::string collection_end;  ///< what ended the agent's collection (CollectionEndName)
   bool accepted() const { return run.verdict == "updated" || run.verdict == "verified"; }
 };
 
@@ -356,8 +358,31 @@ bool RunSession(const Session& s, SessionResult* out) {
   LidarKind kind;
   LidarKindFromName(lidar_name, &kind, nullptr);
   const LidarModel model = MakeLidarModel(kind);
+  // The agent's session machine decides when the collection ends, on the pairs as recorded: at
+  // its target (quick sessions: its minimum, min_frames), at the coverage gates, at its time
+  // limit, or where the recording ends; short of min_frames or min_boards it fails.
+  SessionConfig agent = SessionConfigFrom(AgentConfig{});
+  if (s.quick) agent.target_frames = agent.min_frames;
+  agent.sensor_timeout_us = 0;  // a replay: the sensors' pace is the simulator's
+  SessionMachine machine(agent);
+  CollectionFigures figures;
+  int64_t last_lidar_us = 0;
+  const CameraIntrinsics& camera = s.sim.camera;
+  const KeepRecording keep_going = [&](const SessionObservations& recorded,
+                                       const sim::FrameTruth& truth) {
+    last_lidar_us = truth.lidar_utime;
+    if (machine.state() == SessionState::kIdle) {
+      StartRequest start;
+      start.mode = s.sim.trajectory.mode == "stills" ? SessionMode::kStatic : SessionMode::kMoving;
+      machine.Start(start, truth.lidar_utime);
+    }
+    CountCollectionFigures(recorded, recorded.num_frames - 1, camera.width, camera.height,
+                           &figures);
+    machine.FrameRecorded(figures, truth.lidar_utime);
+    return machine.state() == SessionState::kCollecting;
+  };
   RecordedDrive drive;
-  if (!RecordDrive(s.sim, &drive, &error, LidarDetectorConfig{}, &model, faults)) {
+  if (!RecordDrive(s.sim, &drive, &error, LidarDetectorConfig{}, &model, faults, keep_going)) {
     out->error = error;
     return false;
   }
@@ -373,37 +398,19 @@ bool RunSession(const Session& s, SessionResult* out) {
         SelectFrames(recorded, frames, std::vector<char>(recorded.camera.size(), 1),
                      std::vector<char>(recorded.lidar.size(), 1));
   }
-  // The agent solves only once it holds min_frames pairs in which both sensors saw a board and
-  // min_boards such boards (SessionRecorder counts them, SessionMachine::FinishCollection
-  // decides); with fewer it keeps collecting (to its time limit, then fails): no verdict to
-  // judge, the session is counted apart (Tally::collecting).
-  const SessionConfig agent = SessionConfigFrom(AgentConfig{});
-  const SessionObservations& obs = drive.observations;
-  int frames_with_boards = 0, boards = 0;
-  for (int f = 0; f < obs.num_frames; ++f) {
-    const auto count = [f](const auto& entries) {
-      return static_cast<int>(std::count_if(entries.begin(), entries.end(),
-                                            [f](const auto& e) { return e.frame == f; }));
-    };
-    const int cameras = count(obs.camera), lidars = count(obs.lidar);
-    if (cameras > 0 && lidars > 0) {
-      ++frames_with_boards;
-      boards += std::min(cameras, lidars);
-    }
-  }
-  if (frames_with_boards < agent.min_frames || boards < agent.min_boards) {
-    const bool frames_short = frames_with_boards < agent.min_frames;
+  if (machine.state() == SessionState::kCollecting) machine.EndOfData(last_lidar_us);
+  if (machine.state() != SessionState::kSolving) {
+    // Short of the agent's minimum (too_few_frames, too_few_boards): no verdict to judge, the
+    // session is counted apart (Tally::collecting).
     out->run.verdict = "collecting";
-    out->run.reason = frames_short ? "too_few_frames" : "too_few_boards";
-    out->run.detail = "collection: " + std::to_string(frames_short ? frames_with_boards : boards) +
-                      (frames_short ? " frame pairs with boards, " : " board observations, ") +
-                      std::to_string(frames_short ? agent.min_frames : agent.min_boards) +
-                      " needed (the agent would keep collecting)";
-    out->run.frames = obs.num_frames;
+    out->run.reason = machine.reason();
+    out->run.detail = "collection: " + machine.detail();
+    out->run.frames = drive.observations.num_frames;
     out->detect_seconds = drive.detect_s;
     out->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return true;
   }
+  out->collection_end = CollectionEndName(machine.collection_end());
   RangeImage projection;  // as calibd-calibrate configures it
   projection.Configure(model, 0.5, 200.0, 1);
   EngineConfig engine;
@@ -505,6 +512,8 @@ bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ost
       j["quality"] = QualityJson(q);
       j["quality"]["board_translation_change_m"] = r.run.board_translation_change_m;
     }
+    j["collection_end"] = r.collection_end;
+    j["frames"] = r.run.frames;
     j["false_accept"] = r.accepted() && !within;
     j["seconds"] = r.seconds;
     j["detect_seconds"] = r.detect_seconds;

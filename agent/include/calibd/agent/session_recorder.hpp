@@ -18,6 +18,12 @@ namespace calibd {
 /// The intake's config from the agent's (buffers sized from the camera and the board limits).
 IntakeConfig IntakeConfigFrom(const AgentConfig& config);
 
+/// Adds the frames of `session` from `first_frame` on to `figures`: a frame pair counts when both
+/// sensors saw a board; the camera's boards mark their distance bin and image cell (of an image
+/// `image_width` x `image_height` px). The agent's count, also run by the fault campaign.
+void CountCollectionFigures(const SessionObservations& session, int first_frame, int image_width,
+                            int image_height, CollectionFigures* figures);
+
 class SessionRecorder {
  public:
   /// Reserves the store from the config (max_frames, boards per frame, points per board).
@@ -32,9 +38,6 @@ class SessionRecorder {
   const SessionThinning& thinning() const { return thinning_; }
 
  private:
-  /// Adds the frames from `first` on to the figures.
-  void CountFrames(int first);
-
   int image_width_ = 0, image_height_ = 0;
   int max_frames_ = 0;
   size_t max_frame_points_ = 0;
