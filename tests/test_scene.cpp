@@ -51,6 +51,36 @@ TEST(SceneTest, RotatedBoxHitDistanceMatchesGeometry) {
   EXPECT_NEAR(n.dot(Eigen::Vector3d(-1, -1, 0).normalized()), 1.0, 1e-12);
 }
 
+TEST(SceneTest, ABowedBoardIsMetOnItsBentFace) {
+  // A 0.9 x 0.9 m slab 5 m along x, its printed face (local +z) towards the origin, its local x
+  // along world y; bent 20 mm towards the rays at its centre line, flat at its left and right.
+  Pose T = Pose::Identity();
+  T.linear() << 0, 0, -1, 1, 0, 0, 0, -1, 0;  // local x -> world y, y -> -z, z -> -x
+  T.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);
+  Primitive board = UnitBoxAt(T, {0.45, 0.45, 0.005});
+  board.bow_m = 0.02;
+  for (const double y : {0.0, 0.2, -0.3, 0.449}) {
+    double t = 0.0;
+    Eigen::Vector3d n;
+    ASSERT_TRUE(IntersectBox(board, Eigen::Vector3d(0.0, y, 0.1), Eigen::Vector3d::UnitX(), 0.0,
+                             100.0, &t, &n));
+    const double u = y / 0.45;
+    EXPECT_NEAR(t, 4.995 - 0.02 * (1.0 - u * u), 1e-9) << "y " << y;
+  }
+  // Slanted rays converge on the bent surface too: the hit lies on it.
+  const Eigen::Vector3d o(0.0, -1.0, 0.3), d = Eigen::Vector3d(5.0, 1.2, -0.3).normalized();
+  double t = 0.0;
+  Eigen::Vector3d n;
+  ASSERT_TRUE(IntersectBox(board, o, d, 0.0, 100.0, &t, &n));
+  const Eigen::Vector3d p = o + t * d;
+  const double u = p.y() / 0.45;
+  EXPECT_NEAR(p.x(), 4.995 - 0.02 * (1.0 - u * u), 1e-9);
+  board.bow_m = -0.02;  // bent away: met behind the flat face
+  ASSERT_TRUE(
+      IntersectBox(board, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), 0.0, 100.0, &t, &n));
+  EXPECT_NEAR(t, 5.015, 1e-9);
+}
+
 TEST(SceneTest, BoxRespectsTMax) {
   Pose T = Pose::Identity();
   T.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);

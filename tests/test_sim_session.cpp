@@ -164,6 +164,54 @@ TEST(SessionTest, AnOccluderHidesAboutItsShareOfTheBoard) {
   EXPECT_LT(kept, 0.85);
 }
 
+TEST(SessionTest, ABowedBoardBulgesByItsBowAtItsCentreLine) {
+  SessionOptions o = SmallCamera(SessionOptions{});
+  o.lidar_model = "ot128";
+  o.trajectory.mode = "stills";
+  o.trajectory.rate_hz = 0.5;
+  o.trajectory.duration_s = 4 / o.trajectory.rate_hz;
+  o.workshop.num_boards = 1;
+  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
+  o.workshop.tag_size_m = 0.702;
+  o.workshop.board_bows_m = {0.02};
+  o.stills.clutter = false;
+  o.lidar_noise = LidarNoise{};
+  o.lidar_noise.range_sigma_m = 0.0;
+  o.lidar_noise.dropout_probability = 0.0;
+  SessionSimulator sim;
+  std::string error;
+  ASSERT_TRUE(sim.Init(o, &error)) << error;
+  LidarScan scan;
+  FrameTruth truth;
+  // Heights of the board's points over its flat face (board frame z_B, the sensors' side)
+  // near its centre line and near its left and right edges.
+  double centre = 0.0, edges = 0.0;
+  int n_centre = 0, n_edges = 0;
+  for (int pose = 0; pose < 4; ++pose) {
+    sim.SimulateFrame(pose, nullptr, &scan, &truth);
+    ASSERT_EQ(truth.boards.size(), 1u);
+    const Pose T_board_lidar = truth.boards[0].T_lidar_board.inverse();
+    for (const int i : truth.boards[0].lidar_point_indices) {
+      const Eigen::Vector3d p = T_board_lidar * Eigen::Vector3d(scan.x[i], scan.y[i], scan.z[i]);
+      if (std::abs(p.x()) < 0.1) {
+        centre += p.z();
+        ++n_centre;
+      } else if (std::abs(p.x()) > 0.38) {
+        edges += p.z();
+        ++n_edges;
+      }
+    }
+  }
+  ASSERT_GT(n_centre, 50);
+  ASSERT_GT(n_edges, 50);
+  centre /= n_centre;
+  edges /= n_edges;
+  std::printf("bow 20 mm: %.1f mm out at the centre line, %.1f mm near the edges\n", centre * 1e3,
+              edges * 1e3);
+  EXPECT_NEAR(centre, 0.0197, 0.002);  // 20 mm (1 - (x / 0.45)^2) averaged over |x| < 0.1
+  EXPECT_NEAR(edges, 0.0030, 0.002);   // over 0.38 < |x| < 0.45
+}
+
 TEST(SessionTest, BadOptionsAreRejectedWithTheirName) {
   std::string error;
   SessionOptions o;

@@ -286,6 +286,15 @@ constexpr Fault kFaults[] = {
        s->sim.stills.occluded_share = Draw(rng, 0.1, 0.4);
        s->magnitude = Num(s->sim.stills.occluded_share * 100.0, 0) + " %";
      }},
+    {"warped_board",
+     "every board bent 5-20 mm about its vertical centre line, towards or away from the sensors",
+     [](Rng* rng, Session* s) {
+       const double size = Draw(rng, 0.005, 0.02);
+       std::vector<double>& bows = s->sim.workshop.board_bows_m;
+       bows.resize(static_cast<size_t>(s->sim.workshop.num_boards));
+       for (double& b : bows) b = Sign(rng) * size * Draw(rng, 0.5, 1.0);
+       s->magnitude = "up to " + Num(size * 1e3, 1) + " mm";
+     }},
 };
 constexpr int kNumFaults = static_cast<int>(std::size(kFaults));
 
@@ -297,7 +306,8 @@ static_assert(kNumFaults >= kSeedFaults, "faults are appended, never removed");
 /// faults appended since draw keys of their own beyond them, so that adding a fault leaves every
 /// other fault's sessions as they were (`--only` picks them by index in the current catalogue).
 int SeedKey(int round, int fault) {
-  return fault < kSeedFaults ? round * kSeedFaults + fault : 1000000 + round * kNumFaults + fault;
+  static_assert(kNumFaults < 1000, "keys of appended faults: 1000 a round");
+  return fault < kSeedFaults ? round * kSeedFaults + fault : 1000000 + round * 1000 + fault;
 }
 
 // Session i: fault i mod F; over the rounds i / F, drives and stills alternate, then the LiDAR

@@ -338,6 +338,7 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
           miss = t0 > t1;
         }
         if (miss || axis < 0) continue;  // no entry face: missed, or the camera is inside
+        if (axis == 2 && d_l.z() < 0.0) t0 = BowedFrontFaceT(*fp.p, o_l, d_l, t0);
         best = t0;
         hit_prim = list[k];
         hit_axis = axis;

@@ -78,6 +78,9 @@ Boards and scene:
   --tag-ids A,B,...        tag id of each board (default 0,1,2,...)
   --board-scales A,B,...   each board's sizes (board, tag, checker squares) times this factor,
                            0.2-1: boards of several sizes (default all 1)
+  --board-bows A,B,...     fault: each board's face bent about its vertical centre line,
+                           bulging this much there towards the sensors (m, negative: away,
+                           within +-0.1; default flat)
   --checkerboard I,R,C,S   board I (0-based) carries a checkerboard instead of a tag: R x C
                            inner corners, squares of S m (e.g. 2,5,7,0.07)
   --layout NAME            spread | line | stack (default spread)
@@ -240,6 +243,8 @@ int main(int argc, char** argv) {
       {"--tag-ids", list(1, 12, [&](auto& n) { o.workshop.tag_ids.assign(n.begin(), n.end()); })},
       {"--board-scales",
        list(1, 12, [&](auto& n) { o.workshop.board_scales.assign(n.begin(), n.end()); })},
+      {"--board-bows",
+       list(1, 12, [&](auto& n) { o.workshop.board_bows_m.assign(n.begin(), n.end()); })},
       {"--checkerboard", list(4, 4,
                               [&](auto& n) {
                                 o.workshop.checkerboard_board = static_cast<int>(n[0]);

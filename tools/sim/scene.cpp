@@ -92,9 +92,25 @@ bool IntersectBox(const Primitive& box, const Eigen::Vector3d& o, const Eigen::V
     return false;
   Eigen::Vector3d n_l = Eigen::Vector3d::Zero();
   n_l[axis] = d_l[axis] > 0.0 ? -1.0 : 1.0;
+  if (axis == 2 && d_l.z() < 0.0) tt = BowedFrontFaceT(box, o_l, d_l, tt);
   *t = tt;
   *normal = R * n_l;
   return true;
+}
+
+double BowedFrontFaceT(const Primitive& box, const Eigen::Vector3d& o_local,
+                       const Eigen::Vector3d& d_local, double t_flat) {
+  const Eigen::Vector3d& h = box.half_extents;
+  if (box.bow_m == 0.0 || -d_local.z() < 1e-3 * d_local.norm()) return t_flat;
+  // Fixed-point iteration on the face's height over x; it contracts while the slope 2 bow x /
+  // h_x^2 times |d_x / d_z| stays below 1, i.e. for any but grazing rays on a board bent by
+  // centimetres.
+  double t = t_flat;
+  for (int i = 0; i < 6; ++i) {
+    const double x = std::clamp((o_local.x() + t * d_local.x()) / h.x(), -1.0, 1.0);
+    t = (h.z() + box.bow_m * (1.0 - x * x) - o_local.z()) / d_local.z();
+  }
+  return t;
 }
 
 bool IntersectCylinder(const Primitive& cyl, const Eigen::Vector3d& o, const Eigen::Vector3d& d,

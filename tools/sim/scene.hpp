@@ -24,6 +24,10 @@ struct Primitive {
   double height = 1.0;                          ///< kCylinder height along local z (m)
   float albedo = 0.5f;   ///< reflectance 0..1: camera grey level and LiDAR intensity
   int board_index = -1;  ///< index into Scene::boards for kBoard, else -1
+  /// kBox boards only, a fault: the printed face (local z = +half_extents.z, AddBoard) bent about
+  /// the local y axis, bulging this much at its centre line towards +z (negative: away), flat at
+  /// the left and right edges: z = h_z + bow_m (1 - (x / h_x)^2). 0: flat.
+  double bow_m = 0.0;
 };
 
 /// A board placed in the scene: its pose T_world_board (board frame of calibd/core/board.hpp).
@@ -75,6 +79,11 @@ bool IntersectBox(const Primitive& box, const Eigen::Vector3d& origin, const Eig
 bool IntersectCylinder(const Primitive& cyl, const Eigen::Vector3d& origin,
                        const Eigen::Vector3d& dir, double t_min, double t_max, double* t,
                        Eigen::Vector3d* normal);
+/// Where the ray o + t d (box frame), entering `box`'s flat +z face at t_flat, meets its bowed
+/// one (Primitive::bow_m); t_flat for a flat box or a ray that grazes the face. The bowed
+/// surface's normal differs from the flat one's by at most atan(2 bow / h_x): ignored.
+double BowedFrontFaceT(const Primitive& box, const Eigen::Vector3d& o_local,
+                       const Eigen::Vector3d& d_local, double t_flat);
 bool IntersectGround(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
                      double t_max, double* t, Eigen::Vector3d* normal);
 

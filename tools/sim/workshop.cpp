@@ -103,6 +103,11 @@ bool WorkshopOptions::IsValid(std::string* error) const {
                 std::to_string(num_boards) + ")");
   for (const double s : board_scales)
     if (!(s >= 0.2 && s <= 1.0)) return fail("--board-scales must be in [0.2, 1]");
+  if (!board_bows_m.empty() && static_cast<int>(board_bows_m.size()) != num_boards)
+    return fail("--board-bows must list exactly one bow per board (" + std::to_string(num_boards) +
+                ")");
+  for (const double b : board_bows_m)
+    if (!(std::abs(b) <= 0.1)) return fail("--board-bows must be in [-0.1, 0.1] m");
   if (checkerboard_board >= num_boards)
     return fail("--checkerboard: board index " + std::to_string(checkerboard_board) +
                 " but there are " + std::to_string(num_boards) + " boards");
@@ -145,6 +150,7 @@ bool AddBoard(const WorkshopOptions& o, int i, const Pose& T_world_board, Worksh
       T_world_board.linear() * Eigen::Vector3d(0.0, 0.0, -o.board_thickness_m / 2.0);
   slab.half_extents = Eigen::Vector3d(g.width_m / 2.0, g.height_m / 2.0, o.board_thickness_m / 2.0);
   slab.albedo = face.white_albedo;
+  if (!o.board_bows_m.empty()) slab.bow_m = o.board_bows_m[static_cast<size_t>(i)];
   slab.board_index = static_cast<int>(out->scene.boards.size());
   PlacedBoard placed;
   placed.T_world_board = T_world_board;

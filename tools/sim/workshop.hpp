@@ -25,6 +25,10 @@ struct WorkshopOptions {
   /// One per board: its board, tag and checker square sizes times this, in [0.2, 1] (boards of
   /// several sizes in one workshop); empty: all 1.
   std::vector<double> board_scales;
+  /// One per board, a fault: its face bent about its vertical centre line, bulging this much
+  /// there towards the sensors (negative: away; Primitive::bow_m), in [-0.1, 0.1] m; empty:
+  /// flat boards.
+  std::vector<double> board_bows_m;
   /// Index of the board printed with a checkerboard instead of a tag (-1: none; the camera
   /// detector takes one checkerboard beside any number of tags), its inner corners per row and
   /// per column and its square side.
