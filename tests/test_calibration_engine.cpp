@@ -74,6 +74,30 @@ TEST(CalibrationEngineTest, BoardIdsSwappedBetweenBoardsOfDifferentSizesAreNamed
       0.1);
 }
 
+// The default drive with its three boards each bent 15 mm (towards the sensors, away, towards):
+// refused as not flat, naming the most bent board; the same drive with flat boards calibrates,
+// its boards measured flat within 2 mm (board_flatness.hpp).
+TEST(CalibrationEngineTest, ABentBoardIsNamedAndFlatOnesPass) {
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  o.prior_trans_m = 0.03;
+  auto flat = Drive(o);
+  const CalibrationOutcome updated =
+      Calibrate(flat->config, flat->obs, flat->projection, EngineConfig{});
+  EXPECT_EQ(updated.verdict, CalibrationOutcome::Verdict::kUpdated)
+      << updated.reason << ": " << updated.detail;
+  ASSERT_GE(updated.quality.board_bend_id, 0);
+  EXPECT_LT(std::fabs(updated.quality.board_bend_m), 0.002);
+  o.workshop.board_bows_m = {0.015, -0.015, 0.015};
+  auto bent = Drive(o);
+  const CalibrationOutcome refused =
+      Calibrate(bent->config, bent->obs, bent->projection, EngineConfig{});
+  EXPECT_EQ(refused.verdict, CalibrationOutcome::Verdict::kRejected);
+  EXPECT_EQ(refused.reason, "board_not_flat") << refused.detail;
+  EXPECT_NEAR(std::fabs(refused.quality.board_bend_m), 0.015, 0.003) << refused.detail;
+  EXPECT_NE(refused.detail.find("flatten or replace the board"), std::string::npos);
+}
+
 TEST(CalibrationEngineTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
   sim::SessionOptions o;
   o.prior_rot_deg = 3.0;

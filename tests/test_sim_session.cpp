@@ -212,6 +212,50 @@ TEST(SessionTest, ABowedBoardBulgesByItsBowAtItsCentreLine) {
   EXPECT_NEAR(edges, 0.0030, 0.002);   // over 0.38 < |x| < 0.45
 }
 
+// Boards still carried at 0.5 m/s while a pose's four frames are taken, the camera exposing
+// 40 ms after the trigger: each sensor sees a board where it is at its own time, 2 cm apart,
+// and the board moves 5 cm from one frame to the next; standing boards are where they were.
+TEST(SessionTest, CarriedBoardsAreSeenWhereTheyAreAtEachSensorsTime) {
+  SessionOptions o = SmallCamera(SessionOptions{});
+  o.lidar_model = "ot128";
+  o.trajectory.mode = "stills";
+  o.trajectory.rate_hz = 0.5;
+  o.trajectory.duration_s = 2 / o.trajectory.rate_hz;
+  o.workshop.num_boards = 2;
+  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
+  o.workshop.tag_size_m = 0.702;
+  o.stills.frames_per_pose = 4;
+  o.stills.board_speed_mps = 0.5;
+  o.camera_delay_us = 40000;
+  SessionSimulator sim;
+  std::string error;
+  ASSERT_TRUE(sim.Init(o, &error)) << error;
+  LidarScan scan;
+  FrameTruth truth;
+  std::vector<Eigen::Vector3d> previous;
+  for (int k = 0; k < 8; ++k) {
+    sim.SimulateFrame(k, nullptr, &scan, &truth);
+    ASSERT_EQ(truth.boards.size(), 2u);
+    std::vector<Eigen::Vector3d> at_camera;
+    for (const BoardTruth& b : truth.boards) {
+      const Eigen::Vector3d camera = b.T_camera_board.translation();
+      const Eigen::Vector3d lidar = (sim.T_camera_lidar() * b.T_lidar_board).translation();
+      EXPECT_NEAR((camera - lidar).norm(), 0.5 * 0.04, 1e-9) << "frame " << k;
+      at_camera.push_back(camera);
+    }
+    if (k % 4 != 0) {
+      for (size_t b = 0; b < 2; ++b)
+        EXPECT_NEAR((at_camera[b] - previous[b]).norm(), 0.5 * 0.1, 1e-6) << "frame " << k;
+    }
+    previous = at_camera;
+  }
+  o.stills.board_speed_mps = 0.0;
+  ASSERT_TRUE(sim.Init(o, &error)) << error;
+  sim.SimulateFrame(1, nullptr, &scan, &truth);
+  for (const BoardTruth& b : truth.boards)
+    EXPECT_TRUE(b.T_camera_board.isApprox(sim.T_camera_lidar() * b.T_lidar_board, 1e-12));
+}
+
 TEST(SessionTest, BadOptionsAreRejectedWithTheirName) {
   std::string error;
   SessionOptions o;

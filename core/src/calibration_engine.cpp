@@ -17,6 +17,7 @@
 
 #include "calibd/core/board_distances.hpp"
 #include "calibd/core/board_fit.hpp"
+#include "calibd/core/board_flatness.hpp"
 #include "calibd/core/range_offset.hpp"
 #include "calibd/core/stats.hpp"
 
@@ -599,6 +600,20 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
       }
     }
   }
+  for (const BoardBend& b :
+       EstimateBoardBends(boards, corr, out.T_camera_lidar, direct.T_camera_board)) {
+    // Where both axes are measured, the one further from flat in its own sigmas.
+    for (const auto& [bend, sigma] :
+         {std::pair{b.bend_u_m, b.sigma_u_m}, std::pair{b.bend_v_m, b.sigma_v_m}}) {
+      if (!std::isfinite(sigma)) continue;
+      if (q.board_bend_id < 0 ||
+          std::fabs(bend) / sigma > std::fabs(q.board_bend_m) / q.board_bend_sigma_m) {
+        q.board_bend_id = boards[static_cast<size_t>(b.board_index)].board_id;
+        q.board_bend_m = bend;
+        q.board_bend_sigma_m = sigma;
+      }
+    }
+  }
   {
     const auto t_pp = Clock::now();
     const PrincipalPointEstimate pp = EstimatePrincipalPoint(config.camera, config.boards, session);
@@ -715,6 +730,17 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   }
   out.quality_ms = Ms(t_q);
 
+  // A bent board first: it also shows as a range offset, a scale, a lens misfit or scatter.
+  if (std::fabs(q.board_bend_m) > kMaxBoardBendM &&
+      std::fabs(q.board_bend_m) > kBoardBendSigmas * q.board_bend_sigma_m)
+    return Reject(out, "board_not_flat",
+                  "board " + std::to_string(q.board_bend_id) + "'s face bends " +
+                      Fmt(std::fabs(q.board_bend_m) * 1e3, 1) + " mm (+-" +
+                      Fmt(q.board_bend_sigma_m * 1e3, 1) + ") " +
+                      (q.board_bend_m > 0.0 ? "towards" : "away from") +
+                      " the sensors at its centre line, more than " + Fmt(kMaxBoardBendM * 1e3, 1) +
+                      " mm: the LiDAR sees it off the plane of its tag; flatten or replace the "
+                      "board (the operator guide asks for 2 mm under a straight edge)");
   if (q.plane_conditioning < v.min_plane_conditioning)
     return Reject(out, "poor_observability",
                   "the board planes leave a direction unconstrained (conditioning " +

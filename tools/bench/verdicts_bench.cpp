@@ -49,6 +49,10 @@ struct Session {
 
 using Rng = std::mt19937_64;
 
+/// Quick sessions: the agent's collection ends at this many frame pairs with boards (its target
+/// is 200, its minimum 50), and drives are this many pairs long.
+constexpr int kQuickTargetFrames = 80;
+
 /// How far `wrong` puts the image corner's ray from where `truth` does, px.
 double CornerDisplacementPx(const CameraIntrinsics& truth, const CameraIntrinsics& wrong) {
   const CameraModel t(truth), w(wrong);
@@ -295,6 +299,18 @@ constexpr Fault kFaults[] = {
        for (double& b : bows) b = Sign(rng) * size * Draw(rng, 0.5, 1.0);
        s->magnitude = "up to " + Num(size * 1e3, 1) + " mm";
      }},
+    {"boards_carried",
+     "still poses whose boards are still carried at 0.2-1 m/s while their frames are taken; the "
+     "camera exposes 10-50 ms after its stamps",
+     [](Rng* rng, Session* s) {
+       UseStillPoses(s);
+       s->sim.stills.board_speed_mps = Draw(rng, 0.2, 1.0);
+       const int64_t delay = std::llround(Draw(rng, 10e3, 50e3));
+       s->sim.camera_delay_us = delay;
+       s->recording.camera_stamp_shift_us = -delay;
+       s->magnitude = Num(s->sim.stills.board_speed_mps, 2) + " m/s, " +
+                      Num(static_cast<double>(delay) * 1e-3, 1) + " ms";
+     }},
 };
 constexpr int kNumFaults = static_cast<int>(std::size(kFaults));
 
@@ -336,7 +352,7 @@ Session MakeSession(int i, unsigned long long seed, bool quick) {
   // 50, and stops at target_frames, 200): quick sessions just above the minimum, full ones at
   // the target.
   s.quick = quick;
-  s.drive_frames = quick ? 80 : 200;
+  s.drive_frames = quick ? kQuickTargetFrames : SessionConfig{}.target_frames;
   if (stills)
     UseStillPoses(&s);
   else
@@ -369,10 +385,10 @@ bool RunSession(const Session& s, SessionResult* out) {
   LidarKindFromName(lidar_name, &kind, nullptr);
   const LidarModel model = MakeLidarModel(kind);
   // The agent's session machine decides when the collection ends, on the pairs as recorded: at
-  // its target (quick sessions: its minimum, min_frames), at the coverage gates, at its time
-  // limit, or where the recording ends; short of min_frames or min_boards it fails.
+  // its target (quick sessions: kQuickTargetFrames), at the coverage gates, at its time limit,
+  // or where the recording ends; short of min_frames or min_boards it fails.
   SessionConfig agent = SessionConfigFrom(AgentConfig{});
-  if (s.quick) agent.target_frames = agent.min_frames;
+  if (s.quick) agent.target_frames = kQuickTargetFrames;
   agent.sensor_timeout_us = 0;  // a replay: the sensors' pace is the simulator's
   SessionMachine machine(agent);
   CollectionFigures figures;

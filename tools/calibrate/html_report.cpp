@@ -497,6 +497,10 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   if (std::isfinite(q.lidar_range_offset_m))
     s += at_most("LiDAR range offset [m] (sigma " + Num(q.lidar_range_offset_sigma_m, 4) + ")",
                  std::fabs(q.lidar_range_offset_m), 4, v.max_lidar_range_offset_m, 4);
+  if (q.board_bend_id >= 0)
+    s += at_most("most bent board's bend [mm] (board " + std::to_string(q.board_bend_id) +
+                     ", sigma " + Num(q.board_bend_sigma_m * 1e3, 1) + ")",
+                 std::fabs(q.board_bend_m) * 1e3, 1, kMaxBoardBendM * 1e3, 1);
   if (q.principal_point_fitted)
     s += at_most(
         "principal point shift as a turn [deg] (" + Num(q.principal_point_shift_px.x(), 1) + ", " +

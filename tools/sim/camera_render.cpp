@@ -370,7 +370,11 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
       n_dot_l = d_axis > 0.0 ? -fp.l_local[hit_axis] : fp.l_local[hit_axis];
       if (fp.face != nullptr) {
         const Eigen::Vector3d p_board = fp.o_board + best * (fp.R_board_camera * d_camera);
-        if (p_board.z() > kFrontFaceZ) albedo = fp.face->AlbedoAt(p_board.x(), p_board.y());
+        // The printed face: z_B = 0, or entered through the slab's +z face when it is bowed
+        // (Primitive::bow_m), wherever the bend puts it.
+        const bool printed =
+            p_board.z() > kFrontFaceZ || (fp.p->bow_m != 0.0 && hit_axis == 2 && d_axis < 0.0);
+        if (printed) albedo = fp.face->AlbedoAt(p_board.x(), p_board.y());
       }
     } else {
       n_dot_l = hit_normal.dot(light);

@@ -65,6 +65,9 @@ Session:
                            --duration count poses
   --occluded-share S       stills, fault: someone stands 0.4-0.8 m in front of every board,
                            hiding about this share of its width, 0-0.5 (default 0)
+  --board-speed V          stills, fault: the boards are still carried at V m/s (0-3) while a
+                           pose's frames are taken, each in a horizontal direction of its own;
+                           each sensor sees them at its own time (default 0)
   --distance MIN,MAX       drive range from the LiDAR to the boards, m (default 6,30)
   --static-distance M      distance in static mode, m (default 10)
   --duration S             session length, s (default 20)
@@ -229,6 +232,7 @@ int main(int argc, char** argv) {
                                 })},
       {"--frames-per-pose", integer(&o.stills.frames_per_pose, 1, 100)},
       {"--occluded-share", number(&o.stills.occluded_share, 0, 0.5)},
+      {"--board-speed", number(&o.stills.board_speed_mps, 0, 3)},
       {"--duration", number(&o.trajectory.duration_s, 0.1, 3600)},
       {"--rate", number(&o.trajectory.rate_hz, 0.1, 50)},
       {"--frames", integer(&frames, 1, 100000)},

@@ -65,6 +65,8 @@ bool SessionOptions::IsValid(std::string* error) const {
     return fail("--frames-per-pose must be in [1, 100]");
   if (!(stills.occluded_share >= 0.0 && stills.occluded_share <= 0.5))
     return fail("--occluded-share must be in [0, 0.5]");
+  if (!(stills.board_speed_mps >= 0.0 && stills.board_speed_mps <= 3.0))
+    return fail("--board-speed must be in [0, 3] m/s");
   if (trajectory.mode == "stills" && stills.frames_per_pose > 1 && kind != LidarKind::kGeneric &&
       (stills.frames_per_pose - 1) / MakeLidarModel(kind).frame_rate_hz >= 1.0 / trajectory.rate_hz)
     return fail(
@@ -162,7 +164,7 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
   // Stills: frames_per_pose frames a sweep apart per pose, the poses 1 / rate_hz apart.
   const int per_pose = still_poses_.empty() ? 1 : options_.stills.frames_per_pose;
   last_frame_ = still_poses_.empty() ? 0 : k / per_pose;
-  const Workshop& workshop = WorkshopOf(last_frame_);
+  Workshop& workshop = still_poses_.empty() ? workshop_ : still_poses_[last_frame_];
   const double lidar_x = T_vehicle_lidar_.translation().x();
   const int64_t frame_period_us = static_cast<int64_t>(std::llround(1e6 / traj.rate_hz));
   const int64_t sweep_period_us =
@@ -183,16 +185,50 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
   const Pose T_world_lidar_end =
       VehiclePoseAt(traj, lidar_x, seconds(lidar_utime) + sweep_s) * T_vehicle_lidar_;
 
+  // Boards still carried (StillPoseOptions::board_speed_mps): moved to where they are at a
+  // sensor's time, the LiDAR's when its beams along the camera's axis fire (the trigger), the
+  // camera's when it exposes; put back after the frame.
+  const double speed = still_poses_.empty() ? 0.0 : options_.stills.board_speed_mps;
+  const size_t num_boards = workshop.scene.boards.size();
+  std::vector<Pose> placed(num_boards), slabs(num_boards);
+  std::vector<Eigen::Vector3d> velocity(num_boards, Eigen::Vector3d::Zero());
+  const int64_t pose_utime = options_.start_utime + (k / per_pose) * frame_period_us;
+  for (size_t b = 0; b < num_boards && speed > 0.0; ++b) {
+    placed[b] = workshop.scene.boards[b].T_world_board;
+    slabs[b] = workshop.scene.primitives[workshop.scene.boards[b].primitive_index].T_world_local;
+    std::mt19937_64 rng(Mix(options_.seed, k / per_pose, 4 + static_cast<uint64_t>(b)));
+    const double heading = std::uniform_real_distribution<double>(-M_PI, M_PI)(rng);
+    velocity[b] = speed * Eigen::Vector3d(std::cos(heading), std::sin(heading), 0.0);
+  }
+  auto move_boards_to = [&](int64_t utime) {
+    if (speed <= 0.0) return;
+    const double dt = static_cast<double>(utime - pose_utime) * 1e-6;
+    for (size_t b = 0; b < num_boards; ++b) {
+      PlacedBoard& board = workshop.scene.boards[b];
+      board.T_world_board = placed[b];
+      board.T_world_board.translation() += velocity[b] * dt;
+      Pose& slab = workshop.scene.primitives[board.primitive_index].T_world_local;
+      slab = slabs[b];
+      slab.translation() += velocity[b] * dt;
+    }
+    workshop.scene.Finalize();
+  };
+  std::vector<Pose> T_lidar_board(num_boards);
+  move_boards_to(trigger_utime);
+  lidar_->Scan(workshop.scene, T_world_lidar_start, T_world_lidar_end, k, Mix(options_.seed, k, 2),
+               scan);
+  for (size_t b = 0; b < num_boards; ++b)
+    T_lidar_board[b] = T_world_lidar_start.inverse() * workshop.scene.boards[b].T_world_board;
+  move_boards_to(camera_utime);
   if (image) {
-    // A still pose's later frames see the same scene from the same place: traced once.
+    // A still pose's later frames see the same scene from the same place: traced once (unless
+    // its boards move).
     const uint64_t seed = Mix(options_.seed, k, 1);
-    const bool repeat = k % per_pose != 0 && k == last_rendered_ + 1;
+    const bool repeat = k % per_pose != 0 && k == last_rendered_ + 1 && speed <= 0.0;
     if (!repeat || !camera_->RenderRepeat(seed, image))
       camera_->Render(workshop.scene, workshop.faces, T_world_camera, seed, image);
     last_rendered_ = k;
   }
-  lidar_->Scan(workshop.scene, T_world_lidar_start, T_world_lidar_end, k, Mix(options_.seed, k, 2),
-               scan);
 
   truth->index = k;
   truth->camera_utime = camera_utime;
@@ -204,7 +240,7 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
     const Pose& T_world_board = workshop.scene.boards[b].T_world_board;
     bt.board_id = workshop.geometries[b].board_id;
     bt.T_camera_board = T_world_camera.inverse() * T_world_board;
-    bt.T_lidar_board = T_world_lidar_start.inverse() * T_world_board;
+    bt.T_lidar_board = T_lidar_board[b];
     // The tag is usable when it faces the camera and all corners land 2 px inside the image.
     bt.tag_in_image = FacesCameraInImage(camera_->model(), bt.T_camera_board,
                                          workshop.geometries[b].TagCornersInBoard(), -2.0);
@@ -214,6 +250,7 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
     const int b = scan->board[i];
     if (b >= 0) truth->boards[b].lidar_point_indices.push_back(static_cast<int>(i));
   }
+  move_boards_to(pose_utime);  // back where the pose placed them
 }
 
 CalibConfig SessionSimulator::UserConfig() const {

@@ -29,6 +29,11 @@ struct StillPoseOptions {
   /// hiding about this share of its width from the LiDAR (a column 0.35 m wide, floor to 2 m,
   /// on a side drawn at random); 0: nobody.
   double occluded_share = 0.0;
+  /// Fault: the boards are still being carried while a pose's frames are taken, at this speed
+  /// (m/s) in a horizontal direction drawn per pose and board, from where the pose placed them at
+  /// its first frame; each sensor sees them where they are at its own time (SessionSimulator).
+  /// 0: the boards stand still.
+  double board_speed_mps = 0.0;
 };
 
 /// True when a board at T_world_board is usable by the camera (the caller's camera model).

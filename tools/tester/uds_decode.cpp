@@ -421,7 +421,8 @@ const char* RoutineReasonName(uint8_t reason) {
                                            "time_offset_beyond_tolerance",
                                            "principal_point_mismatch",
                                            "lidar_model_mismatch",
-                                           "board_ids_swapped"};
+                                           "board_ids_swapped",
+                                           "board_not_flat"};
   if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
   return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
 }

@@ -32,7 +32,8 @@ RoutineReason RoutineReasonCode(std::string_view reason) {
                 {"time_offset_beyond_tolerance", R::kTimeOffset},
                 {"principal_point_mismatch", R::kPrincipalPointMismatch},
                 {"lidar_model_mismatch", R::kLidarModelMismatch},
-                {"board_ids_swapped", R::kBoardIdsSwapped}};
+                {"board_ids_swapped", R::kBoardIdsSwapped},
+                {"board_not_flat", R::kBoardNotFlat}};
   if (reason.empty()) return R::kNone;
   for (const auto& c : kCodes)
     if (reason == c.text) return c.code;

@@ -109,6 +109,7 @@ enum class RoutineReason : uint8_t {
   kPrincipalPointMismatch = 0x18,  ///< "principal_point_mismatch"
   kLidarModelMismatch = 0x19,      ///< "lidar_model_mismatch"
   kBoardIdsSwapped = 0x1A,         ///< "board_ids_swapped"
+  kBoardNotFlat = 0x1B,            ///< "board_not_flat"
   kOther = 0xFF,                   ///< any other reason (the agent's log has the text)
 };
 
