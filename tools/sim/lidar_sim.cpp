@@ -424,8 +424,17 @@ void LidarSimulator::RebuildPatternIfNeeded(int frame_index) {
 
 // Pass 1: the main ray of each beam, from the pose at its firing time along its jittered
 // direction. Dropped beams are cast too, so their neighbours still see the geometry.
-void LidarSimulator::CastMainRays(const Scene& scene, const Pose& T_world_lidar_start,
-                                  const Pose& T_world_lidar_end, uint64_t seed, size_t chunk) {
+const Scene& LidarSimulator::SceneOf(size_t i) const {
+  if (slices_.size() == 1) return *slices_[0];
+  const double period_us = 1e6 / model_.frame_rate_hz;
+  const auto n = static_cast<int64_t>(slices_.size());
+  const int64_t k = static_cast<int64_t>(std::floor(static_cast<double>(beams_[i].time_offset_us) /
+                                                    period_us * static_cast<double>(n)));
+  return *slices_[static_cast<size_t>(std::clamp<int64_t>(k, 0, n - 1))];
+}
+
+void LidarSimulator::CastMainRays(const Pose& T_world_lidar_start, const Pose& T_world_lidar_end,
+                                  uint64_t seed, size_t chunk) {
   std::mt19937_64 rng = ChunkRng(seed, chunk, 0);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -446,6 +455,7 @@ void LidarSimulator::CastMainRays(const Scene& scene, const Pose& T_world_lidar_
     for (int k = 0; k < 3; ++k) st.dir[k] = static_cast<float>(d[k]);
     pose.Get(beams_[i].time_offset_us, &origin, &R);
     const Eigen::Vector3d d_world = R * d;
+    const Scene& scene = SceneOf(i);
     Hit hit;
     if (scene.Cast(origin, d_world, model_.min_range_m, model_.max_range_m, &hit)) {
       st.t = static_cast<float>(hit.t);
@@ -461,9 +471,8 @@ void LidarSimulator::CastMainRays(const Scene& scene, const Pose& T_world_lidar_
 
 // Pass 2: beams next to a depth edge cast sub-rays over their footprint; then range noise,
 // quantization and the point in the LiDAR frame at firing time.
-void LidarSimulator::FinishBeams(const Scene& scene, const Pose& T_world_lidar_start,
-                                 const Pose& T_world_lidar_end, const PatternShape& shape,
-                                 uint64_t seed, size_t chunk) {
+void LidarSimulator::FinishBeams(const Pose& T_world_lidar_start, const Pose& T_world_lidar_end,
+                                 const PatternShape& shape, uint64_t seed, size_t chunk) {
   std::mt19937_64 rng = ChunkRng(seed, chunk, 1);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -479,6 +488,7 @@ void LidarSimulator::FinishBeams(const Scene& scene, const Pose& T_world_lidar_s
     BeamOut& o = out_[i];
     o.valid = false;
     if (st.dropped) continue;
+    const Scene& scene = SceneOf(i);
 
     // Only silhouettes matter: a footprint can straddle two depths only where the neighbour
     // hit another primitive far behind or in front, or nothing (primitives are convex, the
@@ -573,16 +583,23 @@ void LidarSimulator::FinishBeams(const Scene& scene, const Pose& T_world_lidar_s
 void LidarSimulator::Scan(const Scene& scene, const Pose& T_world_lidar_start,
                           const Pose& T_world_lidar_end, int frame_index, uint64_t seed,
                           LidarScan* out) {
+  Scan(std::vector<const Scene*>{&scene}, T_world_lidar_start, T_world_lidar_end, frame_index, seed,
+       out);
+}
+
+void LidarSimulator::Scan(const std::vector<const Scene*>& slices, const Pose& T_world_lidar_start,
+                          const Pose& T_world_lidar_end, int frame_index, uint64_t seed,
+                          LidarScan* out) {
+  slices_ = slices;
   RebuildPatternIfNeeded(frame_index);
   out->Clear();
   out->Reserve(beams_.size());
   const size_t num_chunks = (beams_.size() + kChunkBeams - 1) / kChunkBeams;
-  ForEachChunk(num_chunks, [&](size_t c) {
-    CastMainRays(scene, T_world_lidar_start, T_world_lidar_end, seed, c);
-  });
+  ForEachChunk(num_chunks,
+               [&](size_t c) { CastMainRays(T_world_lidar_start, T_world_lidar_end, seed, c); });
   const PatternShape shape = ShapeOf(model_);
   ForEachChunk(num_chunks, [&](size_t c) {
-    FinishBeams(scene, T_world_lidar_start, T_world_lidar_end, shape, seed, c);
+    FinishBeams(T_world_lidar_start, T_world_lidar_end, shape, seed, c);
   });
   for (size_t i = 0; i < beams_.size(); ++i) {
     const BeamOut& o = out_[i];
@@ -595,6 +612,7 @@ void LidarSimulator::Scan(const Scene& scene, const Pose& T_world_lidar_start,
     out->time_offset_us.push_back(beams_[i].time_offset_us);
     out->board.push_back(o.board);
   }
+  slices_.clear();
 }
 
 }  // namespace calibd::sim

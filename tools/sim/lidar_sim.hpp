@@ -70,6 +70,11 @@ class LidarSimulator {
   /// Deterministic for a seed.
   void Scan(const Scene& scene, const Pose& T_world_lidar_start, const Pose& T_world_lidar_end,
             int frame_index, uint64_t seed, LidarScan* out);
+  /// The same over a scene that changes during the sweep (boards carried past a standing
+  /// sensor): `slices` are the scene at equal shares of the sweep's time, each beam cast into
+  /// the one of its firing time. The slices must list the same primitives.
+  void Scan(const std::vector<const Scene*>& slices, const Pose& T_world_lidar_start,
+            const Pose& T_world_lidar_end, int frame_index, uint64_t seed, LidarScan* out);
 
   const LidarModel& model() const { return model_; }
 
@@ -89,20 +94,22 @@ class LidarSimulator {
   };
 
   void RebuildPatternIfNeeded(int frame_index);
-  void CastMainRays(const Scene& scene, const Pose& T_world_lidar_start,
-                    const Pose& T_world_lidar_end, uint64_t seed, size_t chunk);
-  void FinishBeams(const Scene& scene, const Pose& T_world_lidar_start,
-                   const Pose& T_world_lidar_end, const PatternShape& shape, uint64_t seed,
-                   size_t chunk);
+  /// The scene beam i is cast into (Scan's slices).
+  const Scene& SceneOf(size_t i) const;
+  void CastMainRays(const Pose& T_world_lidar_start, const Pose& T_world_lidar_end, uint64_t seed,
+                    size_t chunk);
+  void FinishBeams(const Pose& T_world_lidar_start, const Pose& T_world_lidar_end,
+                   const PatternShape& shape, uint64_t seed, size_t chunk);
 
   LidarModel model_;
   LidarNoise noise_;
-  std::vector<Beam> beams_;         ///< reused between frames
-  std::vector<float> nominal_dir_;  ///< 3 per beam: reported direction (LiDAR frame)
-  std::vector<float> fired_dir_;    ///< 3 per beam: where it fires (ring_elevation_error_deg)
-  int pattern_key_ = -1;            ///< which frame phase beams_ holds, -1 before the first
-  std::vector<BeamState> state_;    ///< reused between frames
-  std::vector<BeamOut> out_;        ///< reused between frames
+  std::vector<Beam> beams_;           ///< reused between frames
+  std::vector<float> nominal_dir_;    ///< 3 per beam: reported direction (LiDAR frame)
+  std::vector<float> fired_dir_;      ///< 3 per beam: where it fires (ring_elevation_error_deg)
+  int pattern_key_ = -1;              ///< which frame phase beams_ holds, -1 before the first
+  std::vector<BeamState> state_;      ///< reused between frames
+  std::vector<BeamOut> out_;          ///< reused between frames
+  std::vector<const Scene*> slices_;  ///< the scan's scene(s), during Scan only
 };
 
 }  // namespace calibd::sim

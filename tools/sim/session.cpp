@@ -23,6 +23,10 @@ Eigen::Matrix3d R_body_optical() {
 }
 
 // SplitMix64: decorrelated per-frame seeds from (session seed, frame, stream).
+/// Carried boards (StillPoseOptions::board_speed_mps): the LiDAR's sweep is cast into the scene
+/// at this many instants, each beam at the nearest to its firing time (LidarSimulator::Scan).
+constexpr int kBoardMotionSlices = 10;
+
 uint64_t Mix(uint64_t seed, uint64_t k, uint64_t stream) {
   uint64_t z = seed + 0x9e3779b97f4a7c15ULL * (k * 4 + stream + 1);
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
@@ -186,8 +190,9 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
       VehiclePoseAt(traj, lidar_x, seconds(lidar_utime) + sweep_s) * T_vehicle_lidar_;
 
   // Boards still carried (StillPoseOptions::board_speed_mps): moved to where they are at a
-  // sensor's time, the LiDAR's when its beams along the camera's axis fire (the trigger), the
-  // camera's when it exposes; put back after the frame.
+  // sensor's time, each LiDAR beam's when it fires, the camera's when it exposes (the truth's
+  // LiDAR board pose: when the beams along the camera's axis fire, at the trigger); put back
+  // after the frame.
   const double speed = still_poses_.empty() ? 0.0 : options_.stills.board_speed_mps;
   const size_t num_boards = workshop.scene.boards.size();
   std::vector<Pose> placed(num_boards), slabs(num_boards);
@@ -213,10 +218,24 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
     }
     workshop.scene.Finalize();
   };
+  if (speed > 0.0) {
+    // The LiDAR fires over its whole sweep, a MEMS sensor down a board over most of it: the
+    // beams see the boards where they are at their own time (kBoardMotionSlices of the sweep).
+    std::vector<Scene> slices(kBoardMotionSlices);
+    std::vector<const Scene*> pointers;
+    for (int j = 0; j < kBoardMotionSlices; ++j) {
+      move_boards_to(lidar_utime + (2 * j + 1) * sweep_period_us / (2 * kBoardMotionSlices));
+      slices[static_cast<size_t>(j)] = workshop.scene;
+      pointers.push_back(&slices[static_cast<size_t>(j)]);
+    }
+    lidar_->Scan(pointers, T_world_lidar_start, T_world_lidar_end, k, Mix(options_.seed, k, 2),
+                 scan);
+  } else {
+    lidar_->Scan(workshop.scene, T_world_lidar_start, T_world_lidar_end, k,
+                 Mix(options_.seed, k, 2), scan);
+  }
   std::vector<Pose> T_lidar_board(num_boards);
   move_boards_to(trigger_utime);
-  lidar_->Scan(workshop.scene, T_world_lidar_start, T_world_lidar_end, k, Mix(options_.seed, k, 2),
-               scan);
   for (size_t b = 0; b < num_boards; ++b)
     T_lidar_board[b] = T_world_lidar_start.inverse() * workshop.scene.boards[b].T_world_board;
   move_boards_to(camera_utime);
