@@ -19,6 +19,7 @@
 #include "calibd/core/board_fit.hpp"
 #include "calibd/core/board_flatness.hpp"
 #include "calibd/core/range_offset.hpp"
+#include "calibd/core/ring_elevations.hpp"
 #include "calibd/core/stats.hpp"
 
 namespace calibd {
@@ -598,6 +599,15 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
         q.lidar_range_offset_m = centres.offset_m;
         q.lidar_range_offset_sigma_m = centres.sigma_m;
       }
+    }
+  }
+  {
+    const RingElevationCheck rings =
+        CheckRingElevations(boards, corr, projection, out.T_camera_lidar, direct.T_camera_board);
+    if (rings.measured) {
+      q.ring_elevation_rings = rings.rings;
+      q.ring_elevation_rms_deg = rings.rms_deg;
+      q.ring_elevation_chi2 = rings.chi2_per_ring;
     }
   }
   for (const BoardBend& b :

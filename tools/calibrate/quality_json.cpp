@@ -53,6 +53,9 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["principal_point_sigma_px"] = shift_sigma;
   j["principal_point_systematic_px"] = shift_systematic;
   j["principal_point_residual_px"] = q.principal_point_residual_px;
+  j["ring_elevation_rings"] = q.ring_elevation_rings;
+  j["ring_elevation_rms_deg"] = q.ring_elevation_rms_deg;
+  j["ring_elevation_chi2"] = q.ring_elevation_chi2;
   j["board_bend_id"] = q.board_bend_id;
   j["board_bend_m"] = q.board_bend_id >= 0 ? nlohmann::json(q.board_bend_m) : nullptr;
   j["board_bend_sigma_m"] = q.board_bend_id >= 0 ? nlohmann::json(q.board_bend_sigma_m) : nullptr;

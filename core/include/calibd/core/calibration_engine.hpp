@@ -257,6 +257,11 @@ struct QualityFigures {
   /// The most bent board (board_flatness.hpp): its id, the bend at its centre line (m, towards
   /// the sensors positive; about its vertical or horizontal axis, whichever is the more
   /// significant) and its sigma; id -1 when no board's bend was measured.
+  /// Ring LiDARs: the lasers' elevations against the model's table (ring_elevations.hpp): rings
+  /// measured, RMS of their deltas about the mean (deg) and the mean squared delta in sigmas.
+  int ring_elevation_rings = 0;
+  double ring_elevation_rms_deg = 0.0;
+  double ring_elevation_chi2 = 0.0;
   int board_bend_id = -1;
   double board_bend_m = 0.0;
   double board_bend_sigma_m = std::numeric_limits<double>::infinity();

@@ -57,6 +57,8 @@ class RangeImage {
   void Build(const PointCloudView& cloud, RangeImageStats* stats);
 
   int rows() const { return rows_; }
+  /// True for a ring LiDAR (a row per ring), false for elevation bins.
+  bool has_rings() const { return has_rings_; }
   int cols() const { return cols_; }
   /// True when the columns cover 360 degrees, so column cols()-1 neighbours column 0.
   bool wraps() const { return wraps_; }

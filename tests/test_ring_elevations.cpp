@@ -1,0 +1,109 @@
+// A ring LiDAR's lasers against its table's elevations, from synthetic boards.
+
+#include "calibd/core/ring_elevations.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "calibd/core/lidar_model.hpp"
+
+namespace calibd {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// `poses` boards (0.9 m) at 3-7 m in front of a VLP-16, turned and tipped up to 30 deg, each
+// swept by every ring at 0.2 deg steps; ring i fires `errors_deg[i]` above its table's elevation
+// while its points are reported along the table's direction; ranges noisy by 1 cm.
+ObservationSet Boards(const LidarModel& model, const std::vector<double>& errors_deg,
+                      const BoardGeometry& g, int poses, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  ObservationSet set;
+  set.Reserve(poses, poses * 4000);
+  for (int k = 0; k < poses; ++k) {
+    BoardObservation o;
+    o.frame = k;
+    o.board_index = 0;
+    // Board frame: z towards the LiDAR (along -x of the LiDAR), turned and tipped.
+    Eigen::Matrix3d facing;
+    facing << 0, 0, -1, -1, 0, 0, 0, 1, 0;  // board x -> -y, y -> z, z -> -x
+    o.T_camera_board.linear() = facing * RotationFromRpy(0.5 * unit(rng), 0.5 * unit(rng), 0.0);
+    o.T_camera_board.translation() =
+        Eigen::Vector3d(5.0 + 2.0 * unit(rng), 1.5 * unit(rng), 0.3 * unit(rng));
+    const Eigen::Vector3d n = o.T_camera_board.linear().col(2);
+    const Eigen::Vector3d c = o.T_camera_board.translation();
+    std::vector<Eigen::Vector3f> pts;
+    for (size_t ring = 0; ring < model.ring_elevation_deg.size(); ++ring) {
+      const double nominal = model.ring_elevation_deg[ring] * kDeg;
+      const double fired = nominal + errors_deg[ring] * kDeg;
+      for (double az = -40.0; az <= 40.0; az += 0.2) {
+        const double a = az * kDeg;
+        const Eigen::Vector3d d(std::cos(fired) * std::cos(a), std::cos(fired) * std::sin(a),
+                                std::sin(fired));
+        const double t = n.dot(c) / n.dot(d);
+        if (!(t > 0.0)) continue;
+        const Eigen::Vector3d b = o.T_camera_board.inverse() * (t * d);
+        if (std::abs(b.x()) > g.width_m / 2 || std::abs(b.y()) > g.height_m / 2) continue;
+        const double r = t + 0.01 * n01(rng);
+        pts.push_back((r * Eigen::Vector3d(std::cos(nominal) * std::cos(a),
+                                           std::cos(nominal) * std::sin(a), std::sin(nominal)))
+                          .cast<float>());
+      }
+    }
+    EXPECT_TRUE(set.Add(o, pts.data(), nullptr, static_cast<int>(pts.size())));
+  }
+  return set;
+}
+
+class RingElevationsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    model_ = MakeLidarModel(LidarKind::kVlp16);
+    projection_.Configure(model_, 0.5, 200.0, 1);
+    board_.width_m = board_.height_m = 0.9;
+    board_.tag_size_m = 0.702;
+  }
+  LidarModel model_;
+  RangeImage projection_;
+  BoardGeometry board_;
+};
+
+TEST_F(RingElevationsTest, LasersAtTheirTableMeasureAsNoise) {
+  const std::vector<double> none(model_.ring_elevation_deg.size(), 0.0);
+  const ObservationSet set = Boards(model_, none, board_, 30, 1);
+  const RingElevationCheck c =
+      CheckRingElevations({board_}, set, projection_, Pose::Identity(), {});
+  ASSERT_TRUE(c.measured);
+  EXPECT_GE(c.rings, 8);
+  EXPECT_LT(c.rms_deg, 0.02);
+  EXPECT_LT(c.chi2_per_ring, 3.0);
+}
+
+TEST_F(RingElevationsTest, LasersOffTheirTableStandOut) {
+  std::mt19937_64 rng(7);
+  std::vector<double> errors;
+  for (size_t i = 0; i < model_.ring_elevation_deg.size(); ++i)
+    errors.push_back((rng() & 1u ? 1.0 : -1.0) * 0.1);
+  const ObservationSet set = Boards(model_, errors, board_, 30, 2);
+  const RingElevationCheck c =
+      CheckRingElevations({board_}, set, projection_, Pose::Identity(), {});
+  ASSERT_TRUE(c.measured);
+  EXPECT_GT(c.rms_deg, 0.06);
+  EXPECT_LT(c.rms_deg, 0.14);
+  EXPECT_GT(c.chi2_per_ring, 10.0);
+}
+
+TEST_F(RingElevationsTest, ARinglessLidarMeasuresNothing) {
+  RangeImage ringless;
+  ringless.Configure(MakeLidarModel(LidarKind::kAvia), 0.5, 200.0, 1);
+  const std::vector<double> none(model_.ring_elevation_deg.size(), 0.0);
+  const ObservationSet set = Boards(model_, none, board_, 10, 3);
+  EXPECT_FALSE(CheckRingElevations({board_}, set, ringless, Pose::Identity(), {}).measured);
+}
+
+}  // namespace
+}  // namespace calibd
