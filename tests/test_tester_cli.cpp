@@ -240,7 +240,7 @@ TEST(RoutineReasonTest, EveryCodeRoundTripsBetweenAgentAndTester) {
     const std::string agent_text = name == "store_write_failed" ? "commit_failed" : name;
     EXPECT_EQ(static_cast<int>(uds::RoutineReasonCode(agent_text)), code) << name;
   }
-  EXPECT_EQ(named, 0x1B) << "codes 0x01..0x1B each have a name";
+  EXPECT_EQ(named, 0x1C) << "codes 0x01..0x1C each have a name";
   // The sensor faults of issue 9 have their own codes, not "other".
   EXPECT_EQ(uds::RoutineReasonCode("lidar_timeout"), uds::RoutineReason::kLidarTimeout);
   EXPECT_EQ(uds::RoutineReasonCode("camera_timeout"), uds::RoutineReason::kCameraTimeout);
@@ -257,6 +257,8 @@ TEST(RoutineReasonTest, EveryCodeRoundTripsBetweenAgentAndTester) {
   EXPECT_EQ(uds::RoutineReasonCode("board_ids_swapped"), uds::RoutineReason::kBoardIdsSwapped);
   EXPECT_EQ(uds::RoutineReasonCode("board_not_flat"), uds::RoutineReason::kBoardNotFlat);
   EXPECT_EQ(std::string(RoutineReasonName(0x1B)), "board_not_flat");
+  EXPECT_EQ(uds::RoutineReasonCode("lidar_ring_elevation"),
+            uds::RoutineReason::kLidarRingElevation);
   EXPECT_EQ(uds::RoutineReasonCode(""), uds::RoutineReason::kNone);
   EXPECT_EQ(uds::RoutineReasonCode("a reason nobody coded"), uds::RoutineReason::kOther);
   EXPECT_EQ(std::string(RoutineReasonName(0xFF)), "other (see the agent's log)");

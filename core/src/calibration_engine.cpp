@@ -832,6 +832,19 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
                       " cm: the translation would be off by about as much; have the LiDAR's range "
                       "calibration checked (or the board thickness and tag print: the tag's face "
                       "must be the board's front)");
+  if (q.ring_elevation_chi2 > kRingElevationChi2 &&
+      q.ring_elevation_rms_deg > kMinRingElevationRmsDeg)
+    return Reject(out, "lidar_ring_elevation",
+                  "the LiDAR's lasers do not fire at the elevations of the configured model's "
+                  "table: over " +
+                      std::to_string(q.ring_elevation_rings) +
+                      " rings seen on the boards, their elevations scatter by " +
+                      Fmt(q.ring_elevation_rms_deg, 3) + " deg RMS, " +
+                      Fmt(std::sqrt(q.ring_elevation_chi2), 1) +
+                      " times what their noise explains: the sensor's per-laser calibration (its "
+                      "elevation table) is not the one its driver applies, or the LiDAR is not the "
+                      "configured model; have the LiDAR's calibration checked (or load its own "
+                      "calibration file into its driver)");
   // A range offset the boards do not measure could be in the translation unseen.
   const double max_range_sigma_m = kRangeOffsetSigmaTolerances * v.verify_translation_m;
   if (!(q.lidar_range_offset_sigma_m <= max_range_sigma_m))

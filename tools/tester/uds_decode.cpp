@@ -422,7 +422,8 @@ const char* RoutineReasonName(uint8_t reason) {
                                            "principal_point_mismatch",
                                            "lidar_model_mismatch",
                                            "board_ids_swapped",
-                                           "board_not_flat"};
+                                           "board_not_flat",
+                                           "lidar_ring_elevation"};
   if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
   return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
 }

@@ -33,7 +33,8 @@ RoutineReason RoutineReasonCode(std::string_view reason) {
                 {"principal_point_mismatch", R::kPrincipalPointMismatch},
                 {"lidar_model_mismatch", R::kLidarModelMismatch},
                 {"board_ids_swapped", R::kBoardIdsSwapped},
-                {"board_not_flat", R::kBoardNotFlat}};
+                {"board_not_flat", R::kBoardNotFlat},
+                {"lidar_ring_elevation", R::kLidarRingElevation}};
   if (reason.empty()) return R::kNone;
   for (const auto& c : kCodes)
     if (reason == c.text) return c.code;

@@ -15,6 +15,8 @@
 /// - `no_grid_candidate`: no extrinsic within the search range aligns the detections.
 /// - `board_ids_swapped`: no extrinsic aligns them as configured, but one does with two boards of
 ///   different sizes taking each other's ids (board_swap_check.hpp).
+/// - `lidar_ring_elevation`: a ring LiDAR's lasers disagree with its model's elevation table
+///   (ring_elevations.hpp).
 /// - `board_not_flat`: a board's LiDAR points bend away from the plane of its tag by more than
 ///   kMaxBoardBendM at its centre line (board_flatness.hpp).
 /// - `too_few_frames`, `too_few_boards`: fewer frame pairs / board correspondences than required.
@@ -149,6 +151,13 @@ inline constexpr double kScaleSigmas = 3.0;
 /// for 2 mm, within which the bend is measured on clean boards: the gate leaves room above it.
 /// A property of the boards, not a tolerance of the result: not configurable.
 inline constexpr double kMaxBoardBendM = 0.005;
+/// Ring gate (QualityFigures::ring_elevation_*): the rings' elevation deltas scatter by more than
+/// kRingElevationChi2 times their variance (mean squared sigmas) and by more than
+/// kMinRingElevationRmsDeg: `lidar_ring_elevation`. Clean simulated sessions of four ring LiDARs
+/// measure 0.8-6; lasers 0.05-0.2 deg off their table 5-40, those that moved results by more than
+/// 0.15 deg 10.8 and more (calibd-bench verdicts, ring_elevation).
+inline constexpr double kRingElevationChi2 = 10.0;
+inline constexpr double kMinRingElevationRmsDeg = 0.05;
 inline constexpr double kBoardBendSigmas = 4.0;
 /// A range offset counts only beyond this many of its standard deviations: its sigma underrates
 /// the in-plane centres' errors shared by a session's boards (a clean falcon drive's subset

@@ -110,6 +110,7 @@ enum class RoutineReason : uint8_t {
   kLidarModelMismatch = 0x19,      ///< "lidar_model_mismatch"
   kBoardIdsSwapped = 0x1A,         ///< "board_ids_swapped"
   kBoardNotFlat = 0x1B,            ///< "board_not_flat"
+  kLidarRingElevation = 0x1C,      ///< "lidar_ring_elevation"
   kOther = 0xFF,                   ///< any other reason (the agent's log has the text)
 };
 
