@@ -41,6 +41,24 @@ SessionOptions SmallCamera(SessionOptions o) {
   return o;
 }
 
+// `poses` still poses of one 0.9 m board (0.702 m tag) on a tripod, no other clutter, seen by a
+// dense LiDAR (ot128) without range noise or dropouts.
+SessionOptions OneBoardStills(int poses) {
+  SessionOptions o = SmallCamera(SessionOptions{});
+  o.lidar_model = "ot128";
+  o.trajectory.mode = "stills";
+  o.trajectory.rate_hz = 0.5;
+  o.trajectory.duration_s = poses / o.trajectory.rate_hz;
+  o.workshop.num_boards = 1;
+  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
+  o.workshop.tag_size_m = 0.702;
+  o.stills.clutter = false;
+  o.lidar_noise = LidarNoise{};
+  o.lidar_noise.range_sigma_m = 0.0;
+  o.lidar_noise.dropout_probability = 0.0;
+  return o;
+}
+
 TEST(SessionTest, PriorDiffersFromTruthByTheRequestedErrorAndConfigHoldsOnlyThePrior) {
   SessionOptions o = SmallCamera(SessionOptions{});
   o.prior_rot_deg = 5.0;
@@ -126,18 +144,7 @@ TEST(SessionTest, RangeBiasAndCameraDelayAreWhatTheTruthSays) {
 // clutter), dense LiDAR, no noise: the board's points with 30 % hidden against the same poses
 // with nobody in front.
 TEST(SessionTest, AnOccluderHidesAboutItsShareOfTheBoard) {
-  SessionOptions o = SmallCamera(SessionOptions{});
-  o.lidar_model = "ot128";
-  o.trajectory.mode = "stills";
-  o.trajectory.rate_hz = 0.5;
-  o.trajectory.duration_s = 8 / o.trajectory.rate_hz;
-  o.workshop.num_boards = 1;
-  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
-  o.workshop.tag_size_m = 0.702;
-  o.stills.clutter = false;
-  o.lidar_noise = LidarNoise{};
-  o.lidar_noise.range_sigma_m = 0.0;
-  o.lidar_noise.dropout_probability = 0.0;
+  const SessionOptions o = OneBoardStills(8);
   SessionOptions hidden = o;
   hidden.stills.occluded_share = 0.3;
   SessionSimulator clean_sim, hidden_sim;
@@ -165,19 +172,8 @@ TEST(SessionTest, AnOccluderHidesAboutItsShareOfTheBoard) {
 }
 
 TEST(SessionTest, ABowedBoardBulgesByItsBowAtItsCentreLine) {
-  SessionOptions o = SmallCamera(SessionOptions{});
-  o.lidar_model = "ot128";
-  o.trajectory.mode = "stills";
-  o.trajectory.rate_hz = 0.5;
-  o.trajectory.duration_s = 4 / o.trajectory.rate_hz;
-  o.workshop.num_boards = 1;
-  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
-  o.workshop.tag_size_m = 0.702;
+  SessionOptions o = OneBoardStills(4);
   o.workshop.board_bows_m = {0.02};
-  o.stills.clutter = false;
-  o.lidar_noise = LidarNoise{};
-  o.lidar_noise.range_sigma_m = 0.0;
-  o.lidar_noise.dropout_probability = 0.0;
   SessionSimulator sim;
   std::string error;
   ASSERT_TRUE(sim.Init(o, &error)) << error;
@@ -216,14 +212,8 @@ TEST(SessionTest, ABowedBoardBulgesByItsBowAtItsCentreLine) {
 // 40 ms after the trigger: each sensor sees a board where it is at its own time, 2 cm apart,
 // and the board moves 5 cm from one frame to the next; standing boards are where they were.
 TEST(SessionTest, CarriedBoardsAreSeenWhereTheyAreAtEachSensorsTime) {
-  SessionOptions o = SmallCamera(SessionOptions{});
-  o.lidar_model = "ot128";
-  o.trajectory.mode = "stills";
-  o.trajectory.rate_hz = 0.5;
-  o.trajectory.duration_s = 2 / o.trajectory.rate_hz;
+  SessionOptions o = OneBoardStills(2);
   o.workshop.num_boards = 2;
-  o.workshop.board_width_m = o.workshop.board_height_m = 0.9;
-  o.workshop.tag_size_m = 0.702;
   o.stills.frames_per_pose = 4;
   o.stills.board_speed_mps = 0.5;
   o.camera_delay_us = 40000;
