@@ -161,6 +161,82 @@ TEST(BoardMotionTest, PointsFiredAcrossTheSweepReturnToTheCaptureTime) {
   EXPECT_EQ(set.points, once);
 }
 
+// A board the camera saw in only one frame (no neighbours in the window) has no velocity: while
+// the boards move, its observation is dropped (its points are where the LiDAR saw the board, not
+// where the camera did); while they stand still, it is kept.
+TEST(BoardMotionTest, AnObservationWhoseMotionIsUnknownIsDroppedOnlyWhileBoardsMove) {
+  for (const bool moving : {true, false}) {
+    SCOPED_TRACE(moving ? "moving" : "still");
+    const Scene scene;
+    auto camera_board = [&](double t) { return scene.T_camera_board(moving ? t : 0.0); };
+    SessionObservations s;
+    s.Reserve(16, 2, 16);
+    for (int k = 0; k < 16; ++k) {
+      const double t = 0.1 * k;
+      ASSERT_TRUE(s.BeginFrame(FrameTimes{Utime(t), Utime(t - 0.05)}));
+      if (k >= 10 && k != 15) continue;  // frames 10-14 without the board: 15 stands alone
+      SessionObservations::CameraBoard b;
+      b.board_index = 0;
+      b.T_camera_board = camera_board(t);
+      ASSERT_TRUE(s.AddCameraBoard(b));
+    }
+    ObservationSet set;
+    set.Reserve(2, 8);
+    const std::vector<float> dt(4, -0.05f);
+    for (const int frame : {5, 15}) {
+      BoardObservation o;
+      o.frame = frame;
+      o.board_index = 0;
+      o.T_camera_board = camera_board(0.1 * frame);
+      const Eigen::Vector3f p =
+          (scene.T_camera_lidar.inverse() * o.T_camera_board.translation()).cast<float>();
+      const std::vector<Eigen::Vector3f> points(4, p);
+      ASSERT_TRUE(set.Add(o, points.data(), dt.data(), 4));
+    }
+    const MotionCompensationStats stats =
+        CompensateBoardMotion(s, scene.T_camera_lidar, MotionCompensationConfig{}, &set);
+    EXPECT_EQ(stats.uncompensated, 1);
+    if (moving) {
+      EXPECT_NEAR(stats.median_shift_m, 2.5 * 0.05, 0.02);  // 2.5 m/s, 0.05 s before the capture
+      EXPECT_EQ(stats.dropped, 1);
+      ASSERT_EQ(set.observations.size(), 1u);
+      EXPECT_EQ(set.observations[0].frame, 5);
+      EXPECT_EQ(set.observations[0].first_point, 0);
+      EXPECT_EQ(set.points.size(), 4u);
+    } else {
+      EXPECT_LT(stats.median_shift_m, 1e-9);
+      EXPECT_EQ(stats.dropped, 0);
+      ASSERT_EQ(set.observations.size(), 2u);
+      EXPECT_FALSE(set.observations[1].has_velocity);
+    }
+  }
+}
+
+TEST(BoardObservationTest, KeepOnlyKeepsTheChosenObservationsWithTheirPoints) {
+  ObservationSet set;
+  set.Reserve(3, 6);
+  for (int k = 0; k < 3; ++k) {
+    BoardObservation o;
+    o.frame = k;
+    const std::vector<Eigen::Vector3f> points(static_cast<size_t>(k + 1),
+                                              Eigen::Vector3f::Constant(static_cast<float>(k)));
+    const std::vector<float> dt(static_cast<size_t>(k + 1), 0.01f * static_cast<float>(k));
+    ASSERT_TRUE(set.Add(o, points.data(), dt.data(), k + 1));
+  }
+  EXPECT_EQ(set.KeepOnly({0, 1, 1}), 1);
+  ASSERT_EQ(set.observations.size(), 2u);
+  ASSERT_EQ(set.points.size(), 5u);
+  for (const BoardObservation& o : set.observations) {
+    EXPECT_EQ(o.num_points, o.frame + 1);
+    for (int i = o.first_point; i < o.first_point + o.num_points; ++i) {
+      EXPECT_EQ(set.points[static_cast<size_t>(i)].x(), static_cast<float>(o.frame));
+      EXPECT_FLOAT_EQ(set.point_dt[static_cast<size_t>(i)], 0.01f * static_cast<float>(o.frame));
+    }
+  }
+  EXPECT_EQ(set.observations[0].first_point, 0);
+  EXPECT_EQ(set.observations[1].first_point, 2);
+}
+
 // Compensated observations of three boards turned differently whose apparent velocity along the
 // camera's axis follows `speed(k)` (frame k), seen by a camera `offset_s` later than its stamps:
 // the camera's board pose is where the board was then, the points where it was at the stamp

@@ -19,6 +19,8 @@ bool MotionCompensationConfig::IsValid(std::string* error) const {
   if (!(min_span_share > 0.0 && min_span_share <= 2.0))
     return fail("min_span_share must be in (0, 2]");
   if (!(max_speed_mps > 0.0)) return fail("max_speed_mps must be > 0");
+  if (!(max_unmeasured_shift_m >= 0.0 && std::isfinite(max_unmeasured_shift_m)))
+    return fail("max_unmeasured_shift_m must be >= 0");
   return true;
 }
 
@@ -70,9 +72,14 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
   if (!config.enabled || set->motion_compensated || set->point_dt.size() != set->points.size())
     return stats;
   const Eigen::Matrix3d R_lidar_camera = T_camera_lidar.linear().transpose();
+  std::vector<double> shifts;  // per compensated observation: |u| times the points' mean |dt|
+  std::vector<char> measured;
+  shifts.reserve(set->observations.size());
+  measured.reserve(set->observations.size());
   for (BoardObservation& o : set->observations) {
     Eigen::Vector3d u;
     o.has_velocity = EstimateBoardVelocity(session, o.frame, o.board_index, config, &u);
+    measured.push_back(o.has_velocity ? 1 : 0);
     if (!o.has_velocity) {
       ++stats.uncompensated;
       continue;
@@ -82,13 +89,23 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
     // Paper Eq. 5 compares a point with the board where the camera saw it: the board moved by
     // u dt between the capture and the firing, so the point is moved back by as much.
     const Eigen::Vector3f u_lidar = (R_lidar_camera * u).cast<float>();
+    double sum_dt = 0.0;
     for (int i = o.first_point; i < o.first_point + o.num_points; ++i) {
       const Eigen::Vector3f shift = set->point_dt[i] * u_lidar;
       set->points[i] -= shift;
       stats.max_shift_m = std::max(stats.max_shift_m, static_cast<double>(shift.norm()));
+      sum_dt += std::fabs(set->point_dt[i]);
     }
+    shifts.push_back(o.num_points > 0 ? u.norm() * sum_dt / o.num_points : 0.0);
   }
   set->motion_compensated = true;
+  if (!shifts.empty()) {
+    const auto mid = shifts.begin() + static_cast<std::ptrdiff_t>(shifts.size() / 2);
+    std::nth_element(shifts.begin(), mid, shifts.end());
+    stats.median_shift_m = *mid;
+  }
+  if (stats.uncompensated > 0 && stats.median_shift_m > config.max_unmeasured_shift_m)
+    stats.dropped = set->KeepOnly(measured);
   return stats;
 }
 

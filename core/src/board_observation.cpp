@@ -1,5 +1,7 @@
 #include "calibd/core/board_observation.hpp"
 
+#include <algorithm>
+
 namespace calibd {
 
 void ObservationSet::Reserve(int max_observations, int max_points) {
@@ -33,6 +35,28 @@ bool ObservationSet::Add(const BoardObservation& obs, const Eigen::Vector3f* boa
     point_dt.insert(point_dt.end(), static_cast<size_t>(count), 0.0f);
   observations.push_back(o);
   return true;
+}
+
+int ObservationSet::KeepOnly(const std::vector<char>& keep) {
+  size_t kept = 0, next_point = 0;
+  for (size_t i = 0; i < observations.size(); ++i) {
+    if (!keep[i]) continue;
+    BoardObservation o = observations[i];
+    const auto first = static_cast<size_t>(o.first_point);
+    const auto count = static_cast<size_t>(o.num_points);
+    // Moving down never overwrites points still to be read: next_point <= first.
+    std::copy(points.begin() + first, points.begin() + first + count, points.begin() + next_point);
+    std::copy(point_dt.begin() + first, point_dt.begin() + first + count,
+              point_dt.begin() + next_point);
+    o.first_point = static_cast<int>(next_point);
+    next_point += count;
+    observations[kept++] = o;
+  }
+  const int removed = static_cast<int>(observations.size() - kept);
+  observations.resize(kept);
+  points.resize(next_point);
+  point_dt.resize(next_point);
+  return removed;
 }
 
 }  // namespace calibd

@@ -209,21 +209,7 @@ const char* TooFewCorrespondences(const QualityFigures& q, const VerdictConfig& 
 // `direct`'s solution; returns how many.
 int DropBoardsThatDoNotFit(const std::vector<BoardGeometry>& boards, const DirectResult& direct,
                            ObservationSet* set) {
-  const std::vector<char> fits = BoardsThatFit(boards, *set, direct);
-  const int dropped = static_cast<int>(std::count(fits.begin(), fits.end(), 0));
-  if (dropped == 0) return 0;
-  ObservationSet kept;
-  kept.Reserve(static_cast<int>(set->observations.size()), static_cast<int>(set->points.size()));
-  for (size_t i = 0; i < fits.size(); ++i) {
-    if (!fits[i]) continue;
-    const BoardObservation& o = set->observations[i];
-    const auto first = static_cast<size_t>(o.first_point);
-    kept.Add(o, set->points.data() + first, set->point_dt.data() + first, o.num_points);
-  }
-  kept.motion_compensated = set->motion_compensated;
-  kept.time_offset_s = set->time_offset_s;
-  *set = std::move(kept);
-  return dropped;
+  return set->KeepOnly(BoardsThatFit(boards, *set, direct));
 }
 
 }  // namespace
@@ -465,7 +451,15 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   CoverageFigures(config, corr, &out.quality);
   QualityFigures& q = out.quality;
   std::string few;
-  if (const char* reason = TooFewCorrespondences(q, v, "", &few)) return Reject(out, reason, few);
+  const std::string unmeasured =
+      out.motion.dropped == 0
+          ? ""
+          : " once " + std::to_string(out.motion.dropped) +
+                " whose board's motion the camera could not measure were dropped (the boards "
+                "moved by " +
+                Fmt(out.motion.median_shift_m * 1e3, 0) + " mm between the sensors' times)";
+  if (const char* reason = TooFewCorrespondences(q, v, unmeasured, &few))
+    return Reject(out, reason, few);
   {
     const BoardSwap swap = FindSwapInDistances(
         config.boards, BoardDistances(corr, out.grid.T_camera_lidar, &config.boards));

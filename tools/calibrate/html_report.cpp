@@ -533,7 +533,9 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
                    std::to_string(out.grid.prior_count) + ")");
   s += InfoRow("motion compensation",
                std::to_string(out.motion.compensated) + " boards compensated, " +
-                   std::to_string(out.motion.uncompensated) + " not, largest shift " +
+                   std::to_string(out.motion.uncompensated) + " not (" +
+                   std::to_string(out.motion.dropped) + " of them dropped), median shift " +
+                   Num(out.motion.median_shift_m, 3) + " m, largest " +
                    Num(out.motion.max_shift_m, 3) + " m");
   s += InfoRow("board-pose refinement", std::to_string(out.refined_boards) +
                                             " boards, mean change " +

@@ -417,6 +417,8 @@ int main(int argc, char** argv) {
                            {"candidates", out.grid.candidates}};
   report["motion_compensation"] = {{"compensated_boards", out.motion.compensated},
                                    {"uncompensated_boards", out.motion.uncompensated},
+                                   {"dropped_unmeasured_boards", out.motion.dropped},
+                                   {"median_shift_m", out.motion.median_shift_m},
                                    {"max_shift_m", out.motion.max_shift_m}};
   report["lidar_model"] = {
       {"name", lidar_model.name},

@@ -33,6 +33,12 @@ struct MotionCompensationConfig {
   /// The samples' times must span at least this share of window_s (0.15 s of +-0.25 s).
   double min_span_share = 0.6;
   double max_speed_mps = 20.0;  ///< a faster apparent board speed is a mismatch: not used
+  /// When the boards move by more than this between a frame's sensor times (median over the
+  /// observations with a velocity of |u| times their points' mean |dt|), an observation whose
+  /// velocity could not be measured (its board in too few of the camera's neighbouring frames)
+  /// is dropped: its points lie where the board was when the LiDAR fired, up to that far from
+  /// where the camera saw it, and a few of them bias the translation by centimetres.
+  double max_unmeasured_shift_m = 0.003;
 
   bool IsValid(std::string* error) const;
 };
@@ -47,12 +53,16 @@ bool EstimateBoardVelocity(const SessionObservations& session, int frame, int bo
 struct MotionCompensationStats {
   int compensated = 0;    ///< observations whose points were moved
   int uncompensated = 0;  ///< observations left as they were (no velocity estimate)
+  /// Observations without a velocity dropped because the boards moved (max_unmeasured_shift_m).
+  int dropped = 0;
   double max_shift_m = 0.0;
+  double median_shift_m = 0.0;  ///< over the compensated observations
 };
 
 /// Estimates each observation's board velocity and moves its points to the camera's capture
 /// time: p <- p - dt R_camera_lidar^T u (dt = firing time - capture time, u in the camera frame;
-/// the rotation of the coarse extrinsic is precise enough for a shift of a few cm). Does nothing
+/// the rotation of the coarse extrinsic is precise enough for a shift of a few cm), then drops the
+/// observations without a velocity when the others moved (max_unmeasured_shift_m). Does nothing
 /// when disabled or when `set` is already compensated.
 MotionCompensationStats CompensateBoardMotion(const SessionObservations& session,
                                               const Pose& T_camera_lidar,

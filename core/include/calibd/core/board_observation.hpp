@@ -47,6 +47,10 @@ struct ObservationSet {
   /// when it would exceed the reserved capacity.
   bool Add(const BoardObservation& obs, const Eigen::Vector3f* board_points, const float* dt,
            int count);
+
+  /// Keeps the observations i with keep[i] != 0 (and their points), in order, in place; returns
+  /// how many were removed. `keep` has one entry per observation.
+  int KeepOnly(const std::vector<char>& keep);
 };
 
 }  // namespace calibd
