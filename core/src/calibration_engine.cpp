@@ -792,14 +792,16 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
               " px RMS: the camera's intrinsic calibration (its lens distortion or principal "
               "point) is likely wrong; calibrate the camera's intrinsics again (if they are "
               "right, boards closer to the camera and turned 20-40 deg let the tags check them)");
-    if (turn_deg > max_turn_deg && chi2 > kPrincipalPointChiSquare)
+    if (turn_deg + kPrincipalPointTurnSigmas * sigma_turn_deg > max_turn_deg &&
+        chi2 > kPrincipalPointChiSquare)
       return Reject(
           out, "principal_point_mismatch",
           "the tags put the camera's principal point " + Fmt(d.x(), 1) + " px (+-" +
               Fmt(q.principal_point_sigma_px.x(), 1) + ") right and " + Fmt(d.y(), 1) + " px (+-" +
               Fmt(q.principal_point_sigma_px.y(), 1) +
               ") down of the configured one, which turns the result by " + Fmt(turn_deg, 2) +
-              " deg, more than " + Fmt(max_turn_deg, 2) +
+              " deg (+-" + Fmt(sigma_turn_deg, 2) + "), possibly more than " +
+              Fmt(max_turn_deg, 2) +
               " deg: the camera's intrinsic calibration (its principal point, or its focal "
               "length) is wrong or belongs to another camera; calibrate the camera's "
               "intrinsics again");
