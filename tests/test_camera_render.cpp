@@ -325,6 +325,49 @@ TEST(CameraRender, ARepeatedViewIsTheRenderOfItsSeedWithinRounding) {
   EXPECT_GT(cv::norm(first, repeat, cv::NORM_INF), 0.0) << "exposure and noise drawn anew";
 }
 
+// A rolling shutter: with the camera sliding sideways during the readout, each tag corner is
+// found where the camera saw it at its own row's time (the sheared tag's corners), not where a
+// global shutter at any one time would put all four; a constant pose renders as Render does.
+TEST_F(CameraRenderTest, ARollingShutterSeesEachRowFromItsOwnTime) {
+  TestScene ts;
+  const Pose T_world_board = BoardPose({6.0, 0.0, 1.5}, 0.0);
+  ts.AddBoard(0, T_world_board);
+  ts.scene.Finalize();
+  // 0.3 m to the camera's right over the readout: about 170 px of the tag's at 6 m, so its top
+  // and bottom corners (about 270 rows apart) shift by some 24 px against each other.
+  auto T_world_camera_at = [](double row_share) {
+    Pose T = CameraPose();
+    T.translation() += Eigen::Vector3d(0.0, -0.3 * (row_share - 0.5), 0.0);
+    return T;
+  };
+  const int height = renderer_->model().intrinsics().height;
+  cv::Mat image;
+  renderer_->Render(ts.scene, ts.faces, T_world_camera_at, height, 42, &image);
+  const auto detections = detector_.Detect(image);
+  ASSERT_EQ(detections.size(), 1u);
+  double worst = 0.0, sheared = 0.0;
+  for (size_t k = 0; k < 4; ++k) {
+    const Eigen::Vector3d corner = T_world_board * ts.geometries[0].TagCornersInBoard()[k];
+    // The corner's own row: projected from the pose at the row it lands on (a fixed point).
+    Eigen::Vector2d uv, at_middle;
+    ASSERT_TRUE(renderer_->model().Project(T_world_camera_at(0.5).inverse() * corner, &at_middle));
+    uv = at_middle;
+    for (int it = 0; it < 5; ++it)
+      ASSERT_TRUE(
+          renderer_->model().Project(T_world_camera_at(uv.y() / height).inverse() * corner, &uv));
+    worst = std::max(worst, (detections[0].corners[k] - uv).norm());
+    sheared = std::max(sheared, (uv - at_middle).norm());
+  }
+  EXPECT_LT(worst, 0.5) << "corners against their rows' poses";
+  EXPECT_GT(sheared, 8.0) << "the shear the test relies on";
+
+  cv::Mat global, banded;
+  renderer_->Render(ts.scene, ts.faces, CameraPose(), 5, &global);
+  renderer_->Render(
+      ts.scene, ts.faces, [](double) { return CameraPose(); }, 7, 5, &banded);
+  EXPECT_EQ(cv::norm(global, banded, cv::NORM_INF), 0.0);
+}
+
 TEST_F(CameraRenderTest, WorkshopFrameTimingAndAllTagsFound) {
   // About 30 primitives: ground, walls, clutter, stands and three boards at 6, 15 and 30 m.
   TestScene ts;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
+#include <cstdio>
 #include <cstdlib>
 
 #include "calibd/drivers/config_file.hpp"
@@ -244,6 +245,50 @@ TEST(SessionTest, CarriedBoardsAreSeenWhereTheyAreAtEachSensorsTime) {
   sim.SimulateFrame(1, nullptr, &scan, &truth);
   for (const BoardTruth& b : truth.boards)
     EXPECT_TRUE(b.T_camera_board.isApprox(sim.T_camera_lidar() * b.T_lidar_board, 1e-12));
+}
+
+// A rolling shutter read out over 30 ms while driving: its upper rows are nearer what a global
+// shutter sees at the capture time, its bottom rows what one sees 30 ms later (the same noise
+// and exposure, drawn from the frame's seed); the frame is stamped at its first row.
+TEST(SessionTest, ARollingShuttersRowsSeeTheSceneAtTheirOwnTime) {
+  const SessionOptions global = SmallCamera(SessionOptions{});
+  SessionOptions rolling = global, late = global;
+  rolling.camera_readout_us = 30000;
+  late.camera_delay_us = 30000;
+  cv::Mat images[3];
+  FrameTruth truths[3];
+  int i = 0;
+  for (const SessionOptions& o : {global, rolling, late}) {
+    SessionSimulator sim;
+    std::string error;
+    ASSERT_TRUE(sim.Init(o, &error)) << error;
+    LidarScan scan;
+    sim.SimulateFrame(20, &images[i], &scan, &truths[i]);
+    ++i;
+  }
+  EXPECT_EQ(truths[1].camera_utime, truths[0].camera_utime);
+  const int rows = images[0].rows, band = rows / 20;
+  auto mean_difference = [&](const cv::Mat& a, const cv::Mat& b, int r0) {
+    return cv::norm(a.rowRange(r0, r0 + band), b.rowRange(r0, r0 + band), cv::NORM_L1) /
+           static_cast<double>(band * a.cols);
+  };
+  // The top band where the scene moved at all (the sky above the horizon does not).
+  int top = 0;
+  while (top + band < rows / 2 && mean_difference(images[0], images[2], top) < 0.5) top += band;
+  ASSERT_LT(top + band, rows / 2) << "nothing moved in the upper half";
+  const double top_early = mean_difference(images[1], images[0], top);
+  const double top_late = mean_difference(images[1], images[2], top);
+  const double bottom_early = mean_difference(images[1], images[0], rows - band);
+  const double bottom_late = mean_difference(images[1], images[2], rows - band);
+  std::printf("grey levels apart, rows %d+: %.2f early / %.2f late; bottom: %.2f / %.2f\n", top,
+              top_early, top_late, bottom_early, bottom_late);
+  EXPECT_LT(top_early, top_late);  // a third of the readout down: nearer the capture time
+  EXPECT_LT(bottom_late, 0.5 * bottom_early);
+  std::string error;
+  SessionOptions bad = global;
+  bad.camera_readout_us = -1;
+  EXPECT_FALSE(bad.IsValid(&error));
+  EXPECT_NE(error.find("--camera-readout-us"), std::string::npos);
 }
 
 TEST(SessionTest, BadOptionsAreRejectedWithTheirName) {

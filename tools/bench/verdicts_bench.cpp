@@ -99,6 +99,15 @@ void UseDrive(Session* s, double rate_hz) {
   t.duration_s = s->drive_frames / t.rate_hz;
 }
 
+/// A drive in any round: a still-pose round's boards (one of 0.9 m) become a drive's (at least
+/// two of 0.6 m; one board along a straight drive leaves its plane's rotation unobservable).
+void UseDriveInAnyRound(Session* s, double rate_hz) {
+  UseDrive(s, rate_hz);
+  s->sim.workshop.num_boards = std::max(2, s->sim.workshop.num_boards);
+  s->sim.workshop.board_width_m = s->sim.workshop.board_height_m = 0.6;
+  s->sim.workshop.tag_size_m = 0.48;
+}
+
 /// A factor 1 +- [lo, hi] (either sign), written as the session's magnitude in %.
 double DrawFactor(Rng* rng, double lo, double hi, Session* s) {
   const double sign = Sign(rng);  // before the size, as GCC evaluated it: sessions unchanged
@@ -198,10 +207,7 @@ constexpr Fault kFaults[] = {
      "driving, a frame pair a second, the camera 10-100 ms late (stamped at its trigger)",
      [](Rng* rng, Session* s) {
        const int64_t delay = std::llround(Draw(rng, 10e3, 100e3));
-       UseDrive(s, 1.0);
-       s->sim.workshop.num_boards = std::max(2, s->sim.workshop.num_boards);
-       s->sim.workshop.board_width_m = s->sim.workshop.board_height_m = 0.6;
-       s->sim.workshop.tag_size_m = 0.48;
+       UseDriveInAnyRound(s, 1.0);
        s->sim.camera_delay_us = delay;
        s->recording.camera_stamp_shift_us = -delay;
        s->magnitude = Num(static_cast<double>(delay) * 1e-3, 1) + " ms";
@@ -310,6 +316,15 @@ constexpr Fault kFaults[] = {
        s->recording.camera_stamp_shift_us = -delay;
        s->magnitude = Num(s->sim.stills.board_speed_mps, 2) + " m/s, " +
                       Num(static_cast<double>(delay) * 1e-3, 1) + " ms";
+     }},
+    {"rolling_shutter",
+     "driving, a rolling-shutter camera (the config knows none) reads its rows out top to bottom "
+     "over 10-40 ms, stamped at the first row",
+     [](Rng* rng, Session* s) {
+       UseDriveInAnyRound(s, kDrivePairRateHz);
+       const int64_t readout = std::llround(Draw(rng, 10e3, 40e3));
+       s->sim.camera_readout_us = readout;
+       s->magnitude = Num(static_cast<double>(readout) * 1e-3, 1) + " ms readout";
      }},
 };
 constexpr int kNumFaults = static_cast<int>(std::size(kFaults));

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -215,6 +216,34 @@ Eigen::Vector2d CameraRenderer::RayAt(int u, int v) const {
 
 void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& faces,
                             const Pose& T_world_camera, uint64_t seed, cv::Mat* image) const {
+  double exposure = 0.0;
+  uint64_t noise_seed = 0;
+  DrawFrame(seed, &exposure, &noise_seed);
+  TraceRows(scene, faces, T_world_camera, 0, model_.intrinsics().height, exposure);
+  has_radiance_ = true;
+  Finish(noise_seed, image);
+}
+
+void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& faces,
+                            const std::function<Pose(double)>& T_world_camera_at, int bands,
+                            uint64_t seed, cv::Mat* image) const {
+  double exposure = 0.0;
+  uint64_t noise_seed = 0;
+  DrawFrame(seed, &exposure, &noise_seed);
+  const int H = model_.intrinsics().height;
+  bands = std::clamp(bands, 1, H);
+  for (int b = 0; b < bands; ++b) {
+    const int v0 = H * b / bands, v1 = H * (b + 1) / bands;
+    const double middle_row = 0.5 * (v0 + v1);
+    TraceRows(scene, faces, T_world_camera_at(middle_row / H), v0, v1, exposure);
+  }
+  has_radiance_ = true;
+  Finish(noise_seed, image);
+}
+
+void CameraRenderer::TraceRows(const Scene& scene, const std::vector<BoardFace>& faces,
+                               const Pose& T_world_camera, int v_begin, int v_end,
+                               double exposure) const {
   const CameraIntrinsics& cam = model_.intrinsics();
   const int W = cam.width, H = cam.height;
   const Eigen::Matrix3d R_world_camera = T_world_camera.linear();
@@ -222,10 +251,6 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
   const Eigen::Vector3d origin = T_world_camera.translation();
   // Fixed key light from above and slightly behind a camera looking along +x in the workshop.
   const Eigen::Vector3d light = Eigen::Vector3d(-0.4, 0.3, 0.85).normalized();
-
-  double exposure = 0.0;
-  uint64_t noise_seed = 0;
-  DrawFrame(seed, &exposure, &noise_seed);
 
   // Prepare primitives and their screen rectangles (normalised coordinates).
   std::vector<FramePrimitive> prims;
@@ -279,7 +304,16 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
   auto overlaps = [](const TileBounds& t, const Rect& r) {
     return r.x_hi >= t.x_lo && r.x_lo <= t.x_hi && r.y_hi >= t.y_lo && r.y_lo <= t.y_hi;
   };
+  // Only the tiles of rows [v_begin, v_end) are traced: the others keep empty lists.
+  const size_t first_tile = static_cast<size_t>(v_begin / kTile) * static_cast<size_t>(tiles_x_);
+  const size_t end_tile = std::min(
+      num_tiles, static_cast<size_t>((v_end - 1) / kTile + 1) * static_cast<size_t>(tiles_x_));
   for (size_t t = 0; t < num_tiles; ++t) {
+    if (t < first_tile || t >= end_tile) {
+      tile_prim_begin[t + 1] = static_cast<int>(tile_prims.size());
+      tile_board_begin[t + 1] = static_cast<int>(tile_boards.size());
+      continue;
+    }
     const TileBounds& tb = tile_bounds_[t];
     for (size_t k = 0; k < prims.size(); ++k) {
       if (overlaps(tb, rects[k])) tile_prims.push_back(static_cast<int>(k));
@@ -398,8 +432,8 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
 
   const int ss = std::max(1, imaging_.board_supersample);
   const double gain = 255.0 * exposure;
-  ParallelRows(H, imaging_.num_threads, [&](int v0, int v1) {
-    for (int v = v0; v < v1; ++v) {
+  ParallelRows(v_end - v_begin, imaging_.num_threads, [&](int r0, int r1) {
+    for (int v = v_begin + r0; v < v_begin + r1; ++v) {
       uint8_t* out = shaded_.ptr<uint8_t>(v);
       float* kept = radiance_.ptr<float>(v);
       const float* lut_row = &ray_lut_[static_cast<size_t>(v) * static_cast<size_t>(W) * 2];
@@ -447,9 +481,6 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
       }
     }
   });
-
-  has_radiance_ = true;
-  Finish(noise_seed, image);
 }
 
 void CameraRenderer::Finish(uint64_t noise_seed, cv::Mat* image) const {

@@ -5,6 +5,7 @@
 /// blur, exposure variation and sensor noise.
 
 #include <cstdint>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -37,6 +38,12 @@ class CameraRenderer {
   /// concurrently on one renderer.
   void Render(const Scene& scene, const std::vector<BoardFace>& faces, const Pose& T_world_camera,
               uint64_t seed, cv::Mat* image) const;
+  /// The same through a rolling shutter: the rows are read out top to bottom, row v seen from
+  /// T_world_camera_at(v / height) (0: the first row's time; 1: the end of the readout). Traced in
+  /// `bands` bands of rows, each from the pose at its middle row.
+  void Render(const Scene& scene, const std::vector<BoardFace>& faces,
+              const std::function<Pose(double)>& T_world_camera_at, int bands, uint64_t seed,
+              cv::Mat* image) const;
   /// The last Render's scene from the same view again (a still pose's next frame): the
   /// exposure and the sensor noise are drawn anew from `seed`, the rays are not traced again.
   /// The image equals a Render's but for rounding of the radiance kept between the calls (float).
@@ -65,6 +72,9 @@ class CameraRenderer {
   mutable bool has_radiance_ = false;
   /// Exposure and noise seed of a frame, drawn from its seed in that order.
   void DrawFrame(uint64_t seed, double* exposure, uint64_t* noise_seed) const;
+  /// Rows [v_begin, v_end) of shaded_ and radiance_, seen from T_world_camera at `exposure`.
+  void TraceRows(const Scene& scene, const std::vector<BoardFace>& faces,
+                 const Pose& T_world_camera, int v_begin, int v_end, double exposure) const;
   /// shaded_ at `exposure` into `image`: the lens blur, then the sensor noise.
   void Finish(uint64_t noise_seed, cv::Mat* image) const;
 };

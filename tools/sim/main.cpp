@@ -100,6 +100,8 @@ Camera:
   --width PX --height PX   image size (default 3840 x 1920)
   --camera-delay-us US     fault: the camera exposes this long after its trigger; the LiDAR
                            keeps its phase (a camera running behind; default 0)
+  --camera-readout-us US   fault: a rolling shutter reading its rows out top to bottom over
+                           this long, the first at the capture time (default 0: global)
   --fx PX --fy PX          focal lengths (default 3325)
   --cx PX --cy PX          principal point (default image centre)
   --distortion K1,K2,P1,P2,K3   radial-tangential coefficients (default -0.08,0.03,0.0005,-0.0003,-0.005)
@@ -264,6 +266,7 @@ int main(int argc, char** argv) {
       {"--beam-divergence", number(&o.lidar_noise.beam_divergence_mrad, 0, 20)},
       {"--range-bias", number(&o.lidar_noise.range_bias_m, -1, 1)},
       {"--camera-delay-us", integer(&o.camera_delay_us, -1e6, 1e6)},
+      {"--camera-readout-us", integer(&o.camera_readout_us, 0, 200000)},
       {"--width", integer(&o.camera.width, 16, 16384)},
       {"--height", integer(&o.camera.height, 16, 16384)},
       {"--fx", number(&o.camera.fx, 1, 1e5)},

@@ -48,6 +48,10 @@ struct SessionOptions {
   /// image shows the scene then, and FrameTruth::camera_utime is that true capture time. A fault
   /// to inject; the LiDAR's sweep keeps its phase to the trigger.
   int64_t camera_delay_us = 0;
+  /// A rolling shutter: the image's rows are read out top to bottom over this long, the first at
+  /// the capture time (FrameTruth::camera_utime); while the vehicle moves, each row sees the scene
+  /// from where the camera is at its own time. A fault to inject; 0: a global shutter.
+  int64_t camera_readout_us = 0;
   int64_t start_utime = 1767225600000000;  ///< 2026-01-01T00:00:00Z, microseconds
   std::string camera_id = "front";
   std::string lidar_id = "roof";
