@@ -26,7 +26,6 @@ namespace {
 using testing::ReadPublished;
 using testing::RunCommand;
 using testing::TruthExtrinsic;
-constexpr double kRad2Deg = 180.0 / M_PI;
 constexpr int kFrames = 100;
 constexpr const char* kUrl = sim::kPrivateUdpmUrl;
 

@@ -23,7 +23,6 @@ using testing::Published;
 using testing::ReadPublished;
 using testing::RunCommand;
 using testing::TruthExtrinsic;
-constexpr double kRad2Deg = 180.0 / M_PI;
 
 class AgentReplayTest : public ::testing::TestWithParam<const char*> {};
 

@@ -13,7 +13,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 constexpr int64_t kStart = 1767225600000000;
 
 // A camera driving towards a static board at 2.5 m/s with a 5 deg/s yaw rate; the LiDAR sits
@@ -29,7 +28,8 @@ struct Scene {
     T_world_board.translation() = Eigen::Vector3d(12.0, 1.0, 1.5);
     Eigen::Matrix3d R_cl;  // optical frame (x right, y down, z forward) from LiDAR axes
     R_cl << 0, -1, 0, 0, 0, -1, 1, 0, 0;
-    T_camera_lidar.linear() = R_cl * RotationFromRpy(0.5 * kDeg, -1.0 * kDeg, 2.0 * kDeg);
+    T_camera_lidar.linear() =
+        R_cl * RotationFromRpy(0.5 * kDeg2Rad, -1.0 * kDeg2Rad, 2.0 * kDeg2Rad);
     T_camera_lidar.translation() = Eigen::Vector3d(0.0, 0.4, -0.2);
   }
 
@@ -38,7 +38,7 @@ struct Scene {
     Eigen::Matrix3d R_wc;  // optical frame in world axes (x forward, y left, z up)
     R_wc << 0, 0, 1, -1, 0, 0, 0, -1, 0;
     Pose T = Pose::Identity();
-    T.linear() = RotationFromRpy(0, 0, 5.0 * kDeg * t) * R_wc;
+    T.linear() = RotationFromRpy(0, 0, 5.0 * kDeg2Rad * t) * R_wc;
     T.translation() = Eigen::Vector3d(2.5 * t, 0.1 * t, 1.4);
     return T;
   }
@@ -251,7 +251,7 @@ ObservationSet MovingBoards(const Scene& scene, double offset_s, double (*speed)
       o.board_index = b;
       const double roll_deg[] = {15.0, -10.0, 20.0}, pitch_deg[] = {-25.0, 5.0, 30.0};
       o.T_camera_board.linear() =
-          RotationFromRpy(roll_deg[b] * kDeg, M_PI + pitch_deg[b] * kDeg, 0.0);
+          RotationFromRpy(roll_deg[b] * kDeg2Rad, M_PI + pitch_deg[b] * kDeg2Rad, 0.0);
       o.T_camera_board.translation() = Eigen::Vector3d((b - 1) * 2.0, 0.3 * b, 8.0 + 0.05 * k);
       o.velocity = Eigen::Vector3d(0.1 * (b - 1), 0.0, speed(k));
       o.has_velocity = true;

@@ -16,8 +16,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 // 40 frame pairs spread over the default 20 s drive (6-30 m and back).
 std::unique_ptr<testing::RecordedSession> Drive(sim::SessionOptions o) {
   return testing::Record(o, 40, 5);
@@ -70,7 +68,7 @@ TEST(CalibrationEngineTest, BoardIdsSwappedBetweenBoardsOfDifferentSizesAreNamed
       << updated.reason << ": " << updated.detail;
   EXPECT_LT(
       RotationAngle(updated.T_camera_lidar.linear(), right->session.T_camera_lidar().linear()) /
-          kDeg,
+          kDeg2Rad,
       0.1);
 }
 
@@ -109,7 +107,7 @@ TEST(CalibrationEngineTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
   ASSERT_EQ(updated.verdict, CalibrationOutcome::Verdict::kUpdated)
       << updated.reason << ": " << updated.detail;
   const Pose truth = r->session.T_camera_lidar();
-  EXPECT_LT(RotationAngle(updated.T_camera_lidar.linear(), truth.linear()) / kDeg, 0.1);
+  EXPECT_LT(RotationAngle(updated.T_camera_lidar.linear(), truth.linear()) / kDeg2Rad, 0.1);
   EXPECT_LT((updated.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
   EXPECT_NEAR(updated.delta_rotation_deg, 3.0, 0.15);
 
@@ -146,9 +144,9 @@ TEST(CalibrationEngineTest, TheReprojectionGateFollowsTheLidarsPointSpacing) {
   ASSERT_EQ(out.verdict, CalibrationOutcome::Verdict::kUpdated) << out.reason << ": " << out.detail;
   const Pose truth = sparse->session.T_camera_lidar();
   std::printf("error %.3f deg / %.4f m\n",
-              RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg,
+              RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg2Rad,
               (out.T_camera_lidar.translation() - truth.translation()).norm());
-  EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg, 0.15);
+  EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg2Rad, 0.15);
   EXPECT_LT((out.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
   const VerdictConfig v;
   EXPECT_GT(q.reprojection_mean_px, v.max_reprojection_mean_px);
@@ -221,12 +219,12 @@ TEST(CalibrationEngineTest, ClustersThatAreNotOnTheirBoardAreDroppedBeforeTheFin
   ASSERT_TRUE(out.solved) << out.reason << ": " << out.detail;
   std::printf("moved %d clusters: %d correspondences dropped, error %.4f deg, %.4f m\n", moved,
               out.dropped_correspondences,
-              RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg,
+              RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg2Rad,
               (out.T_camera_lidar.translation() - truth.translation()).norm());
   EXPECT_GE(out.dropped_correspondences, moved * 8 / 10);
   EXPECT_LE(out.dropped_correspondences, moved * 12 / 10);
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kUpdated) << out.reason << ": " << out.detail;
-  EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg, 0.1);
+  EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg2Rad, 0.1);
   EXPECT_LT((out.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
 }
 
@@ -307,7 +305,7 @@ TEST(CalibrationEngineTest, ACameraScaleErrorIsCorrectedOrRefusedAsAScaleMismatc
   EXPECT_NEAR(corrected.quality.camera_scale_corrected, 0.01, 0.003);
   EXPECT_NEAR(corrected.quality.camera_scale_error, corrected.quality.camera_scale_corrected,
               3.0 * corrected.quality.camera_scale_sigma);
-  EXPECT_LT(RotationAngle(corrected.T_camera_lidar.linear(), truth.linear()) / kDeg, 0.1);
+  EXPECT_LT(RotationAngle(corrected.T_camera_lidar.linear(), truth.linear()) / kDeg2Rad, 0.1);
   EXPECT_LT((corrected.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
   EXPECT_NE(corrected.detail.find("longer than the LiDAR's and were corrected"), std::string::npos)
       << corrected.detail;
@@ -456,7 +454,7 @@ TEST(CalibrationEngineTest, PairsOutOfOrderOrRepeatedAreTakenInCaptureOrderOnce)
   EXPECT_EQ(out.verdict, recorded.verdict) << out.reason << ": " << out.detail;
   EXPECT_GT(out.frames_out_of_order, 5);
   EXPECT_EQ(out.duplicate_frames, 3);
-  EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), recorded.T_camera_lidar.linear()) / kDeg,
+  EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), recorded.T_camera_lidar.linear()) / kDeg2Rad,
             1e-6);
   EXPECT_LT((out.T_camera_lidar.translation() - recorded.T_camera_lidar.translation()).norm(),
             1e-9);

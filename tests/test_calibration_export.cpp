@@ -22,7 +22,6 @@ namespace calibd {
 namespace {
 
 constexpr double kTol = 1e-9;
-constexpr double kDeg = M_PI / 180.0;
 
 // calibd-sim's default mechanical design (deploy/config/calibd.yaml): the camera looks forward,
 // so T_camera_lidar sits exactly at pitch = -90 deg.
@@ -41,7 +40,7 @@ std::vector<Pose> TestPoses() {
   Pose near = ForwardCamera();
   near.linear() =
       near.linear() *
-      Eigen::AngleAxisd(0.3 * kDeg, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+      Eigen::AngleAxisd(0.3 * kDeg2Rad, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   poses.push_back(near);
   Pose tiny = ForwardCamera();  // 1e-7 rad from the lock: roll and yaw nearly degenerate
   tiny.linear() =
@@ -164,8 +163,8 @@ TEST(CalibrationExportTest, JsonHoldsBothDirectionsAndTheFrames) {
                      std::string("json xyz+quaternion ") + name);
       const auto& rpy = b["rpy_deg"];
       Pose E = Pose::Identity();
-      E.linear() = RotationFromRpy(rpy[0].get<double>() * kDeg, rpy[1].get<double>() * kDeg,
-                                   rpy[2].get<double>() * kDeg);
+      E.linear() = RotationFromRpy(rpy[0].get<double>() * kDeg2Rad, rpy[1].get<double>() * kDeg2Rad,
+                                   rpy[2].get<double>() * kDeg2Rad);
       E.translation() << t[0], t[1], t[2];
       ExpectSamePose(E, expected, std::string("json xyz+rpy ") + name);
     }

@@ -30,8 +30,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double kRad2Deg = 180.0 / M_PI;
-
 // A calibration whose every field depends on `i`, so a mix-up between versions shows.
 StoredCalibration Example(int i) {
   StoredCalibration c;

@@ -24,8 +24,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
-
 ImageView View(const cv::Mat& m) {
   ImageView v;
   v.data = m.data;
@@ -113,7 +111,7 @@ TEST(CameraDetectorPnp, StaysCloseWithPointTwoPixelNoise) {
         double rms = 0.0;
         ASSERT_TRUE(EstimateTagPose(model, board, corners, &T_est, &rms));
         trans.push_back((T_est.translation() - T_true.translation()).norm());
-        rot.push_back(RotationAngle(T_est.linear(), T_true.linear()) * kRadToDeg);
+        rot.push_back(RotationAngle(T_est.linear(), T_true.linear()) * kRad2Deg);
       }
       std::printf(
           "[ pnp      ] %s %.0f m, 0.2 px noise: translation median %.4f max %.4f m, "
@@ -150,7 +148,7 @@ int Score(const sim::SessionSimulator& s, const sim::FrameTruth& truth,
         e->corner_px.push_back((det.corners_px[k] - uv).norm());
       }
       e->trans_m.push_back((det.T_camera_board.translation() - T.translation()).norm());
-      e->rot_deg.push_back(RotationAngle(det.T_camera_board.linear(), T.linear()) * kRadToDeg);
+      e->rot_deg.push_back(RotationAngle(det.T_camera_board.linear(), T.linear()) * kRad2Deg);
     }
   }
   return found;
@@ -522,7 +520,7 @@ TEST(CameraDetector, CheckerboardGivesItsPose) {
     const BoardDetection2D& det = dets.boards[0];
     EXPECT_EQ(det.board_id, 7);
     const double trans = (det.T_camera_board.translation() - T_true.translation()).norm();
-    const double rot = RotationAngle(det.T_camera_board.linear(), T_true.linear()) * kRadToDeg;
+    const double rot = RotationAngle(det.T_camera_board.linear(), T_true.linear()) * kRad2Deg;
     double worst_corner = 0.0;
     for (size_t c = 0; c < 4; ++c) {
       Eigen::Vector2d uv;

@@ -11,11 +11,10 @@
 #include <vector>
 
 #include "calibd/core/camera_model.hpp"
+#include "calibd/core/geometry.hpp"
 
 namespace calibd {
 namespace {
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 // Unprojects a 49 x 25 grid over the whole image, projects the rays back at `depth` and checks
 // every pixel comes back within 1e-6 px.
@@ -68,7 +67,7 @@ TEST(CameraModel, FoldOverGateRejectsFarOffAxisPointsThatDistortIntoTheImage) {
   int folded_inside = 0;
   for (double deg = 60.0; deg < 89.5; deg += 0.25) {
     // Slightly above the horizontal meridian, on the right of the optical axis.
-    const double r = std::tan(deg * kDegToRad);
+    const double r = std::tan(deg * kDeg2Rad);
     const Eigen::Vector2d xy(r * std::cos(0.02), r * std::sin(0.02));
     const Eigen::Vector2d naive = model.DistortToPixel(xy);
     const bool naive_inside =

@@ -33,7 +33,6 @@ namespace {
 using calibd::testing::Detection;
 using calibd::testing::TagDetector;
 
-constexpr double kDegToRad = M_PI / 180.0;
 constexpr double kBoardThickness = 0.02;  // m
 
 // ---- Scene helpers ----
@@ -203,7 +202,7 @@ TEST_F(CameraRenderTest, BoardAt6mFacingTheCamera) {
 }
 
 TEST_F(CameraRenderTest, BoardAt6mYawed25Deg) {
-  ExpectBoardDetected("6 m yaw 25 deg", 1, BoardPose({6.0, 0.3, 1.4}, 25.0 * kDegToRad));
+  ExpectBoardDetected("6 m yaw 25 deg", 1, BoardPose({6.0, 0.3, 1.4}, 25.0 * kDeg2Rad));
 }
 
 TEST_F(CameraRenderTest, BoardAt30m) {

@@ -22,8 +22,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 struct Synthetic {
   std::vector<BoardGeometry> boards;
   ObservationSet set;
@@ -58,13 +56,13 @@ Synthetic MakeSynthetic(uint64_t seed, int frames, double noise_m, double min_m 
   // Draws out of function arguments (Draw3): the same data on every target.
   const Eigen::Vector3d r = Draw3(u, rng);
   s.T_camera_lidar.linear() =
-      R_cl * RotationFromRpy(3 * kDeg * r.x(), 3 * kDeg * r.y(), 3 * kDeg * r.z());
+      R_cl * RotationFromRpy(3 * kDeg2Rad * r.x(), 3 * kDeg2Rad * r.y(), 3 * kDeg2Rad * r.z());
   const Eigen::Vector3d t = Draw3(u, rng);
   s.T_camera_lidar.translation() =
       Eigen::Vector3d(0.05 * t.x(), 0.5 + 0.1 * t.y(), -0.4 + 0.1 * t.z());
   const Pose T_lidar_camera = s.T_camera_lidar.inverse();
 
-  const int side_points = static_cast<int>(0.6 / (min_m * 0.2 * kDeg)) + 2;
+  const int side_points = static_cast<int>(0.6 / (min_m * 0.2 * kDeg2Rad)) + 2;
   s.set.Reserve(frames * 3, frames * 3 * side_points * side_points);
   std::vector<Eigen::Vector3f> pts;
   for (int f = 0; f < frames; ++f) {
@@ -76,11 +74,11 @@ Synthetic MakeSynthetic(uint64_t seed, int frames, double noise_m, double min_m 
       R_facing << 1, 0, 0, 0, -1, 0, 0, 0, -1;
       const Eigen::Vector3d tilt = Draw3(u, rng);
       T_camera_board.linear() =
-          R_facing *
-          RotationFromRpy(15 * kDeg * tilt.x(), 35 * kDeg * tilt.y(), 5 * kDeg * tilt.z());
+          R_facing * RotationFromRpy(15 * kDeg2Rad * tilt.x(), 35 * kDeg2Rad * tilt.y(),
+                                     5 * kDeg2Rad * tilt.z());
       const double dy = u(rng), dx = u(rng);
       T_camera_board.translation() = Eigen::Vector3d((b - 1) * 2.2 + 0.3 * dx, 0.2 * dy, d);
-      const double spacing = d * 0.2 * kDeg;
+      const double spacing = d * 0.2 * kDeg2Rad;
       const double keep_x = 0.3 * (0.5 + 0.5 * u(rng)), keep_y = 0.3 * (0.5 + 0.5 * u(rng));
       pts.clear();
       for (double x = -0.3; x <= 0.3; x += spacing) {
@@ -106,7 +104,7 @@ Pose Perturb(const Pose& T, double rot_deg, double trans_m, uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   Pose dT = Pose::Identity();
-  dT.linear() = RotationFromAxisAngle(Draw3(n01, rng), rot_deg * kDeg);
+  dT.linear() = RotationFromAxisAngle(Draw3(n01, rng), rot_deg * kDeg2Rad);
   dT.translation() = Draw3(n01, rng).normalized() * trans_m;
   return dT * T;
 }
@@ -117,7 +115,7 @@ TEST(DirectOptimizerTest, RecoversTheExtrinsicExactlyWithoutNoise) {
     const Pose init = Perturb(s.T_camera_lidar, 2.0, 0.05, seed + 100);
     const DirectResult r = OptimizeDirect(s.boards, s.set, init, DirectOptimizerConfig{});
     ASSERT_TRUE(r.usable) << r.reason;
-    EXPECT_LT(RotationAngle(r.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg, 1e-4)
+    EXPECT_LT(RotationAngle(r.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg2Rad, 1e-4)
         << "seed " << seed;
     EXPECT_LT((r.T_camera_lidar.translation() - s.T_camera_lidar.translation()).norm(), 1e-5)
         << "seed " << seed;
@@ -133,7 +131,7 @@ TEST(DirectOptimizerTest, RecoversTheExtrinsicWithinTargetsUnderRangeNoise) {
     const DirectResult r = OptimizeDirect(s.boards, s.set, init, DirectOptimizerConfig{});
     ASSERT_TRUE(r.usable) << r.reason;
     const double rot_err =
-        RotationAngle(r.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg;
+        RotationAngle(r.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg2Rad;
     const double trans_err =
         (r.T_camera_lidar.translation() - s.T_camera_lidar.translation()).norm();
     std::printf(
@@ -159,9 +157,9 @@ TEST(IndirectOptimizerTest, ConvergesButDirectIsMoreAccurateOnPartialBoards) {
     const DirectResult dir = OptimizeDirect(s.boards, s.set, init, DirectOptimizerConfig{});
     ASSERT_TRUE(dir.usable) << dir.reason;
     const double ind_rot =
-        RotationAngle(ind.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg;
+        RotationAngle(ind.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg2Rad;
     const double dir_rot =
-        RotationAngle(dir.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg;
+        RotationAngle(dir.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg2Rad;
     std::printf("seed %llu: indirect %.3f deg (%d/%d inliers, %.2f px), direct %.4f deg\n",
                 static_cast<unsigned long long>(seed), ind_rot, ind.inliers, ind.correspondences,
                 ind.reprojection_mean_px, dir_rot);
@@ -325,7 +323,7 @@ TEST(CompressedBoxCostTest, SameNormalEquationsAndSameSolveAsThePerPointRows) {
   EXPECT_LT(RotationAngle(a.linear(), b.linear()), 1e-8);
   EXPECT_LT((a.translation() - b.translation()).norm(), 1e-8);
   // And the start was far enough for the solve to matter.
-  EXPECT_GT(RotationAngle(start.linear(), b.linear()), 1.0 * kDeg);
+  EXPECT_GT(RotationAngle(start.linear(), b.linear()), 1.0 * kDeg2Rad);
 }
 
 TEST(CornerCostTest, ResidualIsTheScaledNormalisedErrorAndJacobianMatches) {
@@ -365,7 +363,7 @@ TEST(DirectOptimizerTest, BoardPoseRefinementRemovesCameraPoseNoise) {
       }
       Pose pnp;
       ASSERT_TRUE(EstimateTagPose(camera, s.boards[o.board_index], o.corners_px, &pnp, nullptr));
-      tilt_error += RotationAngle(pnp.linear(), o.T_camera_board.linear()) / kDeg;
+      tilt_error += RotationAngle(pnp.linear(), o.T_camera_board.linear()) / kDeg2Rad;
       o.T_camera_board = pnp;
     }
     const Pose init = Perturb(s.T_camera_lidar, 1.0, 0.03, seed + 100);
@@ -379,9 +377,9 @@ TEST(DirectOptimizerTest, BoardPoseRefinementRemovesCameraPoseNoise) {
     EXPECT_EQ(with.refined_boards, 300);
     EXPECT_EQ(without.refined_boards, 0);
     const double err_without =
-        RotationAngle(without.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg;
+        RotationAngle(without.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg2Rad;
     const double err_with =
-        RotationAngle(with.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg;
+        RotationAngle(with.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg2Rad;
     std::printf(
         "seed %llu: PnP tilt error mean %.2f deg; extrinsic error with PnP poses %.4f deg, "
         "refined %.4f deg\n",
@@ -423,7 +421,7 @@ TEST(DirectOptimizerTest, BoardPoseRefinementStartedDegreesOffEndsWhereAStartNea
                        nullptr, true, &camera);
     ASSERT_TRUE(near.usable && far.usable) << near.reason << far.reason;
     const double apart =
-        RotationAngle(near.T_camera_lidar.linear(), far.T_camera_lidar.linear()) / kDeg;
+        RotationAngle(near.T_camera_lidar.linear(), far.T_camera_lidar.linear()) / kDeg2Rad;
     std::printf("seed %llu: started 0.5 deg and 6 deg off, the solutions are %.4f deg apart\n",
                 static_cast<unsigned long long>(seed), apart);
     EXPECT_LT(apart, 0.01) << "seed " << seed;
@@ -442,7 +440,8 @@ TEST(DirectOptimizerTest, HeldBoardReSolvesStartFromTheRefinedPosesAndMoveOnlyWi
   const DirectResult same = ResolveWithHeldBoards(
       s.boards, s.set, full.T_camera_lidar, DirectOptimizerConfig{}, full.T_camera_board, nullptr);
   ASSERT_TRUE(same.usable) << same.reason;
-  EXPECT_LT(RotationAngle(same.T_camera_lidar.linear(), full.T_camera_lidar.linear()) / kDeg, 1e-4);
+  EXPECT_LT(RotationAngle(same.T_camera_lidar.linear(), full.T_camera_lidar.linear()) / kDeg2Rad,
+            1e-4);
   EXPECT_LT((same.T_camera_lidar.translation() - full.T_camera_lidar.translation()).norm(), 1e-5);
   EXPECT_EQ(same.observations, static_cast<int>(s.set.observations.size()));
   // Half the boards: it moves, but stays near the truth.
@@ -453,10 +452,10 @@ TEST(DirectOptimizerTest, HeldBoardReSolvesStartFromTheRefinedPosesAndMoveOnlyWi
   ASSERT_TRUE(half.usable) << half.reason;
   EXPECT_EQ(half.observations, static_cast<int>(use.size() / 2));
   const double moved =
-      RotationAngle(half.T_camera_lidar.linear(), full.T_camera_lidar.linear()) / kDeg;
+      RotationAngle(half.T_camera_lidar.linear(), full.T_camera_lidar.linear()) / kDeg2Rad;
   EXPECT_GT(moved, 1e-5);
   EXPECT_LT(moved, 0.1);
-  EXPECT_LT(RotationAngle(half.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg, 0.1);
+  EXPECT_LT(RotationAngle(half.T_camera_lidar.linear(), s.T_camera_lidar.linear()) / kDeg2Rad, 0.1);
   // Board poses that do not match the observations are refused with a reason.
   const DirectResult wrong =
       ResolveWithHeldBoards(s.boards, s.set, full.T_camera_lidar, DirectOptimizerConfig{},

@@ -21,8 +21,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 struct Errors {
   double rotation_deg = 1e9, translation_m = 1e9;
 };
@@ -95,7 +93,8 @@ TEST_P(GenericLidarTest, DriveCalibratedAsGenericMatchesTheNamedModel) {
     EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kUpdated)
         << model.name << ": " << out.reason << ": " << out.detail;
     Errors e;
-    e.rotation_deg = RotationAngle(out.T_camera_lidar.linear(), s.T_camera_lidar().linear()) / kDeg;
+    e.rotation_deg =
+        RotationAngle(out.T_camera_lidar.linear(), s.T_camera_lidar().linear()) / kDeg2Rad;
     e.translation_m = (out.T_camera_lidar.translation() - s.T_camera_lidar().translation()).norm();
     return e;
   };

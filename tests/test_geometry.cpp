@@ -11,8 +11,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 double MaxDiff(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return (a - b).cwiseAbs().maxCoeff();
 }
@@ -30,10 +28,11 @@ TEST(GeometryTest, RpyRebuildsRandomRotations) {
 }
 
 TEST(GeometryTest, RpyOfKnownAnglesComesBack) {
-  const Eigen::Vector3d rpy = RpyFromRotation(RotationFromRpy(10 * kDeg, -20 * kDeg, 30 * kDeg));
-  EXPECT_NEAR(rpy.x(), 10 * kDeg, 1e-12);
-  EXPECT_NEAR(rpy.y(), -20 * kDeg, 1e-12);
-  EXPECT_NEAR(rpy.z(), 30 * kDeg, 1e-12);
+  const Eigen::Vector3d rpy =
+      RpyFromRotation(RotationFromRpy(10 * kDeg2Rad, -20 * kDeg2Rad, 30 * kDeg2Rad));
+  EXPECT_NEAR(rpy.x(), 10 * kDeg2Rad, 1e-12);
+  EXPECT_NEAR(rpy.y(), -20 * kDeg2Rad, 1e-12);
+  EXPECT_NEAR(rpy.z(), 30 * kDeg2Rad, 1e-12);
 }
 
 TEST(GeometryTest, RpyRebuildsRotationsAtAndNearTheGimbalLock) {

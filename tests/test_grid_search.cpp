@@ -19,8 +19,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 // Every 5th frame of the default drive (6 m onwards), `frames` of them, with real detections.
 std::unique_ptr<testing::RecordedSession> Record(const std::string& lidar, int frames) {
   sim::SessionOptions o;
@@ -38,7 +36,7 @@ TEST(GridSearchTest, FastCountEqualsBruteForce) {
   int nonzero = 0;
   for (int i = 0; i < 40; ++i) {
     const Pose T = PerturbExtrinsic(r->session.T_camera_lidar(),
-                                    Eigen::Vector3d(u(rng), u(rng), u(rng)) * kDeg);
+                                    Eigen::Vector3d(u(rng), u(rng), u(rng)) * kDeg2Rad);
     const long brute = search.CountBruteForce(r->obs, T);
     EXPECT_EQ(search.CountForTest(r->obs, T), brute) << "candidate " << i;
     nonzero += brute > 0 ? 1 : 0;
@@ -96,21 +94,21 @@ TEST_P(GridSearchRecoveryTest, RecoversRandomPriorRotationsThenDirectRefines) {
   std::uniform_real_distribution<double> u(-8.0, 8.0);
   std::vector<Pose> refined;
   for (int trial = 0; trial < 5; ++trial) {
-    const Pose prior = PerturbExtrinsic(truth, Eigen::Vector3d(u(rng), u(rng), u(rng)) * kDeg);
+    const Pose prior = PerturbExtrinsic(truth, Eigen::Vector3d(u(rng), u(rng), u(rng)) * kDeg2Rad);
     GridSearch search(GridSearchConfig{}, r->projection, r->config.boards);
     ObservationSet corr;
     corr.Reserve(200, 200 * 4096);
     const GridSearchResult g = search.Run(r->obs, prior, &corr);
     ASSERT_EQ(g.status, GridSearchResult::Status::kOk) << g.reason;
-    const double grid_err = RotationAngle(g.T_camera_lidar.linear(), truth.linear()) / kDeg;
+    const double grid_err = RotationAngle(g.T_camera_lidar.linear(), truth.linear()) / kDeg2Rad;
     const DirectResult d = OptimizeDirect(r->config.boards, corr, g.T_camera_lidar, {});
     ASSERT_TRUE(d.usable) << d.reason;
-    const double err = RotationAngle(d.T_camera_lidar.linear(), truth.linear()) / kDeg;
+    const double err = RotationAngle(d.T_camera_lidar.linear(), truth.linear()) / kDeg2Rad;
     std::printf(
         "%s trial %d: prior %.2f deg -> grid %.2f deg (%ld/%ld points, %d candidates, "
         "%.1f ms) -> direct %.4f deg, %.4f m\n",
-        GetParam().c_str(), trial, RotationAngle(prior.linear(), truth.linear()) / kDeg, grid_err,
-        g.best_count, g.total_points, g.candidates, g.search_ms, err,
+        GetParam().c_str(), trial, RotationAngle(prior.linear(), truth.linear()) / kDeg2Rad,
+        grid_err, g.best_count, g.total_points, g.candidates, g.search_ms, err,
         (d.T_camera_lidar.translation() - truth.translation()).norm());
     // The grid's job is to land in the optimiser's basin: its point count saturates within about
     // +-0.5 deg of the truth (the regions are a board-sized cube), so it is coarse by design.
@@ -125,7 +123,7 @@ TEST_P(GridSearchRecoveryTest, RecoversRandomPriorRotationsThenDirectRefines) {
   }
   // From every prior the optimisation reaches the same solution: the grid always found the basin.
   for (const Pose& T : refined)
-    EXPECT_LT(RotationAngle(T.linear(), refined.front().linear()) / kDeg, 0.01);
+    EXPECT_LT(RotationAngle(T.linear(), refined.front().linear()) / kDeg2Rad, 0.01);
 }
 
 INSTANTIATE_TEST_SUITE_P(Lidars, GridSearchRecoveryTest, ::testing::Values("ot128", "falcon"));
@@ -139,7 +137,7 @@ TEST(GridSearchTest, EmptyInputAndNoCandidateAreExplicit) {
             GridSearchResult::Status::kNoInput);
   // A prior turned 60 deg away: no candidate within +-9 deg sees the boards.
   const Pose wrong =
-      PerturbExtrinsic(r->session.T_camera_lidar(), Eigen::Vector3d(0, 0, 60 * kDeg));
+      PerturbExtrinsic(r->session.T_camera_lidar(), Eigen::Vector3d(0, 0, 60 * kDeg2Rad));
   const GridSearchResult g = search.Run(r->obs, wrong, nullptr);
   EXPECT_EQ(g.status, GridSearchResult::Status::kNoCandidate);
   EXPECT_NE(g.reason.find("fewer than"), std::string::npos) << g.reason;
@@ -149,7 +147,7 @@ TEST(GridSearchTest, EmptyInputAndNoCandidateAreExplicit) {
 // and elevation -5 deg, `step_m` apart.
 std::vector<Eigen::Vector3f> FacingSquare(double range_m, double az_deg, double side_m,
                                           double step_m) {
-  const double az = az_deg * kDeg, el = -5.0 * kDeg;
+  const double az = az_deg * kDeg2Rad, el = -5.0 * kDeg2Rad;
   const Eigen::Vector3d dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
   const Eigen::Vector3d right = Eigen::Vector3d::UnitZ().cross(dir).normalized();
   const Eigen::Vector3d up = dir.cross(right);
@@ -174,10 +172,10 @@ SessionObservations BoardFrames(
     const double az = -20.0 + 10.0 * f;
     EXPECT_TRUE(s.BeginFrame());
     Pose T_lidar_board = Pose::Identity();
-    const double el = -5.0 * kDeg;
+    const double el = -5.0 * kDeg2Rad;
     T_lidar_board.translation() =
-        4.0 * Eigen::Vector3d(std::cos(el) * std::cos(az * kDeg),
-                              std::cos(el) * std::sin(az * kDeg), std::sin(el));
+        4.0 * Eigen::Vector3d(std::cos(el) * std::cos(az * kDeg2Rad),
+                              std::cos(el) * std::sin(az * kDeg2Rad), std::sin(el));
     SessionObservations::CameraBoard cam;
     cam.frame = f;
     cam.board_index = 0;

@@ -13,8 +13,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
-
 TEST(LidarModelTest, Ot128Has128RingsFromThePandar128Table) {
   const LidarModel m = MakeLidarModel(LidarKind::kOt128);
   EXPECT_EQ(m.name, "ot128");
@@ -182,7 +180,7 @@ void ExpectPatternInsideModel(const LidarModel& m, const std::vector<sim::Beam>&
   int32_t last_t = 0;
   for (size_t i = 0; i < beams.size(); ++i) {
     const sim::Beam& b = beams[i];
-    const double az = b.azimuth_rad * kRadToDeg, el = b.elevation_rad * kRadToDeg;
+    const double az = b.azimuth_rad * kRad2Deg, el = b.elevation_rad * kRad2Deg;
     ASSERT_GE(az, m.azimuth_min_deg - eps) << "beam " << i;
     ASSERT_LE(az, m.azimuth_max_deg + eps) << "beam " << i;
     ASSERT_GE(el, m.elevation_min_deg - eps) << "beam " << i;
@@ -209,10 +207,10 @@ TEST(LidarPatternTest, Ot128IsFullCircleOf1800ColumnsOf128Rings) {
   ExpectPatternInsideModel(m, beams);
   std::set<int> azimuth_steps;
   for (const auto& b : beams)
-    azimuth_steps.insert(static_cast<int>(std::lround(b.azimuth_rad * kRadToDeg / 0.2)));
+    azimuth_steps.insert(static_cast<int>(std::lround(b.azimuth_rad * kRad2Deg / 0.2)));
   EXPECT_EQ(azimuth_steps.size(), 1800u);
   for (int ring = 0; ring < 128; ++ring)
-    EXPECT_NEAR(beams[ring].elevation_rad * kRadToDeg, m.ring_elevation_deg[ring], 1e-4);
+    EXPECT_NEAR(beams[ring].elevation_rad * kRad2Deg, m.ring_elevation_deg[ring], 1e-4);
 }
 
 TEST(LidarPatternTest, M1HasAbout78kBeamsThatShiftBetweenFrames) {
@@ -244,7 +242,7 @@ TEST(LidarPatternTest, M1FiresFiveZonesInParallelWithSinusoidalFastAxis) {
     std::set<int> zones;
     for (size_t k = 0; k < 5; ++k) {
       EXPECT_EQ(beams[g + k].time_offset_us, beams[g].time_offset_us);
-      zones.insert(static_cast<int>(std::floor((beams[g + k].azimuth_rad * kRadToDeg + 60) / 24)));
+      zones.insert(static_cast<int>(std::floor((beams[g + k].azimuth_rad * kRad2Deg + 60) / 24)));
     }
     EXPECT_EQ(zones.size(), 5u);
   }
@@ -263,7 +261,7 @@ TEST(LidarPatternTest, FalconHasDenseCentralBandAndDocumentedSize) {
   EXPECT_LE(beams.size(), 150000u);
   ExpectPatternInsideModel(m, beams);
   std::set<double> lines;
-  for (const auto& b : beams) lines.insert(std::round(b.elevation_rad * kRadToDeg * 1e4) / 1e4);
+  for (const auto& b : beams) lines.insert(std::round(b.elevation_rad * kRad2Deg * 1e4) / 1e4);
   std::vector<double> el(lines.begin(), lines.end());
   double band_gap = 0.0, outer_gap = 0.0;
   for (size_t i = 1; i < el.size(); ++i) {
@@ -290,7 +288,7 @@ TEST(LidarPatternTest, SpinningModelsFireEveryRingInEveryColumn) {
     ExpectPatternInsideModel(m, beams);
     const size_t rings = m.ring_elevation_deg.size();
     for (size_t ring = 0; ring < rings; ++ring)
-      EXPECT_NEAR(beams[rings + ring].elevation_rad * kRadToDeg, m.ring_elevation_deg[ring], 1e-4);
+      EXPECT_NEAR(beams[rings + ring].elevation_rad * kRad2Deg, m.ring_elevation_deg[ring], 1e-4);
   }
 }
 
@@ -305,9 +303,9 @@ double CentralCoverage(const LidarModel& m, int frames) {
   for (int f = 0; f < frames; ++f) {
     sim::MakeScanPattern(m, f, &beams);
     for (const sim::Beam& b : beams) {
-      const int c = static_cast<int>(std::floor((b.azimuth_rad * kRadToDeg + half_az) / 0.4));
+      const int c = static_cast<int>(std::floor((b.azimuth_rad * kRad2Deg + half_az) / 0.4));
       const int r =
-          static_cast<int>(std::floor((b.elevation_rad * kRadToDeg - mid_el + half_el) / 0.4));
+          static_cast<int>(std::floor((b.elevation_rad * kRad2Deg - mid_el + half_el) / 0.4));
       if (c >= 0 && c < cols && r >= 0 && r < rows) hit[static_cast<size_t>(r) * cols + c] = 1;
     }
   }

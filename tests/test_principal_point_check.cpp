@@ -15,8 +15,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 CameraIntrinsics Camera() {
   CameraIntrinsics k;
   k.width = 1920;
@@ -47,8 +45,8 @@ SessionObservations Views(const CameraIntrinsics& truth, int views, double max_t
     SessionObservations::CameraBoard b;
     b.board_index = 0;
     const double z = min_m + 3.0 * (1.0 + u(rng));
-    b.T_camera_board.linear() = RotationFromRpy(M_PI + max_turn_deg * kDeg * u(rng),
-                                                max_turn_deg * kDeg * u(rng), 0.3 * u(rng));
+    b.T_camera_board.linear() = RotationFromRpy(M_PI + max_turn_deg * kDeg2Rad * u(rng),
+                                                max_turn_deg * kDeg2Rad * u(rng), 0.3 * u(rng));
     b.T_camera_board.translation() = Eigen::Vector3d(0.4 * z * u(rng), 0.25 * z * u(rng), z);
     bool seen = true;
     for (int c = 0; c < 4 && seen; ++c) {

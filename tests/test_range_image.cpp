@@ -1,6 +1,7 @@
 // RangeImage (paper §III-C-1): ring and ringless cells, nearest point kept and nearby ones
 // chained, invalid points.
 
+#include "calibd/core/geometry.hpp"
 #include "calibd/core/range_image.hpp"
 
 #include <gtest/gtest.h>
@@ -12,15 +13,15 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 struct Cloud {
   std::vector<float> x, y, z;
   std::vector<int16_t> ring;
   void Add(double range, double az_deg, double el_deg, int r = -1) {
-    x.push_back(static_cast<float>(range * std::cos(el_deg * kDeg) * std::cos(az_deg * kDeg)));
-    y.push_back(static_cast<float>(range * std::cos(el_deg * kDeg) * std::sin(az_deg * kDeg)));
-    z.push_back(static_cast<float>(range * std::sin(el_deg * kDeg)));
+    x.push_back(
+        static_cast<float>(range * std::cos(el_deg * kDeg2Rad) * std::cos(az_deg * kDeg2Rad)));
+    y.push_back(
+        static_cast<float>(range * std::cos(el_deg * kDeg2Rad) * std::sin(az_deg * kDeg2Rad)));
+    z.push_back(static_cast<float>(range * std::sin(el_deg * kDeg2Rad)));
     ring.push_back(static_cast<int16_t>(r));
   }
   PointCloudView View(bool with_rings) const {
@@ -84,7 +85,7 @@ TEST(RangeImageTest, RinglessLidarBinsAtItsResolutionAndKeepsTheNearestPoint) {
   EXPECT_EQ(image.point_cell()[0], image.CellIndex(73, 350));
   EXPECT_EQ(image.point_cell()[3], -1);
   int row = 0, col = 0;
-  ASSERT_TRUE(image.CellOf(10.1 * kDeg, 2.15 * kDeg, &row, &col));
+  ASSERT_TRUE(image.CellOf(10.1 * kDeg2Rad, 2.15 * kDeg2Rad, &row, &col));
   EXPECT_EQ(row, 73);
   EXPECT_EQ(col, 350);
 }
@@ -150,32 +151,34 @@ TEST(RangeImageTest, ABoxReachingPastTheFieldOfViewIsClippedToIt) {
     const LidarModel model = MakeLidarModel(kind);
     RangeImage image;
     image.Configure(model, 0.5, 200.0, 10);
-    const double top = model.elevation_max_deg * kDeg;
+    const double top = model.elevation_max_deg * kDeg2Rad;
     int r0 = 0, r1 = 0, c0 = 0, c1 = 0;
     // Inside: the same cells as CellOf gives for its corners.
-    ASSERT_TRUE(image.CellBoxOf(-2 * kDeg, 2 * kDeg, -3 * kDeg, 3 * kDeg, &r0, &r1, &c0, &c1));
+    ASSERT_TRUE(image.CellBoxOf(-2 * kDeg2Rad, 2 * kDeg2Rad, -3 * kDeg2Rad, 3 * kDeg2Rad, &r0, &r1,
+                                &c0, &c1));
     int row = 0, col = 0;
-    ASSERT_TRUE(image.CellOf(-2 * kDeg, -3 * kDeg, &row, &col));
+    ASSERT_TRUE(image.CellOf(-2 * kDeg2Rad, -3 * kDeg2Rad, &row, &col));
     EXPECT_EQ(r0, row);
     EXPECT_EQ(c0, col);
-    ASSERT_TRUE(image.CellOf(2 * kDeg, 3 * kDeg, &row, &col));
+    ASSERT_TRUE(image.CellOf(2 * kDeg2Rad, 3 * kDeg2Rad, &row, &col));
     EXPECT_EQ(r1, row);
     EXPECT_EQ(c1, col);
     // A near board's box past the top edge: its rows up to the top row, none lost.
-    ASSERT_TRUE(
-        image.CellBoxOf(-2 * kDeg, 2 * kDeg, top - 5 * kDeg, top + 10 * kDeg, &r0, &r1, &c0, &c1));
+    ASSERT_TRUE(image.CellBoxOf(-2 * kDeg2Rad, 2 * kDeg2Rad, top - 5 * kDeg2Rad,
+                                top + 10 * kDeg2Rad, &r0, &r1, &c0, &c1));
     EXPECT_EQ(r1, image.rows() - 1);
     EXPECT_LT(r0, r1);
     // Wholly above the field of view: no cells.
-    EXPECT_FALSE(
-        image.CellBoxOf(-2 * kDeg, 2 * kDeg, top + 5 * kDeg, top + 9 * kDeg, &r0, &r1, &c0, &c1));
+    EXPECT_FALSE(image.CellBoxOf(-2 * kDeg2Rad, 2 * kDeg2Rad, top + 5 * kDeg2Rad,
+                                 top + 9 * kDeg2Rad, &r0, &r1, &c0, &c1));
     if (!image.wraps()) {
       // Past the side of a limited field of view: clipped to the last column.
-      const double side = model.azimuth_max_deg * kDeg;
-      ASSERT_TRUE(image.CellBoxOf(side - 3 * kDeg, side + 8 * kDeg, 0.0, kDeg, &r0, &r1, &c0, &c1));
+      const double side = model.azimuth_max_deg * kDeg2Rad;
+      ASSERT_TRUE(image.CellBoxOf(side - 3 * kDeg2Rad, side + 8 * kDeg2Rad, 0.0, kDeg2Rad, &r0, &r1,
+                                  &c0, &c1));
       EXPECT_EQ(c1, image.cols() - 1);
-      EXPECT_FALSE(
-          image.CellBoxOf(side + 2 * kDeg, side + 8 * kDeg, 0.0, kDeg, &r0, &r1, &c0, &c1));
+      EXPECT_FALSE(image.CellBoxOf(side + 2 * kDeg2Rad, side + 8 * kDeg2Rad, 0.0, kDeg2Rad, &r0,
+                                   &r1, &c0, &c1));
     }
   }
 }
@@ -183,7 +186,7 @@ TEST(RangeImageTest, ABoxReachingPastTheFieldOfViewIsClippedToIt) {
 TEST(RangeImageTest, FastAtan2IsWithinTwoMicroradiansOfStdAtan2) {
   double worst = 0.0;
   for (int i = 0; i < 3600; ++i) {
-    const double a = i * 0.1 * kDeg - M_PI;
+    const double a = i * 0.1 * kDeg2Rad - M_PI;
     for (double r : {0.01, 1.0, 150.0}) {
       const float x = static_cast<float>(r * std::cos(a)), y = static_cast<float>(r * std::sin(a));
       double e = std::fabs(FastAtan2(y, x) - std::atan2(y, x));

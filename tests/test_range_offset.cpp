@@ -14,8 +14,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 // 60 frames approaching two 0.6 m boards 1.1 m left and right of the axis from 14 m to 4 m, facing
 // the LiDAR (at the camera's origin: T_camera_lidar = identity), scanned every 0.2 deg in azimuth
 // and elevation with 1 cm range noise; every range `offset_m` long. `beside` adds a strip of
@@ -42,8 +40,8 @@ ObservationSet Drive(double offset_m, bool beside) {
       const Eigen::Vector3d c = o.T_camera_board.translation();
       const double half_extent = std::atan2(0.6, z) + 0.01;
       const double az0 = std::atan2(c.x(), c.z());
-      for (double az = az0 - half_extent; az <= az0 + half_extent; az += 0.2 * kDeg)
-        for (double el = -half_extent; el <= half_extent; el += 0.2 * kDeg) {
+      for (double az = az0 - half_extent; az <= az0 + half_extent; az += 0.2 * kDeg2Rad)
+        for (double el = -half_extent; el <= half_extent; el += 0.2 * kDeg2Rad) {
           const Eigen::Vector3d u(std::sin(az) * std::cos(el), std::sin(el),
                                   std::cos(az) * std::cos(el));
           const Eigen::Vector3d hit = u * (z / u.z());

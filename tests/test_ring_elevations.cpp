@@ -12,8 +12,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 // `poses` boards (0.9 m) at 3-7 m in front of a VLP-16, turned and tipped up to 30 deg, each
 // swept by every ring at 0.2 deg steps; ring i fires `errors_deg[i]` above its table's elevation
 // while its points are reported along the table's direction; ranges noisy by 1 cm.
@@ -38,10 +36,10 @@ ObservationSet Boards(const LidarModel& model, const std::vector<double>& errors
     const Eigen::Vector3d c = o.T_camera_board.translation();
     std::vector<Eigen::Vector3f> pts;
     for (size_t ring = 0; ring < model.ring_elevation_deg.size(); ++ring) {
-      const double nominal = model.ring_elevation_deg[ring] * kDeg;
-      const double fired = nominal + errors_deg[ring] * kDeg;
+      const double nominal = model.ring_elevation_deg[ring] * kDeg2Rad;
+      const double fired = nominal + errors_deg[ring] * kDeg2Rad;
       for (double az = -40.0; az <= 40.0; az += 0.2) {
-        const double a = az * kDeg;
+        const double a = az * kDeg2Rad;
         const Eigen::Vector3d d(std::cos(fired) * std::cos(a), std::cos(fired) * std::sin(a),
                                 std::sin(fired));
         const double t = n.dot(c) / n.dot(d);

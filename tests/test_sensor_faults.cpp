@@ -40,7 +40,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
 constexpr int kPairs = 80;
 constexpr int64_t kPeriodUs = 250000;  // 4 Hz
 constexpr int64_t kT0 = 1000000000;    // monotonic time of the first period

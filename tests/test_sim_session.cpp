@@ -16,8 +16,6 @@
 namespace calibd::sim {
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
-
 TEST(TrajectoryTest, DriveGoesFromNearToFarAndBack) {
   TrajectoryOptions t;
   const double lidar_x = 1.2;

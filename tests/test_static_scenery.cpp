@@ -16,8 +16,6 @@
 namespace calibd {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 // A w x h planar patch of points facing -x (towards a LiDAR at the origin) around `centre`,
 // turned by `yaw` about z, with 1 cm of noise.
 std::vector<Eigen::Vector3f> Patch(const Eigen::Vector3d& centre, double yaw, double w, double h,
@@ -38,7 +36,7 @@ template <typename BoardAt, typename CabinetAt>
 SessionObservations MakeSession(int frames, BoardAt board_at, CabinetAt cabinet_at) {
   std::mt19937_64 rng(7);
   Pose T_camera_lidar = Pose::Identity();
-  T_camera_lidar.linear() = RotationFromRpy(-90.0 * kDeg, 0.0, -90.0 * kDeg);
+  T_camera_lidar.linear() = RotationFromRpy(-90.0 * kDeg2Rad, 0.0, -90.0 * kDeg2Rad);
   T_camera_lidar.translation() = Eigen::Vector3d(0.1, -0.2, 0.05);
   SessionObservations s;
   s.Reserve(frames, 2, 1024);
@@ -120,7 +118,7 @@ TEST(StaticSceneryTest, TheEngineSolvesFromTheMovingBoardsAndNamesTheirClusters)
       [](int) { return Eigen::Vector3d(6.0, -3.0, -0.8); });
   CalibConfig config;
   config.boards = Boards();
-  config.prior_T_camera_lidar.linear() = RotationFromRpy(-90.0 * kDeg, 0.0, -90.0 * kDeg);
+  config.prior_T_camera_lidar.linear() = RotationFromRpy(-90.0 * kDeg2Rad, 0.0, -90.0 * kDeg2Rad);
   config.prior_T_camera_lidar.translation() = Eigen::Vector3d(0.1, -0.2, 0.05);
   RangeImage projection;
   projection.Configure(MakeLidarModel(LidarKind::kVlp16), 0.5, 200.0, 1);

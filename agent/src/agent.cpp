@@ -28,7 +28,6 @@ namespace calibd {
 
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
 constexpr int kTickMs = 50;     ///< poll loop timer: status, health and time limits are checked
 constexpr int kFrameQueue = 2;  ///< LCM messages waiting per sensor channel (udpm drops beyond)
 /// LCM messages waiting on CALIBD_SENSOR_INFO and CALIBD_REQUEST (1 Hz and events, each read at

@@ -15,7 +15,6 @@ namespace calibd {
 
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
 /// A sensor counts as alive when its last frame arrived within this; silent longer while a
 /// session collects sets its data-timeout DTC.
 constexpr int64_t kSensorAliveUs = 1000000;

@@ -11,7 +11,6 @@
 namespace calibd {
 
 namespace {
-constexpr double kDegToRad = M_PI / 180.0;
 
 // Gap between the rings just below and just above `elevation_deg` (the outermost gap outside the
 // table), degrees; 0 for fewer than two rings.
@@ -63,9 +62,9 @@ template <typename Hit>
 void SampleIrregularBeams(const LidarModel& model, double el0, double half_span,
                           const BoardView& view, const Hit& hit,
                           std::vector<Eigen::Vector3f>* points, std::vector<float>* weights) {
-  const double az_fov = (model.azimuth_max_deg - model.azimuth_min_deg) * kDegToRad;
-  const double el_lo_fov = model.elevation_min_deg * kDegToRad;
-  const double el_hi_fov = model.elevation_max_deg * kDegToRad;
+  const double az_fov = (model.azimuth_max_deg - model.azimuth_min_deg) * kDeg2Rad;
+  const double el_lo_fov = model.elevation_min_deg * kDeg2Rad;
+  const double el_hi_fov = model.elevation_max_deg * kDeg2Rad;
   const double fov_sr = az_fov * (std::sin(el_hi_fov) - std::sin(el_lo_fov));
   const int frame_points = model.pattern_points_per_frame > 0 ? model.pattern_points_per_frame
                                                               : model.nominal_points_per_frame;
@@ -76,8 +75,8 @@ void SampleIrregularBeams(const LidarModel& model, double el0, double half_span,
   const double patch_sr = 2.0 * half_az * (std::sin(el_hi) - std::sin(el_lo));
   const long beams = std::lround(per_sr * patch_sr);
   std::mt19937_64 rng(SeedOf(view));
-  const double az_step = model.azimuth_resolution_deg * kDegToRad;
-  const double el_step = model.elevation_resolution_deg * kDegToRad;
+  const double az_step = model.azimuth_resolution_deg * kDeg2Rad;
+  const double el_step = model.elevation_resolution_deg * kDeg2Rad;
   struct Cell {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     int hits = 0;
@@ -112,7 +111,7 @@ void SimulateBoardCluster(const LidarModel& model, double width_m, double height
   double elevation_deg = view.elevation_deg;
   if (rings)
     elevation_deg += view.elevation_phase * RingGapAt(model.ring_elevation_deg, view.elevation_deg);
-  const double el0 = elevation_deg * kDegToRad;
+  const double el0 = elevation_deg * kDeg2Rad;
   const Eigen::Vector3d dir(std::cos(el0), 0.0, std::sin(el0));
   const Eigen::Vector3d centre = view.distance_m * dir;
   // Board axes facing the sensor: normal -dir, x_B to the sensor's right as seen from the board
@@ -121,8 +120,8 @@ void SimulateBoardCluster(const LidarModel& model, double width_m, double height
   R_facing.col(2) = -dir;
   R_facing.col(1) = Eigen::Vector3d(-std::sin(el0), 0.0, std::cos(el0));
   R_facing.col(0) = R_facing.col(1).cross(R_facing.col(2));
-  const Eigen::Matrix3d R = RotationFromRpy(0.0, 0.0, view.yaw_deg * kDegToRad) * R_facing *
-                            RotationFromRpy(view.pitch_deg * kDegToRad, 0.0, 0.0);
+  const Eigen::Matrix3d R = RotationFromRpy(0.0, 0.0, view.yaw_deg * kDeg2Rad) * R_facing *
+                            RotationFromRpy(view.pitch_deg * kDeg2Rad, 0.0, 0.0);
   const Eigen::Vector3d ax = R.col(0), ay = R.col(1), n = R.col(2);
   // Angular span to scan: the board's circumscribed sphere seen from the sensor.
   const double radius = 0.5 * std::hypot(width_m, height_m);
@@ -145,14 +144,14 @@ void SimulateBoardCluster(const LidarModel& model, double width_m, double height
 
   std::vector<double> elevations;
   if (rings) {
-    for (double e : model.ring_elevation_deg) elevations.push_back(e * kDegToRad);
+    for (double e : model.ring_elevation_deg) elevations.push_back(e * kDeg2Rad);
   } else {
-    const double step = model.elevation_resolution_deg * kDegToRad;
+    const double step = model.elevation_resolution_deg * kDeg2Rad;
     const int half_rows = static_cast<int>(std::ceil(half_span / step)) + 1;
     for (int j = -half_rows; j <= half_rows; ++j)
       elevations.push_back(el0 + (j + view.elevation_phase) * step);
   }
-  const double az_step = model.azimuth_resolution_deg * kDegToRad;
+  const double az_step = model.azimuth_resolution_deg * kDeg2Rad;
   const int half_cols = static_cast<int>(std::ceil(half_span / az_step)) + 1;
   std::vector<double> sorted = elevations;
   std::sort(sorted.begin(), sorted.end());

@@ -26,7 +26,6 @@ namespace calibd {
 
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
 using Clock = std::chrono::steady_clock;
 
 double Ms(Clock::time_point t0) {

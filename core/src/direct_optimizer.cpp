@@ -18,8 +18,6 @@ namespace calibd {
 
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
-
 bool Used(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
           const std::vector<char>* use, size_t k) {
   const BoardObservation& o = set.observations[k];

@@ -9,8 +9,6 @@ namespace calibd {
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 // FastAtan2 (about 1e-5 rad) is far below a range-image cell (>= 1.3e-3 rad) and several times
 // cheaper than std::atan2: this runs 8 times per region and candidate.
 bool CellOfPoint(const RangeImage& img, const Eigen::Vector3d& p, int* row, int* col) {
@@ -167,7 +165,7 @@ long GridSearch::InViewPoints(const SessionObservations& s, const Pose& T_prior)
     widest = std::max(widest, off_axis(cam.T_camera_board.translation()));
   }
   const double reach = config_.range_deg + (config_.refine ? config_.refine_range_deg : 0.0);
-  const double cone = widest + (reach + kViewConeMarginDeg) * kDeg;
+  const double cone = widest + (reach + kViewConeMarginDeg) * kDeg2Rad;
   long total = 0;
   for (size_t k = 0; k < grids_.size(); ++k) {
     const ClusterGrid& g = grids_[k];
@@ -275,7 +273,7 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
     for (int i = -n; i <= n; ++i)
       for (int j = -n; j <= n; ++j)
         for (int k = -n; k <= n; ++k) {
-          const Eigen::Vector3d d = Eigen::Vector3d(i, j, k) * step_deg * kDeg;
+          const Eigen::Vector3d d = Eigen::Vector3d(i, j, k) * step_deg * kDeg2Rad;
           const Eigen::Vector3d rpy = centre + d;
           const long count = CountFast(s, PerturbExtrinsic(T_prior, rpy), nullptr, stride);
           ++result.candidates;
@@ -296,7 +294,7 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
   // Report the winner's count over every frame (the gate below compares with all points).
   best_count = CountFast(s, PerturbExtrinsic(T_prior, best_rpy), nullptr);
   result.best_count = best_count;
-  result.perturbation_rpy_deg = best_rpy / kDeg;
+  result.perturbation_rpy_deg = best_rpy / kDeg2Rad;
   const long needed = std::max<long>(
       config_.min_points,
       static_cast<long>(config_.min_point_fraction * static_cast<double>(result.total_points)));

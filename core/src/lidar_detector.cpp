@@ -8,6 +8,7 @@
 
 #include "calibd/core/board_references.hpp"
 #include "calibd/core/cluster_pca.hpp"
+#include "calibd/core/geometry.hpp"
 #include "calibd/core/m2dp.hpp"
 #include "calibd/core/plane_regions.hpp"
 #include "calibd/core/range_image.hpp"
@@ -16,8 +17,6 @@
 namespace calibd {
 
 namespace {
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 using Clock = std::chrono::steady_clock;
 
@@ -266,7 +265,7 @@ struct LidarDetector::Impl {
                     double beam_spacing_rad, bool all_figures, LidarClusterReport* figures) const {
     figures->planarity = pca.planarity();
     // Upright: the normal's angle above the horizontal plane.
-    figures->tilt_deg = std::asin(std::min(1.0, std::fabs(pca.axes(2, 2)))) / kDegToRad;
+    figures->tilt_deg = std::asin(std::min(1.0, std::fabs(pca.axes(2, 2)))) / kDeg2Rad;
     figures->size_m = std::sqrt(std::max(0.0, pca.eigenvalues(0) + pca.eigenvalues(1)));
     figures->rectangle =
         all_figures ? InPlaneRectangle(pca, points, n) : Eigen::Vector2d(Eigen::Vector2d::Zero());

@@ -7,13 +7,13 @@
 #include <iomanip>
 #include <sstream>
 
+#include "calibd/core/geometry.hpp"
 #include "calibd/core/range_image.hpp"
 
 namespace calibd {
 
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kMinRangeM = 0.1;
 // Angles are quantized to this for sorting (far below any resolution of interest).
 constexpr double kQuantumDeg = 0.001;
@@ -248,8 +248,8 @@ LidarResolutionEstimate EstimateLidarResolution(const PointCloudView* frames, si
       const float xy = std::sqrt(x * x + y * y);
       const float r = std::sqrt(xy * xy + z * z);
       if (!std::isfinite(r) || !(r >= kMinRangeM)) continue;  // NaN, inf, at the origin
-      az[n] = static_cast<float>(FastAtan2(y, x) * kRadToDeg);
-      el[n] = static_cast<float>(FastAtan2(z, xy) * kRadToDeg);
+      az[n] = static_cast<float>(FastAtan2(y, x) * kRad2Deg);
+      el[n] = static_cast<float>(FastAtan2(z, xy) * kRad2Deg);
       ++n;
     }
     if (static_cast<int>(n - first) < config.min_points_per_frame) {

@@ -4,11 +4,11 @@
 #include <cmath>
 #include <numeric>
 
+#include "calibd/core/geometry.hpp"
+
 namespace calibd {
 
-namespace {
-constexpr double kDegToRad = M_PI / 180.0;
-}  // namespace
+namespace {}  // namespace
 
 float FastAtan2(float y, float x) {
   // atan on [0, 1] by an odd minimax polynomial (Abramowitz & Stegun 4.4.49 form), extended to
@@ -33,13 +33,13 @@ void RangeImage::Configure(const LidarModel& model, double min_range_m, double m
   has_rings_ = model.has_rings && !model.ring_elevation_deg.empty();
   min_range_ = static_cast<float>(min_range_m);
   max_range_ = static_cast<float>(max_range_m);
-  az_step_rad_ = model.azimuth_resolution_deg * kDegToRad;
+  az_step_rad_ = model.azimuth_resolution_deg * kDeg2Rad;
   const double fov_az_deg = model.azimuth_max_deg - model.azimuth_min_deg;
   wraps_ = fov_az_deg >= 360.0 - 1e-6;
   if (has_rings_) {
     // Columns centred on the firing angles -180 + k * step of a spinning sensor.
     cols_ = static_cast<int>(std::lround(fov_az_deg / model.azimuth_resolution_deg));
-    az_min_rad_ = model.azimuth_min_deg * kDegToRad - 0.5 * az_step_rad_;
+    az_min_rad_ = model.azimuth_min_deg * kDeg2Rad - 0.5 * az_step_rad_;
     const int n = static_cast<int>(model.ring_elevation_deg.size());
     std::vector<int> order(n);
     std::iota(order.begin(), order.end(), 0);
@@ -51,16 +51,15 @@ void RangeImage::Configure(const LidarModel& model, double min_range_m, double m
     row_elevation_rad_.resize(n);
     for (int row = 0; row < n; ++row) {
       row_of_ring_[order[row]] = row;
-      row_elevation_rad_[row] =
-          static_cast<float>(model.ring_elevation_deg[order[row]] * kDegToRad);
+      row_elevation_rad_[row] = static_cast<float>(model.ring_elevation_deg[order[row]] * kDeg2Rad);
     }
   } else {
     // Bins of the sensor's angular resolution: finer bins leave most of them empty, coarser ones
     // drop points that the sensor resolved (paper §III-C-1 keeps the nearest point of a bin).
     cols_ = std::max(1, static_cast<int>(std::ceil(fov_az_deg / model.azimuth_resolution_deg)));
-    az_min_rad_ = model.azimuth_min_deg * kDegToRad;
-    el_step_rad_ = model.elevation_resolution_deg * kDegToRad;
-    el_min_rad_ = model.elevation_min_deg * kDegToRad;
+    az_min_rad_ = model.azimuth_min_deg * kDeg2Rad;
+    el_step_rad_ = model.elevation_resolution_deg * kDeg2Rad;
+    el_min_rad_ = model.elevation_min_deg * kDeg2Rad;
     rows_ =
         std::max(1, static_cast<int>(std::ceil((model.elevation_max_deg - model.elevation_min_deg) /
                                                model.elevation_resolution_deg)));

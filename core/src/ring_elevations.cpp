@@ -15,7 +15,6 @@ constexpr double kMinLeverage = 20.0 * 2.25;
 constexpr int kMinRingsMeasured = 4;
 /// Points beyond this share of a board's half size are left out (edges, mixed returns).
 constexpr double kInnerShare = 0.9;
-constexpr double kRad2Deg = 180.0 / M_PI;
 
 struct Sums {
   double gg = 0.0, gd = 0.0, dd = 0.0;

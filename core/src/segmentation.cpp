@@ -4,18 +4,19 @@
 #include <cmath>
 #include <limits>
 
+#include "calibd/core/geometry.hpp"
+
 namespace calibd {
 
 namespace {
-constexpr double kDegToRad = M_PI / 180.0;
 
 float Horizontal(const RangeImageCell& c) { return std::sqrt(c.x * c.x + c.y * c.y); }
 }  // namespace
 
 void RangeSegmenter::Configure(const RangeImage& image, const SegmentationConfig& config) {
   config_ = config;
-  tan_ground_ = std::tan(config.ground_angle_deg * kDegToRad);
-  cos_segmentation_ = static_cast<float>(std::cos(config.segmentation_angle_deg * kDegToRad));
+  tan_ground_ = std::tan(config.ground_angle_deg * kDeg2Rad);
+  cos_segmentation_ = static_cast<float>(std::cos(config.segmentation_angle_deg * kDeg2Rad));
   const size_t cells = static_cast<size_t>(image.rows()) * image.cols();
   labels_.assign(cells, kLabelEmpty);
   // Every cell enters the queue once in the first pass and at most once more when its cluster is

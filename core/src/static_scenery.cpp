@@ -10,8 +10,6 @@ namespace calibd {
 
 namespace {
 
-constexpr double kDegToRad = M_PI / 180.0;
-
 struct ClusterPlane {
   int frame = 0;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
@@ -45,7 +43,7 @@ StaticScenery FindStaticScenery(const SessionObservations& session,
   double min_side = 1e300;
   for (const BoardGeometry& g : boards) min_side = std::min({min_side, g.width_m, g.height_m});
   const double same_object_m = 0.5 * min_side;
-  const double cos_normal = std::cos(config.max_normal_angle_deg * kDegToRad);
+  const double cos_normal = std::cos(config.max_normal_angle_deg * kDeg2Rad);
 
   std::vector<ClusterPlane> planes(session.lidar.size());
   for (size_t i = 0; i < planes.size(); ++i) {

@@ -18,7 +18,6 @@ namespace calibd {
 
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
 constexpr int kExportFormatVersion = 1;
 
 std::string Num(double v) { return ShortestDecimal(v); }

@@ -31,7 +31,6 @@ constexpr size_t kMaxTextField = 256;
 // A calibration file is ~1 kB; anything far larger is not one, and is not read into memory.
 constexpr off_t kMaxFileBytes = 1 << 20;
 constexpr int kMaxKeepPrevious = 1000;
-constexpr double kRad2Deg = 180.0 / M_PI;
 
 std::string SysError(const std::string& what, const std::string& path, int err) {
   return what + " '" + path + "': " + std::strerror(err);

@@ -76,7 +76,6 @@ constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=167772
 constexpr char kSoftwareVersion[] = "calibd-vmtest";  // DID F195 (agent.software_version)
 constexpr char kEcuSerial[] = "ECU-VM-0001";          // DID F18C (agent.uds.ecu_serial)
 constexpr unsigned kInterlock = 0, kStartButton = 1, kStatusLamp = 2;  // gpio-sim offsets
-constexpr double kRad2Deg = 180.0 / M_PI;
 // The replay's pace: 5 Hz frame pairs at half speed, 2.5 pairs/s, which the emulated guest's
 // detectors keep up with (a session ends on coverage after about one drive, 40 s).
 constexpr char kReplaySpeed[] = "0.5";

@@ -19,8 +19,6 @@ namespace calibd::bench {
 
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
-
 double Mean(const std::vector<double>& v) {
   double sum = 0.0;
   for (double x : v) sum += x;

@@ -15,7 +15,6 @@
 namespace calibd::tools {
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
 constexpr const char* kGreen = "#1e8e3e";  // verified, updated: the banner and passed gates
 constexpr const char* kRed = "#c5221f";    // rejected, failed gates
 // Board colours in the plots (Okabe-Ito, distinguishable with colour-blindness).

@@ -21,8 +21,6 @@ namespace calibd::tools {
 
 namespace {
 
-constexpr double kRad2Deg = 180.0 / M_PI;
-
 // A named mounting: the rotation of T_camera_lidar (camera x right, y down, z forward; LiDAR x
 // forward, y left, z up, as calibd's conventions say).
 struct Mounting {

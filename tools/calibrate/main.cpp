@@ -33,7 +33,6 @@
 namespace {
 
 using namespace calibd;
-constexpr double kRad2Deg = 180.0 / M_PI;
 
 constexpr const char* kHelp =
     R"(calibd-calibrate: LiDAR-camera extrinsic calibration of a recorded session.

@@ -37,8 +37,6 @@ void LidarScan::Clear() {
 
 namespace {
 
-constexpr double kDegToRad = M_PI / 180.0;
-
 // Pattern layouts. Beam index formulas (used again to find a beam's neighbours in the pattern):
 //   spinning (ot128, vlp16, vlp32c, os1-64): i = column * rings + ring
 //   m1:     i = (line * kM1Samples + sample) * kM1Zones + zone
@@ -99,12 +97,12 @@ void MakeSpinningPattern(const LidarModel& model, double period_us, std::vector<
     // Hesai and Velodyne spin clockwise seen from above, so azimuth = atan2(y, x) decreases with
     // time; the frame starts and ends behind the sensor (+-180 deg) so nothing in front is split.
     const double az_deg = 180.0 - model.azimuth_resolution_deg * col;
-    const float az = static_cast<float>(az_deg * kDegToRad);
+    const float az = static_cast<float>(az_deg * kDeg2Rad);
     const double t0 = col * column_us;
     for (int ring = 0; ring < shape.rings; ++ring) {
       Beam b;
       b.azimuth_rad = az;
-      b.elevation_rad = static_cast<float>(model.ring_elevation_deg[ring] * kDegToRad);
+      b.elevation_rad = static_cast<float>(model.ring_elevation_deg[ring] * kDeg2Rad);
       b.ring = static_cast<int16_t>(ring);
       b.time_offset_us = static_cast<int>(std::floor(t0 + spread_us * ring / shape.rings));
       beams->push_back(b);
@@ -134,8 +132,8 @@ void MakeAviaPattern(const LidarModel& model, int frame_index, double period_us,
       const double r = M_PI * l / kAviaLasers;
       const double u = std::cos(r) * u0 - std::sin(r) * v0, v = std::sin(r) * u0 + std::cos(r) * v0;
       Beam beam;
-      beam.azimuth_rad = static_cast<float>(u * half_az * kDegToRad);
-      beam.elevation_rad = static_cast<float>(v * half_el * kDegToRad);
+      beam.azimuth_rad = static_cast<float>(u * half_az * kDeg2Rad);
+      beam.elevation_rad = static_cast<float>(v * half_el * kDeg2Rad);
       beam.ring = -1;
       beam.time_offset_us = static_cast<int>(std::floor(k * dt_us));
       beams->push_back(beam);
@@ -161,8 +159,8 @@ void MakeMid360Pattern(const LidarModel& model, int frame_index, double period_u
       const double az = std::remainder(turn_deg + 90.0 * l, 360.0);
       const double el = mid + half * std::sin(2.0 * M_PI * kMid360SweepHz * t + 0.5 * M_PI * l);
       Beam beam;
-      beam.azimuth_rad = static_cast<float>(az * kDegToRad);
-      beam.elevation_rad = static_cast<float>(el * kDegToRad);
+      beam.azimuth_rad = static_cast<float>(az * kDeg2Rad);
+      beam.elevation_rad = static_cast<float>(el * kDeg2Rad);
       beam.ring = -1;
       beam.time_offset_us = static_cast<int>(std::floor(k * dt_us));
       beams->push_back(beam);
@@ -193,8 +191,8 @@ void MakeM1Pattern(const LidarModel& model, int frame_index, double period_us,
         // All five lasers fire together, each in its own 24 deg zone, left to right.
         const double centre = model.azimuth_min_deg + (zone + 0.5) * kM1ZoneWidthDeg;
         Beam b;
-        b.azimuth_rad = static_cast<float>((centre + az_local) * kDegToRad);
-        b.elevation_rad = static_cast<float>(el * kDegToRad);
+        b.azimuth_rad = static_cast<float>((centre + az_local) * kDeg2Rad);
+        b.elevation_rad = static_cast<float>(el * kDeg2Rad);
         b.ring = -1;
         b.time_offset_us = t;
         beams->push_back(b);
@@ -219,11 +217,11 @@ void MakeFalconPattern(const LidarModel& model, double period_us, std::vector<Be
   const double step = (model.azimuth_max_deg - model.azimuth_min_deg) / kFalconSamples;
   const double dt_us = period_us / (static_cast<double>(lines.size()) * kFalconSamples);
   for (size_t line = 0; line < lines.size(); ++line) {
-    const float el = static_cast<float>(lines[line] * kDegToRad);
+    const float el = static_cast<float>(lines[line] * kDeg2Rad);
     for (int k = 0; k < kFalconSamples; ++k) {
       // Each polygon facet sweeps the full width at constant angular speed, always the same way.
       Beam b;
-      b.azimuth_rad = static_cast<float>((model.azimuth_min_deg + (k + 0.5) * step) * kDegToRad);
+      b.azimuth_rad = static_cast<float>((model.azimuth_min_deg + (k + 0.5) * step) * kDeg2Rad);
       b.elevation_rad = el;
       b.ring = -1;
       b.time_offset_us =
@@ -410,7 +408,7 @@ void LidarSimulator::RebuildPatternIfNeeded(int frame_index) {
     const double az = beams_[i].azimuth_rad, el = beams_[i].elevation_rad;
     const int ring = beams_[i].ring;
     const double fired =
-        el + (ring >= 0 && ring < static_cast<int>(errors.size()) ? errors[ring] * kDegToRad : 0.0);
+        el + (ring >= 0 && ring < static_cast<int>(errors.size()) ? errors[ring] * kDeg2Rad : 0.0);
     for (const auto& [dir, e] : {std::pair{&nominal_dir_, el}, std::pair{&fired_dir_, fired}}) {
       (*dir)[3 * i + 0] = static_cast<float>(std::cos(e) * std::cos(az));
       (*dir)[3 * i + 1] = static_cast<float>(std::cos(e) * std::sin(az));
@@ -439,7 +437,7 @@ void LidarSimulator::CastMainRays(const Pose& T_world_lidar_start, const Pose& T
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> normal(0.0, 1.0);
   PoseAt pose(T_world_lidar_start, T_world_lidar_end, 1e6 / model_.frame_rate_hz);
-  const double jitter_rad = noise_.angular_jitter_deg * kDegToRad;
+  const double jitter_rad = noise_.angular_jitter_deg * kDeg2Rad;
   const size_t begin = chunk * kChunkBeams, end = std::min(beams_.size(), begin + kChunkBeams);
   Eigen::Vector3d origin, e_az, e_el;
   Eigen::Matrix3d R;

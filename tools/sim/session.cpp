@@ -7,10 +7,8 @@ namespace calibd::sim {
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 Pose MountPose(const Eigen::Matrix<double, 6, 1>& m) {
-  return PoseFromXyzRpy(m.head<3>(), m.tail<3>() * kDeg);
+  return PoseFromXyzRpy(m.head<3>(), m.tail<3>() * kDeg2Rad);
 }
 
 // Optical frame (x right, y down, z forward) in the camera body frame (x forward, y left, z up).
@@ -127,7 +125,7 @@ bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
   if (axis.norm() < 1e-9) axis = Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
   Eigen::Vector3d dir(n01(rng), n01(rng), n01(rng));
   Pose dT = Pose::Identity();
-  dT.linear() = RotationFromAxisAngle(axis, options.prior_rot_deg * kDeg);
+  dT.linear() = RotationFromAxisAngle(axis, options.prior_rot_deg * kDeg2Rad);
   dT.translation() = dir.normalized() * options.prior_trans_m;
   prior_T_camera_lidar_ = T_camera_lidar_ * dT;
 
@@ -140,7 +138,7 @@ bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
   double sum = 0.0;
   int count = 0;
   for (const Beam& b : beams) {
-    if (std::abs(std::remainder(b.azimuth_rad - cam_az, 2.0 * M_PI)) < 2.0 * kDeg) {
+    if (std::abs(std::remainder(b.azimuth_rad - cam_az, 2.0 * M_PI)) < 2.0 * kDeg2Rad) {
       sum += b.time_offset_us;
       ++count;
     }

@@ -8,8 +8,6 @@ namespace calibd::sim {
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 // A thin box from a to b (legs, arms, tripod tubes), `r` its half thickness.
 Primitive Segment(SurfaceKind kind, const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r,
                   float albedo) {
@@ -169,7 +167,7 @@ bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& o,
     bool placed = false;
     for (int attempt = 0; attempt < 500 && !placed; ++attempt) {
       const double d = uniform(o.min_distance_m, o.max_distance_m);
-      const double half_angle = std::atan(0.5 * size / d) / kDeg + 1.0;
+      const double half_angle = std::atan(0.5 * size / d) / kDeg2Rad + 1.0;
       // Inside the LiDAR's field (at most +-35 deg across: the camera's test decides the rest);
       // a board larger than the vertical field is centred in it.
       const double az_lo = std::max(lidar.azimuth_min_deg + half_angle, -35.0);
@@ -180,7 +178,7 @@ bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& o,
       el_hi = std::min(el_hi, 20.0);  // people do not hold boards over their heads
       el_lo = std::max(el_lo, -20.0);
       if (az_lo > az_hi || el_lo > el_hi) continue;
-      const double az = uniform(az_lo, az_hi) * kDeg, el = uniform(el_lo, el_hi) * kDeg;
+      const double az = uniform(az_lo, az_hi) * kDeg2Rad, el = uniform(el_lo, el_hi) * kDeg2Rad;
       const Eigen::Vector3d dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
                                 std::sin(el));
       const Eigen::Vector3d centre = T_world_lidar * (d * dir);
@@ -189,9 +187,9 @@ bool BuildStillPose(const WorkshopOptions& workshop, const StillPoseOptions& o,
       bool apart = true;
       for (const Eigen::Vector3d& c : centres) apart = apart && (c - centre).norm() > size + 0.3;
       if (!apart) continue;
-      T_world_board = FacingPose(centre, sensor, uniform(-o.max_yaw_deg, o.max_yaw_deg) * kDeg,
-                                 uniform(-o.max_tilt_deg, o.max_tilt_deg) * kDeg,
-                                 uniform(-o.max_roll_deg, o.max_roll_deg) * kDeg);
+      T_world_board = FacingPose(centre, sensor, uniform(-o.max_yaw_deg, o.max_yaw_deg) * kDeg2Rad,
+                                 uniform(-o.max_tilt_deg, o.max_tilt_deg) * kDeg2Rad,
+                                 uniform(-o.max_roll_deg, o.max_roll_deg) * kDeg2Rad);
       placed = !visible || visible(T_world_board, g);
     }
     if (!placed) {

@@ -34,8 +34,6 @@ Primitive Cylinder(SurfaceKind kind, double x, double y, double radius, double h
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 // Board pose: facing the vehicle (z_B = -x_W), x_B = -y_W (the viewer's right), y_B = z_W, then
 // turned by yaw about the vertical and tilted by `tilt` about x_B.
 Pose BoardPose(const Eigen::Vector3d& centre, double yaw, double tilt) {
@@ -71,8 +69,8 @@ std::vector<BoardPlacement> Layout(const WorkshopOptions& o) {
       p.centre = Eigen::Vector3d(0.0, -lateral, kHeights[i % 6]);
     }
     if (o.layout == "spread") {
-      p.yaw = kYawDeg[i % 6] * kDeg;
-      p.tilt = kTiltDeg[i % 6] * kDeg;
+      p.yaw = kYawDeg[i % 6] * kDeg2Rad;
+      p.tilt = kTiltDeg[i % 6] * kDeg2Rad;
       p.centre.x() = 0.4 * ((i % 3) - 1);  // stagger in depth as well
     }
     out.push_back(p);

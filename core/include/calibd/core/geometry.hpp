@@ -5,10 +5,15 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 
 namespace calibd {
 
 using Pose = Eigen::Isometry3d;
+
+/// Degrees in a radian and radians in a degree: the one definition of each.
+inline constexpr double kRad2Deg = 180.0 / M_PI;
+inline constexpr double kDeg2Rad = M_PI / 180.0;
 
 /// Rotation from roll (about x), pitch (about y), yaw (about z), radians: R = Rz(yaw) Ry(pitch)
 /// Rx(roll).
