@@ -73,13 +73,10 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
     return stats;
   const Eigen::Matrix3d R_lidar_camera = T_camera_lidar.linear().transpose();
   std::vector<double> shifts;  // per compensated observation: |u| times the points' mean |dt|
-  std::vector<char> measured;
   shifts.reserve(set->observations.size());
-  measured.reserve(set->observations.size());
   for (BoardObservation& o : set->observations) {
     Eigen::Vector3d u;
     o.has_velocity = EstimateBoardVelocity(session, o.frame, o.board_index, config, &u);
-    measured.push_back(o.has_velocity ? 1 : 0);
     if (!o.has_velocity) {
       ++stats.uncompensated;
       continue;
@@ -104,8 +101,12 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
     std::nth_element(shifts.begin(), mid, shifts.end());
     stats.median_shift_m = *mid;
   }
-  if (stats.uncompensated > 0 && stats.median_shift_m > config.max_unmeasured_shift_m)
+  if (stats.uncompensated > 0 && stats.median_shift_m > config.max_unmeasured_shift_m) {
+    std::vector<char> measured;
+    measured.reserve(set->observations.size());
+    for (const BoardObservation& o : set->observations) measured.push_back(o.has_velocity);
     stats.dropped = set->KeepOnly(measured);
+  }
   return stats;
 }
 

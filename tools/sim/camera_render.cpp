@@ -216,12 +216,8 @@ Eigen::Vector2d CameraRenderer::RayAt(int u, int v) const {
 
 void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& faces,
                             const Pose& T_world_camera, uint64_t seed, cv::Mat* image) const {
-  double exposure = 0.0;
-  uint64_t noise_seed = 0;
-  DrawFrame(seed, &exposure, &noise_seed);
-  TraceRows(scene, faces, T_world_camera, 0, model_.intrinsics().height, exposure);
-  has_radiance_ = true;
-  Finish(noise_seed, image);
+  Render(
+      scene, faces, [&](double) { return T_world_camera; }, 1, seed, image);
 }
 
 void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& faces,
