@@ -104,6 +104,45 @@ TEST(BoardMotionTest, NoVelocityWithoutTimesNeighboursOrPlausibleSpeed) {
   EXPECT_NE(error.find("min_samples"), std::string::npos);
 }
 
+// Frames further apart than the window leave every board without a velocity, and the stats say
+// why (the window is not widened by itself: see MotionCompensationConfig::window_s).
+TEST(BoardMotionTest, FramesFurtherApartThanTheWindowAreNamed) {
+  const Scene scene;
+  EXPECT_NEAR(MedianFrameInterval(MakeSession(scene, 10, true)), 0.1, 1e-6);
+  EXPECT_EQ(MedianFrameInterval(MakeSession(scene, 10, false)), 0.0);  // times unknown
+  SessionObservations s;
+  s.Reserve(3, 2, 16);
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(s.BeginFrame(FrameTimes{Utime(1.0 * k), Utime(1.0 * k - 0.05)}));
+    SessionObservations::CameraBoard b;
+    b.board_index = 0;
+    b.T_camera_board = scene.T_camera_board(1.0 * k);
+    ASSERT_TRUE(s.AddCameraBoard(b));
+  }
+  ObservationSet set;
+  set.Reserve(1, 1);
+  BoardObservation o;
+  o.frame = 1;
+  o.board_index = 0;
+  o.T_camera_board = scene.T_camera_board(1.0);
+  const Eigen::Vector3f p = Eigen::Vector3f::Zero();
+  const float dt = -0.05f;
+  ASSERT_TRUE(set.Add(o, &p, &dt, 1));
+  ObservationSet again = set;
+  MotionCompensationConfig config;
+  const MotionCompensationStats stats =
+      CompensateBoardMotion(s, scene.T_camera_lidar, config, &set);
+  EXPECT_NEAR(stats.frame_interval_s, 1.0, 1e-6);
+  EXPECT_EQ(stats.window_s, config.window_s);
+  EXPECT_TRUE(stats.FramesBeyondWindow());
+  // The window the stats suggest (1.5 intervals) measures it.
+  config.window_s = 1.5;
+  const MotionCompensationStats wide =
+      CompensateBoardMotion(s, scene.T_camera_lidar, config, &again);
+  EXPECT_EQ(wide.compensated, 1);
+  EXPECT_FALSE(wide.FramesBeyondWindow());
+}
+
 TEST(BoardMotionTest, PointsFiredAcrossTheSweepReturnToTheCaptureTime) {
   const Scene scene;
   const SessionObservations s = MakeSession(scene, 10, true);

@@ -348,6 +348,11 @@ TEST(RecordedFolderCliTest, TheSimulatorWritesFoldersThatCalibrateReads) {
       EXPECT_EQ(report["frames"]["pairs"].get<int>(), 3) << lidar << " " << report["frames"];
       EXPECT_EQ(report["frames"]["bad_messages"].get<int>(), 0) << report["frames"];
       EXPECT_GT(report["frames"]["camera_boards"].get<int>(), 0) << report["frames"];
+      // Pairs 2 s apart (frames.csv) are beyond the velocity window: the report says so, with the
+      // window to set if the boards moved; name-stem pairs carry made-up times and say nothing.
+      const auto& motion = report["motion_compensation"];
+      EXPECT_NEAR(motion["frame_interval_s"].get<double>(), csv ? 2.0 : 0.0, 1e-6) << motion;
+      EXPECT_EQ(report.contains("motion_compensation_hint"), csv) << report.dump(1);
       // --inspect names the model from the rings it sees (some of the VLP-16's see nothing
       // indoors), and has no ring to go by for the Avia-like sensor.
       ASSERT_EQ(testing::RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --inspect --folder " +

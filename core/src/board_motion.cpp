@@ -14,7 +14,8 @@ bool MotionCompensationConfig::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (!(window_s > 0.0 && window_s <= 2.0)) return fail("window_s must be in (0, 2] s");
+  if (!(window_s > 0.0 && window_s <= kMaxMotionWindowS))
+    return fail("window_s must be in (0, 2] s");
   if (min_samples < 2) return fail("min_samples must be >= 2");
   if (!(min_span_share > 0.0 && min_span_share <= 2.0))
     return fail("min_span_share must be in (0, 2]");
@@ -22,6 +23,19 @@ bool MotionCompensationConfig::IsValid(std::string* error) const {
   if (!(max_unmeasured_shift_m >= 0.0 && std::isfinite(max_unmeasured_shift_m)))
     return fail("max_unmeasured_shift_m must be >= 0");
   return true;
+}
+
+double MedianFrameInterval(const SessionObservations& s) {
+  std::vector<int64_t> intervals;
+  intervals.reserve(s.frame_times.size());
+  for (size_t k = 1; k < s.frame_times.size(); ++k) {
+    const int64_t d = s.frame_times[k].camera_utime - s.frame_times[k - 1].camera_utime;
+    if (d > 0) intervals.push_back(d);
+  }
+  if (intervals.empty()) return 0.0;
+  const auto mid = intervals.begin() + static_cast<std::ptrdiff_t>(intervals.size() / 2);
+  std::nth_element(intervals.begin(), mid, intervals.end());
+  return static_cast<double>(*mid) * 1e-6;
 }
 
 bool EstimateBoardVelocity(const SessionObservations& s, int frame, int board_index,
@@ -71,6 +85,8 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
   MotionCompensationStats stats;
   if (!config.enabled || set->motion_compensated || set->point_dt.size() != set->points.size())
     return stats;
+  stats.window_s = config.window_s;
+  stats.frame_interval_s = MedianFrameInterval(session);
   const Eigen::Matrix3d R_lidar_camera = T_camera_lidar.linear().transpose();
   std::vector<double> shifts;  // per compensated observation: |u| times the points' mean |dt|
   shifts.reserve(set->observations.size());

@@ -535,7 +535,9 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
                    std::to_string(out.motion.uncompensated) + " not (" +
                    std::to_string(out.motion.dropped) + " of them dropped), median shift " +
                    Num(out.motion.median_shift_m, 3) + " m, largest " +
-                   Num(out.motion.max_shift_m, 3) + " m");
+                   Num(out.motion.max_shift_m, 3) + " m; velocities fitted over +-" +
+                   Num(out.motion.window_s, 2) + " s, pairs " +
+                   Num(out.motion.frame_interval_s, 2) + " s apart (median)");
   s += InfoRow("board-pose refinement", std::to_string(out.refined_boards) +
                                             " boards, mean change " +
                                             Num(out.board_rotation_change_deg, 3) + " deg / " +

@@ -253,6 +253,7 @@ bool ReadSessionFolder(const std::string& folder_path, const CalibConfig& config
   if (!ScanRecordedFolder(folder_path, folder_options, &folder, error)) return false;
   stats->unmatched_clouds = folder.unmatched_clouds;
   stats->unmatched_images = folder.unmatched_images;
+  stats->pseudo_times = !folder.timed;
   builder.Reserve();
   lidar_frame_t lidar_msg;
   PcdInfo info;

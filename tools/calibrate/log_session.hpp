@@ -50,6 +50,7 @@ struct LogReadStats {
   /// and files whose stem has no partner (no frames.csv).
   int64_t nan_points_dropped = 0;
   int unmatched_clouds = 0, unmatched_images = 0;
+  bool pseudo_times = false;  ///< a folder paired by name stem: its times are made up
   /// Folder only: binary PCDs with bytes after their last point (read as PCL reads them), and the
   /// first of them.
   int padded_clouds = 0;

@@ -63,7 +63,7 @@ Options:
                        (*.png, *.jpg; converted to grey). With DIR/frames.csv the frames pair by
                        time (below); without it a cloud and an image pair by name stem
                        (000123.pcd + 000123.png) and carry no times (pairs are stamped 1 s apart,
-                       so motion compensation leaves boards as they are).
+                       and motion compensation is off: record such a folder standing still).
                        Unreadable or malformed files are counted (report frames.bad_messages,
                        the first one's error in frames.first_bad_message) and skipped
   --intrinsics FILE    camera intrinsics replacing the config's (whose camera section may then
@@ -374,6 +374,9 @@ int main(int argc, char** argv) {
     engine.method =
         method == "indirect" ? EngineConfig::Method::kIndirect : EngineConfig::Method::kDirect;
   if (motion_compensation_given) engine.motion.enabled = motion_compensation;
+  // Pairs by name stem carry made-up times: no velocity can be fitted to them, whatever the
+  // window.
+  if (stats.pseudo_times) engine.motion.enabled = false;
   if (board_pose_refinement_given) engine.direct.refine_board_poses = board_pose_refinement;
   method = engine.method == EngineConfig::Method::kIndirect ? "indirect" : "direct";
   ObservationSet corr;
@@ -389,12 +392,25 @@ int main(int argc, char** argv) {
   }
   const auto& q = out.quality;
   const std::string lidar_hint = LidarMissHint(session, corr, engine.max_solve_frames, lidar_model);
+  const std::string motion_hint =
+      out.motion.FramesBeyondWindow()
+          ? "the frame pairs lie " + FixedDecimal(out.motion.frame_interval_s, 2) +
+                " s apart, beyond the +-" + FixedDecimal(out.motion.window_s, 2) +
+                " s in which board velocities are fitted, so no board's motion was measured or "
+                "compensated: if the boards moved against the car (driving, boards carried), set "
+                "engine.motion_window_s to " +
+                FixedDecimal(std::min(1.5 * out.motion.frame_interval_s, kMaxMotionWindowS), 2) +
+                " in the config"
+          : "";
+  if (!motion_hint.empty() && !quiet)
+    std::cerr << "calibd-calibrate: note: " << motion_hint << "\n";
 
   nlohmann::json report;
   report["verdict"] = VerdictName(out.verdict);
   report["reason"] = out.reason;
   report["detail"] = out.detail;
   if (!lidar_hint.empty()) report["hint"] = lidar_hint;
+  if (!motion_hint.empty()) report["motion_compensation_hint"] = motion_hint;
   report["method"] = method;
   report["extract_planes"] = read_options.lidar.extract_planes;
   report["solved"] = out.solved;  // false: T_camera_lidar is only the prior or grid candidate
@@ -418,6 +434,8 @@ int main(int argc, char** argv) {
                                    {"uncompensated_boards", out.motion.uncompensated},
                                    {"dropped_unmeasured_boards", out.motion.dropped},
                                    {"median_shift_m", out.motion.median_shift_m},
+                                   {"window_s", out.motion.window_s},
+                                   {"frame_interval_s", out.motion.frame_interval_s},
                                    {"max_shift_m", out.motion.max_shift_m}};
   report["lidar_model"] = {
       {"name", lidar_model.name},

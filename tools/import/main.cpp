@@ -39,7 +39,8 @@ Options:
                        *.jpg, *.jpeg). With DIR/frames.csv the frames carry its times (below);
                        without it a cloud and an image pair by name stem (000123.pcd +
                        000123.png), stamped 1 s apart in stem order, camera and LiDAR at the same
-                       instant (the files carry no times). Points with a NaN coordinate
+                       instant (the files carry no times: keep engine.motion_window_s under 1 s
+                       when the log is calibrated). Points with a NaN coordinate
                        (organized clouds) are dropped and counted
   --config FILE        calibration config: the camera and LiDAR ids, the LiDAR model (its sweep
                        time) and the camera's image size (required)

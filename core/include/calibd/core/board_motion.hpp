@@ -28,6 +28,9 @@ struct MotionCompensationConfig {
   /// velocity fit (+-0.25 s: up to 5 frames at 10 Hz). Longer smooths PnP noise of far boards,
   /// shorter follows braking better; frames recorded further apart than it while driving need
   /// it longer (engine.motion_window_s), or their boards have no velocity.
+  /// It is not widened by itself when frames lie further apart: a few frames seconds apart
+  /// cannot tell a board moving steadily from one carried between still poses (a velocity
+  /// fitted across poses shears still boards by centimetres), so the recording's owner says so.
   double window_s = 0.25;
   int min_samples = 3;  ///< detections in the window, the frame's own included
   /// The samples' times must span at least this share of window_s (0.15 s of +-0.25 s).
@@ -43,6 +46,8 @@ struct MotionCompensationConfig {
   bool IsValid(std::string* error) const;
 };
 
+inline constexpr double kMaxMotionWindowS = 2.0;  ///< the longest window_s
+
 /// Least-squares line c(t) = c0 + u (t - t_frame) through the board centres (camera frame) of
 /// `board_index` in frames whose capture time lies within the window of `frame`'s. False (and
 /// `velocity` untouched) when the frame times are unknown or the samples are too few, too short
@@ -56,8 +61,20 @@ struct MotionCompensationStats {
   /// Observations without a velocity dropped because the boards moved (max_unmeasured_shift_m).
   int dropped = 0;
   double max_shift_m = 0.0;
-  double median_shift_m = 0.0;  ///< over the compensated observations
+  double median_shift_m = 0.0;    ///< over the compensated observations
+  double window_s = 0.0;          ///< the velocity fit's window, +-s
+  double frame_interval_s = 0.0;  ///< MedianFrameInterval of the session
+  /// No board's motion could be measured because the frames lie further apart than the window:
+  /// if the boards moved (driving, carried), engine.motion_window_s should be about 1.5 times
+  /// frame_interval_s.
+  bool FramesBeyondWindow() const {
+    return compensated == 0 && uncompensated > 0 && frame_interval_s > window_s;
+  }
 };
+
+/// The median time between consecutive frames' camera captures (s); 0 when the times are
+/// unknown.
+double MedianFrameInterval(const SessionObservations& session);
 
 /// Estimates each observation's board velocity and moves its points to the camera's capture
 /// time: p <- p - dt R_camera_lidar^T u (dt = firing time - capture time, u in the camera frame;

@@ -7,9 +7,8 @@
 ///    files not listed are ignored;
 ///  - without it, clouds and images pair by name stem (`000123.pcd` + `000123.png`), in stem
 ///    order (numeric when both stems are numbers). The files carry no times: pair k is stamped
-///    k x stem_spacing_us, camera and LiDAR at the same instant, 1 s apart by default so that
-///    motion compensation (which needs true times) finds no neighbours and leaves boards as they
-///    are.
+///    k x stem_spacing_us, camera and LiDAR at the same instant (calibd-calibrate turns motion
+///    compensation off for them: it needs true times).
 
 #include <cstdint>
 #include <string>
