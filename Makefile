@@ -32,10 +32,17 @@ build: configure
 check: build
 	@ctest --preset $(PRESET) -j $(JOBS) $(CTEST_ARGS)
 
+# Each phase's wall time is printed at the end (tests/timed_phase.sh; build/phase-times.tsv).
+PHASE := CALIBD_PHASES=build/phase-times.tsv bash tests/timed_phase.sh
 test: deps
-	@$(MAKE) --no-print-directory check PRESET=release
-	@$(MAKE) --no-print-directory check PRESET=asan CTEST_ARGS="-LE 'slow|vm'"
-	@$(MAKE) --no-print-directory fuzz-smoke
+	@mkdir -p build && rm -f build/phase-times.tsv
+	@$(PHASE) "release: build" $(MAKE) --no-print-directory build PRESET=release
+	@$(PHASE) "release: suite" ctest --preset release -j $(JOBS)
+	@$(PHASE) "asan: build" $(MAKE) --no-print-directory build PRESET=asan
+	@$(PHASE) "asan: suite without slow, vm" ctest --preset asan -j $(JOBS) -LE 'slow|vm'
+	@$(PHASE) "fuzz: build" $(MAKE) --no-print-directory fuzz-build
+	@$(PHASE) "fuzz: smoke" ctest --preset fuzz -j $(FUZZ_JOBS)
+	@echo "make test: phase times"; $(PHASE) --print
 
 install:
 	@$(MAKE) --no-print-directory build PRESET=release
