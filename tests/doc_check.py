@@ -371,37 +371,15 @@ def read(source, path):
         return f.read()
 
 
-def reason_codes(source):
-    """Every reason code string the engine, the session machine and the agent can report."""
-    codes = set()
-    engine = read(source, "core/include/calibd/core/calibration_engine.hpp")
-    block = engine.split("Reason codes:")[1].split("#include")[0]
-    codes |= set(re.findall(r"`([a-z_]+)`", block))
-    routines = read(source, "agent/include/calibd/agent/uds/routines.hpp")
-    codes |= set(re.findall(r'///< "([a-z_]+)"', routines))
-    agent_uds = read(source, "agent/src/agent_uds.cpp")
-    table = agent_uds.split("ReasonCode(")[1].split("};")[0]
-    codes |= set(re.findall(r'\{"([a-z_]+)", R::', table))
-    machine = read(source, "agent/include/calibd/agent/session_machine.hpp")
-    codes |= set(re.findall(r'reason = "([a-z_]+)"', machine))
-    codes |= set(re.findall(r'"([a-z]+_[a-z_]+)" when', machine))
-    codes |= set(re.findall(r'failed \(([a-z_]+)\)', machine))
-    # What else ends a session: SessionMachine::Stop(now, "reason") and EnterFailed("reason").
-    for path in ("agent/src/agent.cpp", "agent/src/agent_uds.cpp",
-                 "agent/src/session_machine.cpp"):
-        text = read(source, path)
-        codes |= set(re.findall(r'\.Stop\([^;]*?"([a-z_]+)"\)', text))
-        for call in re.findall(r"EnterFailed\(([^;]*)\);", text):
-            codes |= set(re.findall(r'"([a-z_]+)"', call))
-        codes |= set(re.findall(r'reason_ = "([a-z_]+)"', text))
-    return codes
-
-
-def routine_reasons(source):
-    """(value, name) of every RoutineReason byte, e.g. (0x0B, 'kHighReprojectionError')."""
-    routines = read(source, "agent/include/calibd/agent/uds/routines.hpp")
-    block = routines.split("enum class RoutineReason")[1].split("};")[0]
-    return [(int(v, 16), n) for n, v in re.findall(r"(k\w+) = 0x([0-9A-Fa-f]+)", block)]
+def reasons(source):
+    """(code, name) of every reason of core reason.hpp's one table, e.g. (0x0B,
+    'high_reprojection_error'), but `other`."""
+    header = read(source, "core/include/calibd/core/reason.hpp")
+    values = dict(re.findall(r"(k\w+) = 0x([0-9A-Fa-f]+)", header))
+    pairs = re.findall(r'\{Reason::(k\w+), "([a-z_]+)"\}', header)
+    if not pairs:
+        raise SystemExit("doc_check: no reason names found in core/include/calibd/core/reason.hpp")
+    return [(int(values[k], 16), name) for k, name in pairs if name != "other"]
 
 
 def dtcs(source):
@@ -466,15 +444,10 @@ def lidar_models(source):
 def check_coverage(source, operator, integration):
     missing = []
     trouble = table_rows(operator)
-    for code in sorted(reason_codes(source)):
-        if f"`{code}`" not in trouble:
-            missing.append(f"operator guide: reason code `{code}` has no troubleshooting row")
-    for value, name in routine_reasons(source):
-        if value == 0:
-            continue
-        if f"0x{value:02X}" not in trouble:
-            missing.append(f"operator guide: routine reason byte 0x{value:02X} ({name}) is not "
-                           "in the troubleshooting table")
+    for value, name in reasons(source):
+        if f"`{name}` (0x{value:02X})" not in trouble:
+            missing.append(f"operator guide: reason `{name}` (0x{value:02X}) has no "
+                           "troubleshooting row")
     for j2012, number in dtcs(source):
         if number not in trouble or j2012 not in trouble:
             missing.append(f"operator guide: DTC {j2012} ({number}) has no troubleshooting row")

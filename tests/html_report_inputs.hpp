@@ -87,7 +87,7 @@ inline tools::HtmlReportInput AcceptedReportInput(bool big_pictures = false) {
 inline tools::HtmlReportInput RejectedReportInput() {
   tools::HtmlReportInput in = AcceptedReportInput();
   in.outcome.verdict = CalibrationOutcome::Verdict::kRejected;
-  in.outcome.reason = "high_reprojection_error";
+  in.outcome.reason = Reason::kHighReprojectionError;
   in.outcome.detail = "mean 9.40 px above 8.00 px";
   in.outcome.quality.reprojection_mean_px = 9.4;
   for (auto& r : in.reprojection) r.mean_px *= 3.0;

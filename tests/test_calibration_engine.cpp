@@ -56,7 +56,7 @@ TEST(CalibrationEngineTest, BoardIdsSwappedBetweenBoardsOfDifferentSizesAreNamed
   const CalibrationOutcome refused =
       Calibrate(swapped->config, swapped->obs, swapped->projection, EngineConfig{});
   EXPECT_EQ(refused.verdict, CalibrationOutcome::Verdict::kRejected);
-  EXPECT_EQ(refused.reason, "board_ids_swapped") << refused.detail;
+  EXPECT_EQ(refused.reason, Reason::kBoardIdsSwapped) << refused.detail;
   EXPECT_NE(refused.detail.find("boards 1 (tag id 1, 0.600 x 0.600 m) and 0 (tag id 0, 0.420 x "
                                 "0.420 m) are each other's"),
             std::string::npos)
@@ -91,7 +91,7 @@ TEST(CalibrationEngineTest, ABentBoardIsNamedAndFlatOnesPass) {
   const CalibrationOutcome refused =
       Calibrate(bent->config, bent->obs, bent->projection, EngineConfig{});
   EXPECT_EQ(refused.verdict, CalibrationOutcome::Verdict::kRejected);
-  EXPECT_EQ(refused.reason, "board_not_flat") << refused.detail;
+  EXPECT_EQ(refused.reason, Reason::kBoardNotFlat) << refused.detail;
   EXPECT_NEAR(std::fabs(refused.quality.board_bend_m), 0.015, 0.003) << refused.detail;
   EXPECT_NE(refused.detail.find("flatten or replace the board"), std::string::npos);
 }
@@ -159,7 +159,7 @@ TEST(CalibrationEngineTest, OneBoardIsRejectedForObservability) {
   auto r = Drive(o);
   const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
-  EXPECT_EQ(out.reason, "poor_observability") << out.detail;
+  EXPECT_EQ(out.reason, Reason::kPoorObservability) << out.detail;
   std::printf("one board: plane conditioning %.2e\n", out.quality.plane_conditioning);
 }
 
@@ -171,7 +171,7 @@ TEST(CalibrationEngineTest, ParallelCoplanarBoardsAreRejectedForObservability) {
   auto r = Drive(o);
   const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
-  EXPECT_EQ(out.reason, "poor_observability") << out.detail;
+  EXPECT_EQ(out.reason, Reason::kPoorObservability) << out.detail;
   std::printf("parallel boards: plane conditioning %.2e\n", out.quality.plane_conditioning);
 }
 
@@ -186,7 +186,7 @@ TEST(CalibrationEngineTest, OnlyFarFramesAreRejectedForTheirPrecision) {
   auto r = Drive(o);
   const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   std::printf("only far: %s (%s) sigma %.4f deg / %.4f m, spread %.4f deg / %.4f m, %.2f-%.2f m\n",
-              VerdictName(out.verdict), out.reason.c_str(), out.quality.rotation_sigma_deg,
+              VerdictName(out.verdict), NameOf(out.reason).data(), out.quality.rotation_sigma_deg,
               out.quality.translation_sigma_m, out.quality.rotation_spread_deg,
               out.quality.translation_spread_m, out.quality.min_distance_m,
               out.quality.max_distance_m);
@@ -194,7 +194,7 @@ TEST(CalibrationEngineTest, OnlyFarFramesAreRejectedForTheirPrecision) {
   EXPECT_GT(out.quality.boards_used, 60);  // not rejected for a lack of data
   EXPECT_TRUE(out.solved);                 // the estimate is there for diagnosis
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
-  EXPECT_TRUE(out.reason == "poor_observability" || out.reason == "unstable_solution")
+  EXPECT_TRUE(out.reason == Reason::kPoorObservability || out.reason == Reason::kUnstableSolution)
       << out.reason << ": " << out.detail;
 }
 
@@ -239,7 +239,7 @@ TEST(CalibrationEngineTest, ARefusalForItsSigmaSaysHowManyBoardsWouldDo) {
   EngineConfig strict;
   strict.verdict.max_rotation_sigma_deg = first.quality.rotation_sigma_deg / 2.0;
   const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, strict);
-  EXPECT_EQ(out.reason, "poor_observability") << out.detail;
+  EXPECT_EQ(out.reason, Reason::kPoorObservability) << out.detail;
   const int boards = out.quality.boards_used;
   EXPECT_NE(out.detail.find(std::to_string(boards) + " boards; about " +
                             std::to_string(4 * boards) + " like them"),
@@ -262,7 +262,7 @@ TEST(CalibrationEngineTest, SolvesFromOtherStartsEndOnTheSolutionOrTheVerdictRef
   EngineConfig strict;
   strict.verdict.max_start_rotation_deg = first.quality.start_rotation_deg / 2.0;
   const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, strict);
-  EXPECT_EQ(out.reason, "unstable_solution") << out.detail;
+  EXPECT_EQ(out.reason, Reason::kUnstableSolution) << out.detail;
   EXPECT_NE(out.detail.find("solves started 3 deg / 0.05 m away end"), std::string::npos)
       << out.detail;
   EngineConfig none;
@@ -312,7 +312,7 @@ TEST(CalibrationEngineTest, ACameraScaleErrorIsCorrectedOrRefusedAsAScaleMismatc
   CalibConfig two_percent = r->config;
   const SessionObservations two = tags_configured_larger(1.02, &two_percent);
   const CalibrationOutcome out = Calibrate(two_percent, two, r->projection, EngineConfig{});
-  EXPECT_EQ(out.reason, "camera_scale_mismatch") << out.detail;
+  EXPECT_EQ(out.reason, Reason::kCameraScaleMismatch) << out.detail;
   EXPECT_NEAR(out.quality.camera_scale_error, good.quality.camera_scale_error + 0.02, 0.003);
   EXPECT_EQ(out.quality.camera_scale_corrected, 0.0);
   EXPECT_NE(out.detail.find("longer than the LiDAR's"), std::string::npos) << out.detail;
@@ -339,14 +339,14 @@ TEST(CalibrationEngineTest, ALidarRangeOffsetIsMeasuredWhileDriving) {
   std::printf("range offset while driving: clean %.4f +- %.4f m, 3 cm long %.4f +- %.4f m\n",
               good.quality.lidar_range_offset_m, good.quality.lidar_range_offset_sigma_m,
               out.quality.lidar_range_offset_m, out.quality.lidar_range_offset_sigma_m);
-  EXPECT_EQ(out.reason, "lidar_range_offset") << out.detail;
+  EXPECT_EQ(out.reason, Reason::kLidarRangeOffset) << out.detail;
   EXPECT_NEAR(out.quality.lidar_range_offset_m, 0.03, 0.01);
   // A verification tolerance so strict that the clean drive does not measure the offset to it.
   EngineConfig strict;
   strict.verdict.verify_translation_m =
       good.quality.lidar_range_offset_sigma_m / kRangeOffsetSigmaTolerances / 1.5;
   const CalibrationOutcome unsure = Calibrate(r->config, r->obs, r->projection, strict);
-  EXPECT_EQ(unsure.reason, "poor_observability") << unsure.detail;
+  EXPECT_EQ(unsure.reason, Reason::kPoorObservability) << unsure.detail;
   EXPECT_NE(unsure.detail.find("range offset"), std::string::npos) << unsure.detail;
 }
 
@@ -360,7 +360,7 @@ TEST(CalibrationEngineTest, ALidarRangeOffsetIsRefusedWhereTheBoardsDirectionsSh
   auto r = testing::Record(o, 24, 1);
   const CalibrationOutcome good = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   ASSERT_TRUE(good.solved) << good.reason << ": " << good.detail;
-  EXPECT_NE(good.reason, "lidar_range_offset") << good.detail;
+  EXPECT_NE(good.reason, Reason::kLidarRangeOffset) << good.detail;
   ASSERT_TRUE(std::isfinite(good.quality.lidar_range_offset_m));
   EXPECT_LT(good.quality.lidar_range_offset_sigma_m, 0.01);
   EXPECT_LT(std::fabs(good.quality.lidar_range_offset_m), 0.01);
@@ -371,7 +371,7 @@ TEST(CalibrationEngineTest, ALidarRangeOffsetIsRefusedWhereTheBoardsDirectionsSh
               good.quality.lidar_range_offset_m, good.quality.lidar_range_offset_sigma_m,
               VerdictName(good.verdict), out.quality.lidar_range_offset_m,
               out.quality.lidar_range_offset_sigma_m);
-  EXPECT_EQ(out.reason, "lidar_range_offset") << out.detail;
+  EXPECT_EQ(out.reason, Reason::kLidarRangeOffset) << out.detail;
   EXPECT_GT(out.quality.lidar_range_offset_m, 0.02);
   EXPECT_NE(out.detail.find("longer than the camera's board distances say"), std::string::npos)
       << out.detail;
@@ -421,7 +421,7 @@ TEST(CalibrationEngineTest, CloudsFromAnotherLidarModelAreRefused) {
   const LidarModel mid360 = MakeLidarModel(kind);
   auto wrong = testing::Record(o, 8, 20, 0, &mid360);
   const CalibrationOutcome out = Calibrate(wrong->config, wrong->obs, wrong->projection, {});
-  EXPECT_EQ(out.reason, "lidar_model_mismatch") << out.detail;
+  EXPECT_EQ(out.reason, Reason::kLidarModelMismatch) << out.detail;
   EXPECT_NE(out.detail.find("(mid360)"), std::string::npos) << out.detail;
   EXPECT_GT(wrong->obs.lidar_outside_points, wrong->obs.lidar_valid_points / 5);
   auto right = testing::Record(o, 8, 20);
@@ -473,12 +473,12 @@ TEST(CalibrationEngineTest, NoLidarBoardsOrNoCameraBoardsAreExplicit) {
   SessionObservations camera_only = r->obs;
   camera_only.lidar.clear();
   const CalibrationOutcome no_lidar = Calibrate(r->config, camera_only, r->projection, {});
-  EXPECT_EQ(no_lidar.reason, "no_lidar_boards");
+  EXPECT_EQ(no_lidar.reason, Reason::kNoLidarBoards);
   EXPECT_FALSE(no_lidar.solved);
   SessionObservations lidar_only = r->obs;
   lidar_only.camera.clear();
   EXPECT_EQ(Calibrate(r->config, lidar_only, r->projection, EngineConfig{}).reason,
-            "no_camera_boards");
+            Reason::kNoCameraBoards);
 }
 
 }  // namespace

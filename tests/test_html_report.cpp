@@ -70,7 +70,7 @@ TEST(HtmlReportTest, RejectedResultIsRedWithItsReason) {
   // Rejected before the solve: no gate after it is judged, and the page says the transform is
   // not an estimate.
   in.outcome.solved = false;
-  in.outcome.reason = "too_few_frames";
+  in.outcome.reason = Reason::kTooFewFrames;
   in.reprojection.clear();
   in.images.clear();
   html = tools::RenderHtmlReport(in);
@@ -85,7 +85,6 @@ TEST(HtmlReportTest, EveryStringIsEscaped) {
   const std::string evil = "<script>alert('x')</script>\"&";
   in.camera_frame = evil;
   in.lidar_frame = evil;
-  in.outcome.reason = evil;
   in.outcome.detail = evil;
   in.board_names[1] = evil;
   in.images[0].caption = evil;

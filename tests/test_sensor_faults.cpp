@@ -240,7 +240,7 @@ TEST(SensorFaultsTest, LidarStopsMidSession) {
   EXPECT_EQ(testing::Allocations() - news, 0);
   const SessionMachine& m = rig.machine();
   ASSERT_EQ(m.state(), SessionState::kFailed);
-  EXPECT_EQ(m.reason(), "lidar_timeout");
+  EXPECT_EQ(m.reason(), Reason::kLidarTimeout);
   EXPECT_EQ(m.detail(), TimeoutDetail("LiDAR", m.figures().frames_with_boards));
   EXPECT_EQ(m.collection_end(), CollectionEnd::kSensorTimeout);
   // Failed at the first tick more than 2 s after the last sweep arrived.
@@ -291,7 +291,7 @@ TEST(SensorFaultsTest, ASensorThatNeverSendsIsNamed) {
   for (int i = 0; i < 10; ++i) rig.Camera(d.camera[static_cast<size_t>(i)], CameraArrival(i));
   rig.EndOfData();
   EXPECT_EQ(rig.machine().state(), SessionState::kFailed);
-  EXPECT_EQ(rig.machine().reason(), "lidar_timeout");
+  EXPECT_EQ(rig.machine().reason(), Reason::kLidarTimeout);
   EXPECT_EQ(rig.machine().detail(),
             "LiDAR: no frame in this session, the camera sent (end_of_data)");
   EXPECT_EQ(rig.counters().unpaired_camera, 9);
@@ -466,7 +466,7 @@ TEST(SensorFaultsTest, CameraClockJumpAheadAloneFailsWithNoPairs) {
   EXPECT_EQ(testing::Allocations() - news, 0);
   const SessionMachine& m = rig.machine();
   ASSERT_EQ(m.state(), SessionState::kFailed);
-  EXPECT_EQ(m.reason(), "no_pairs");
+  EXPECT_EQ(m.reason(), Reason::kNoPairs);
   EXPECT_EQ(m.detail(),
             "camera and LiDAR: both sending, but no frame pair for more than 2000 ms while "
             "collecting (their capture times do not pair, or every pair was malformed), " +

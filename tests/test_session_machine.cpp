@@ -63,7 +63,7 @@ TEST(SessionMachineTest, StartsIdle) {
   EXPECT_EQ(m.progress(), 0.0);
   EXPECT_FALSE(m.NeedsSolve());
   EXPECT_TRUE(m.guidance().empty());
-  EXPECT_TRUE(m.reason().empty());
+  EXPECT_TRUE(m.reason() == Reason::kNone);
   EXPECT_FALSE(m.FrameRecorded(Figures(1, 1), kT0)) << "no session: frames are ignored";
   m.Tick(kT0 + 1000 * kS);
   EXPECT_EQ(m.state(), SessionState::kIdle);
@@ -149,7 +149,7 @@ TEST(SessionMachineTest, NoPairTimeoutCountsFromWhenBothSensorsSend) {
     m.Tick(t + dt);
   }
   EXPECT_EQ(m.state(), SessionState::kFailed);
-  EXPECT_EQ(m.reason(), "no_pairs");
+  EXPECT_EQ(m.reason(), Reason::kNoPairs);
 }
 
 TEST(SessionMachineTest, TargetFramesEndCollectionAndRaiseNeedsSolveOnce) {
@@ -219,7 +219,7 @@ TEST(SessionMachineTest, TimeLimitWithTooFewFramesOrBoardsFails) {
   EXPECT_TRUE(m.FrameRecorded(Figures(5, 15, 0b0001, 0b1), kT0 + 10 * kS));
   m.Tick(kT0 + 61 * kS);
   EXPECT_EQ(m.state(), SessionState::kFailed);
-  EXPECT_EQ(m.reason(), "too_few_frames");
+  EXPECT_EQ(m.reason(), Reason::kTooFewFrames);
   EXPECT_EQ(m.detail(), "time limit (60 s) reached with 5 frame pairs with boards, 20 needed");
   EXPECT_EQ(m.collection_end(), CollectionEnd::kTimeLimit);
   EXPECT_FALSE(m.NeedsSolve());
@@ -232,7 +232,7 @@ TEST(SessionMachineTest, TimeLimitWithTooFewFramesOrBoardsFails) {
   // A frame arriving after the limit ends the collection as a Tick would.
   EXPECT_TRUE(b.FrameRecorded(Figures(25, 29, 0b0001, 0b1), kT0 + 2 * kS));
   EXPECT_EQ(b.state(), SessionState::kFailed);
-  EXPECT_EQ(b.reason(), "too_few_boards");
+  EXPECT_EQ(b.reason(), Reason::kTooFewBoards);
   EXPECT_EQ(b.detail(), "time limit (1500 ms) reached with 29 board observations, 30 needed");
 }
 
@@ -253,7 +253,7 @@ TEST(SessionMachineTest, EndOfDataEndsTheCollectionLikeTheTimeLimit) {
   EXPECT_TRUE(short_log.FrameRecorded(Figures(5, 15, 0b0001, 0b1), kT0 + kS));
   short_log.EndOfData(kT0 + 2 * kS);
   EXPECT_EQ(short_log.state(), SessionState::kFailed);
-  EXPECT_EQ(short_log.reason(), "too_few_frames");
+  EXPECT_EQ(short_log.reason(), Reason::kTooFewFrames);
   EXPECT_EQ(short_log.detail(), "input ended with 5 frame pairs with boards, 20 needed");
 }
 
@@ -266,7 +266,7 @@ TEST(SessionMachineTest, StopAbortsCollecting) {
   EXPECT_TRUE(reply.accepted);
   EXPECT_EQ(m.state(), SessionState::kAborted);
   EXPECT_EQ(m.collection_end(), CollectionEnd::kStopped);
-  EXPECT_EQ(m.reason(), "stopped");
+  EXPECT_EQ(m.reason(), Reason::kStopped);
   EXPECT_EQ(m.detail(), "stopped by request while collecting (7 frame pairs with boards)");
   EXPECT_FALSE(m.NeedsSolve());
   EXPECT_TRUE(m.guidance().empty());
@@ -283,10 +283,11 @@ TEST(SessionMachineTest, StopDuringSolvingDiscardsTheSolve) {
   EXPECT_EQ(m.detail(), "stopped by request while solving (100 frame pairs with boards)");
   EXPECT_EQ(m.collection_end(), CollectionEnd::kTargetFrames) << "collection itself was complete";
   EXPECT_FALSE(m.NeedsSolve()) << "the pending solve is withdrawn";
-  EXPECT_FALSE(m.SolveFinished(session, CalibrationOutcome::Verdict::kUpdated, "", "late"));
-  EXPECT_FALSE(m.SolveFailed(session, "solver_failed", "late"));
+  EXPECT_FALSE(
+      m.SolveFinished(session, CalibrationOutcome::Verdict::kUpdated, Reason::kNone, "late"));
+  EXPECT_FALSE(m.SolveFailed(session, Reason::kSolverFailed, "late"));
   EXPECT_EQ(m.state(), SessionState::kAborted);
-  EXPECT_EQ(m.reason(), "stopped");
+  EXPECT_EQ(m.reason(), Reason::kStopped);
 }
 
 TEST(SessionMachineTest, SolveFinishedEndsInDoneWithTheVerdict) {
@@ -296,27 +297,27 @@ TEST(SessionMachineTest, SolveFinishedEndsInDoneWithTheVerdict) {
     SessionMachine m = Solving();
     ASSERT_TRUE(m.NeedsSolve());
     const bool rejected = verdict == CalibrationOutcome::Verdict::kRejected;
-    EXPECT_TRUE(
-        m.SolveFinished(m.session(), verdict, rejected ? "poor_observability" : "", "figures"));
+    EXPECT_TRUE(m.SolveFinished(m.session(), verdict,
+                                rejected ? Reason::kPoorObservability : Reason::kNone, "figures"));
     EXPECT_EQ(m.state(), SessionState::kDone);
     EXPECT_EQ(m.verdict(), verdict);
-    EXPECT_EQ(m.reason(), rejected ? "poor_observability" : "");
+    EXPECT_EQ(m.reason(), rejected ? Reason::kPoorObservability : Reason::kNone);
     EXPECT_EQ(m.detail(), "figures");
     EXPECT_EQ(m.progress(), 1.0);
     EXPECT_FALSE(m.committed());
     EXPECT_EQ(m.guidance(), verdict == CalibrationOutcome::Verdict::kUpdated
                                 ? "new calibration ready: send COMMIT to store it"
                                 : "");
-    EXPECT_FALSE(m.SolveFinished(m.session(), verdict, "", "twice")) << "only once";
+    EXPECT_FALSE(m.SolveFinished(m.session(), verdict, Reason::kNone, "twice")) << "only once";
   }
 }
 
 TEST(SessionMachineTest, SolveFailedEndsInFailed) {
   SessionMachine m = Solving();
-  EXPECT_FALSE(m.SolveFailed(m.session() + 1, "internal", "not this session"));
-  EXPECT_TRUE(m.SolveFailed(m.session(), "solver_exception", "std::bad_alloc"));
+  EXPECT_FALSE(m.SolveFailed(m.session() + 1, Reason::kSolverFailed, "not this session"));
+  EXPECT_TRUE(m.SolveFailed(m.session(), Reason::kSolverFailed, "std::bad_alloc"));
   EXPECT_EQ(m.state(), SessionState::kFailed);
-  EXPECT_EQ(m.reason(), "solver_exception");
+  EXPECT_EQ(m.reason(), Reason::kSolverFailed);
   EXPECT_EQ(m.detail(), "std::bad_alloc");
   EXPECT_DOUBLE_EQ(m.progress(), 0.9) << "failed keeps the progress reached";
 }
@@ -328,7 +329,8 @@ TEST(SessionMachineTest, CommitOnlyAnUpdatedResultOnce) {
   EXPECT_EQ(reply.reason, "no finished session to commit (idle)");
   m = Solving();
   EXPECT_FALSE(m.CommitRequested().accepted) << "still solving";
-  ASSERT_TRUE(m.SolveFinished(m.session(), CalibrationOutcome::Verdict::kUpdated, "", ""));
+  ASSERT_TRUE(
+      m.SolveFinished(m.session(), CalibrationOutcome::Verdict::kUpdated, Reason::kNone, ""));
   EXPECT_TRUE(m.CommitRequested().accepted);
   EXPECT_TRUE(m.committed());
   EXPECT_TRUE(m.guidance().empty());
@@ -339,16 +341,16 @@ TEST(SessionMachineTest, CommitOnlyAnUpdatedResultOnce) {
   // The store write failed: the result may be committed again.
   m.CommitFailed("cannot write '/var/lib/calibd/current.json': No space left on device");
   EXPECT_FALSE(m.committed());
-  EXPECT_EQ(m.reason(), "commit_failed");
+  EXPECT_EQ(m.reason(), Reason::kCommitFailed);
   EXPECT_EQ(m.guidance(), "new calibration ready: send COMMIT to store it");
   EXPECT_TRUE(m.CommitRequested().accepted);
-  EXPECT_EQ(m.reason(), "") << "a retried commit no longer reports the failed one";
+  EXPECT_EQ(m.reason(), Reason::kNone) << "a retried commit no longer reports the failed one";
 }
 
 TEST(SessionMachineTest, CommitRefusedForOtherVerdictsAndVerifyOnlySessions) {
   SessionMachine verified = Solving();
-  ASSERT_TRUE(
-      verified.SolveFinished(verified.session(), CalibrationOutcome::Verdict::kVerified, "", ""));
+  ASSERT_TRUE(verified.SolveFinished(verified.session(), CalibrationOutcome::Verdict::kVerified,
+                                     Reason::kNone, ""));
   RequestReply reply = verified.CommitRequested();
   EXPECT_FALSE(reply.accepted);
   EXPECT_EQ(reply.reason,
@@ -357,7 +359,7 @@ TEST(SessionMachineTest, CommitRefusedForOtherVerdictsAndVerifyOnlySessions) {
 
   SessionMachine rejected = Solving();
   ASSERT_TRUE(rejected.SolveFinished(rejected.session(), CalibrationOutcome::Verdict::kRejected,
-                                     "high_residual", ""));
+                                     Reason::kHighResidual, ""));
   reply = rejected.CommitRequested();
   EXPECT_FALSE(reply.accepted);
   EXPECT_EQ(reply.reason, "nothing to commit: the verdict was rejected (high_residual)");
@@ -367,8 +369,8 @@ TEST(SessionMachineTest, CommitRefusedForOtherVerdictsAndVerifyOnlySessions) {
   r.verify_only = true;
   ASSERT_TRUE(verify.Start(r, kT0).accepted);
   ASSERT_TRUE(verify.FrameRecorded(Figures(100, 300), kT0 + kS));
-  ASSERT_TRUE(
-      verify.SolveFinished(verify.session(), CalibrationOutcome::Verdict::kUpdated, "", ""));
+  ASSERT_TRUE(verify.SolveFinished(verify.session(), CalibrationOutcome::Verdict::kUpdated,
+                                   Reason::kNone, ""));
   EXPECT_TRUE(verify.guidance().empty());
   reply = verify.CommitRequested();
   EXPECT_FALSE(reply.accepted);
@@ -378,9 +380,9 @@ TEST(SessionMachineTest, CommitRefusedForOtherVerdictsAndVerifyOnlySessions) {
 TEST(SessionMachineTest, ANewStartAfterAnEndBeginsAFreshSession) {
   // From kDone (uncommitted update), kFailed and kAborted.
   SessionMachine done = Solving();
-  ASSERT_TRUE(done.SolveFinished(1, CalibrationOutcome::Verdict::kUpdated, "", "d"));
+  ASSERT_TRUE(done.SolveFinished(1, CalibrationOutcome::Verdict::kUpdated, Reason::kNone, "d"));
   SessionMachine failed = Solving();
-  ASSERT_TRUE(failed.SolveFailed(1, "solver_exception", "d"));
+  ASSERT_TRUE(failed.SolveFailed(1, Reason::kSolverFailed, "d"));
   SessionMachine aborted = Solving();
   ASSERT_TRUE(aborted.Stop(kT0 + 2 * kS).accepted);
   for (SessionMachine* m : {&done, &failed, &aborted}) {
@@ -391,7 +393,7 @@ TEST(SessionMachineTest, ANewStartAfterAnEndBeginsAFreshSession) {
     EXPECT_EQ(m->progress(), 0.0);
     EXPECT_EQ(m->figures().frames_with_boards, 0);
     EXPECT_EQ(m->collection_end(), CollectionEnd::kNone);
-    EXPECT_TRUE(m->reason().empty());
+    EXPECT_EQ(m->reason(), Reason::kNone);
     EXPECT_TRUE(m->detail().empty());
     EXPECT_FALSE(m->committed());
     EXPECT_FALSE(m->NeedsSolve());
@@ -411,9 +413,9 @@ TEST(SessionMachineTest, AResultOfAnEarlierSessionIsIgnored) {
   ASSERT_EQ(m.state(), SessionState::kSolving);
   EXPECT_EQ(m.session(), 2);
   // Session 1's solve comes back late.
-  EXPECT_FALSE(m.SolveFinished(1, CalibrationOutcome::Verdict::kUpdated, "", "stale"));
+  EXPECT_FALSE(m.SolveFinished(1, CalibrationOutcome::Verdict::kUpdated, Reason::kNone, "stale"));
   EXPECT_EQ(m.state(), SessionState::kSolving);
-  EXPECT_TRUE(m.SolveFinished(2, CalibrationOutcome::Verdict::kVerified, "", "fresh"));
+  EXPECT_TRUE(m.SolveFinished(2, CalibrationOutcome::Verdict::kVerified, Reason::kNone, "fresh"));
   EXPECT_EQ(m.detail(), "fresh");
 }
 
@@ -471,7 +473,8 @@ TEST(SessionMachineTest, ProgressNeverDecreasesAndStaysInRange) {
     EXPECT_GE(m.progress(), last);
     if (m.state() == SessionState::kSolving) {
       EXPECT_DOUBLE_EQ(m.progress(), 0.9);
-      ASSERT_TRUE(m.SolveFinished(m.session(), CalibrationOutcome::Verdict::kVerified, "", ""));
+      ASSERT_TRUE(
+          m.SolveFinished(m.session(), CalibrationOutcome::Verdict::kVerified, Reason::kNone, ""));
       EXPECT_EQ(m.progress(), 1.0);
     }
   }

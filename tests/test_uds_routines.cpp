@@ -61,12 +61,12 @@ TEST_F(UdsRoutineTest, CalibrateStartPollFinish) {
   EXPECT_EQ(Tx(kResults),
             (Bytes{0x71, 0x03, 0xF0, 0xA0, 0x01, 42, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}));
   backend_.snapshot = {RoutineStatus::kSuccess, 100, RoutineVerdict::kUpdated,
-                       RoutineReason::kNone,    5.0, 0.05};
+                       Reason::kNone,           5.0, 0.05};
   // 5 deg = 5000 x 0.001 deg = 0x1388; 0.05 m = 500 x 0.1 mm = 0x01F4.
   EXPECT_EQ(Tx(kResults),
             (Bytes{0x71, 0x03, 0xF0, 0xA0, 0x02, 100, 0x02, 0x00, 0x13, 0x88, 0x01, 0xF4}));
-  backend_.snapshot = {RoutineStatus::kFailed,       90,  RoutineVerdict::kNone,
-                       RoutineReason::kTooFewBoards, 0.0, 0.0};
+  backend_.snapshot = {RoutineStatus::kFailed, 90,  RoutineVerdict::kNone,
+                       Reason::kTooFewBoards,  0.0, 0.0};
   EXPECT_EQ(Tx(kResults),
             (Bytes{0x71, 0x03, 0xF0, 0xA0, 0x04, 90, 0x00, 0x04, 0x00, 0x00, 0x00, 0x00}));
 }

@@ -54,14 +54,14 @@ class FakeUdsBackend : public uds::UdsBackend {
   uds::BackendReply StopCalibration() override {
     ++stops;
     snapshot.status = uds::RoutineStatus::kAborted;
-    snapshot.reason = uds::RoutineReason::kStopped;
+    snapshot.reason = Reason::kStopped;
     return uds::BackendReply::kAccepted;
   }
   void AbortCalibration() override {
     ++aborts;
     if (snapshot.status == uds::RoutineStatus::kActive) {
       snapshot.status = uds::RoutineStatus::kAborted;
-      snapshot.reason = uds::RoutineReason::kSessionEnded;
+      snapshot.reason = Reason::kSessionEnded;
     }
   }
   uds::RoutineSnapshot CalibrationStatus() const override { return snapshot; }

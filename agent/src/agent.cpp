@@ -363,7 +363,8 @@ void Agent::FinishSolve() {
   const CalibrationOutcome& o = outcome_;
   if (!machine_.SolveFinished(solve_session_, o.verdict, o.reason, o.detail)) return;  // stopped
   Log(std::string("verdict ") + VerdictName(o.verdict) +
-      (o.reason.empty() ? "" : " (" + o.reason + ")") + ": " + o.detail + "; solved in " +
+      (o.reason == Reason::kNone ? "" : " (" + std::string(NameOf(o.reason)) + ")") + ": " +
+      o.detail + "; solved in " +
       std::to_string(static_cast<int>((MonotonicUs() - solve_started_us_) / 1000)) +
       " ms (grid search " + std::to_string(static_cast<int>(o.grid.search_ms)) + ", optimisation " +
       std::to_string(static_cast<int>(o.optimise_ms)) + ", quality " +
@@ -450,7 +451,7 @@ void Agent::Step(int64_t now_us) {
       (machine_.state() == SessionState::kCollecting ||
        machine_.state() == SessionState::kSolving) &&
       !diag_.Interlock()) {
-    machine_.Stop(now_us, "interlock_released");
+    machine_.Stop(now_us, Reason::kInterlockReleased);
     Log("session " + std::to_string(machine_.session()) + " aborted: the interlock was released");
   }
   const bool collecting = machine_.state() == SessionState::kCollecting;
@@ -517,8 +518,9 @@ void Agent::PublishStatus() {
   s.boards_observed = recorder_.figures().boards;
   const IntakeCounters& c = intake_.counters();
   s.frames_dropped = static_cast<int32_t>(c.dropped_queue_full);
-  if (!machine_.reason().empty())
-    s.last_error = machine_.reason() + (machine_.detail().empty() ? "" : ": " + machine_.detail());
+  if (machine_.reason() != Reason::kNone)
+    s.last_error = std::string(NameOf(machine_.reason())) +
+                   (machine_.detail().empty() ? "" : ": " + machine_.detail());
   else if (!last_error_.empty())
     s.last_error = last_error_;
   else
@@ -544,7 +546,7 @@ void Agent::PublishHealth() {
                                                                           current->verified_unix_s);
   h.last_verdict =
       has_outcome_ ? ResultVerdict(outcome_.verdict) : calibration_result_t::VERDICT_NONE;
-  h.last_reason = has_outcome_ ? outcome_.reason : "";
+  h.last_reason = has_outcome_ ? NameOf(outcome_.reason) : "";
   h.last_delta_rotation_deg = has_outcome_ ? outcome_.delta_rotation_deg : 0.0;
   h.last_delta_translation_m = has_outcome_ ? outcome_.delta_translation_m : 0.0;
   h.last_reprojection_mean_px = has_outcome_ ? outcome_.quality.reprojection_mean_px : 0.0;
@@ -594,7 +596,7 @@ void Agent::PublishResult() {
   r.camera_id = config_.calib.camera_id;
   r.lidar_id = config_.calib.lidar_id;
   r.verdict = ResultVerdict(o.verdict);
-  r.reason = o.reason;
+  r.reason = NameOf(o.reason);
   const Eigen::Matrix4d T = o.T_camera_lidar.matrix();
   for (int i = 0; i < 16; ++i) r.T_camera_lidar[i] = T(i / 4, i % 4);
   const Eigen::Vector3d t = o.T_camera_lidar.translation();
@@ -625,7 +627,7 @@ void Agent::NotifyStatus() {
   notified_session_ = machine_.session();
   notified_percent_ = percent;
   char text[SystemdNotifier::kMaxStatusChars + 1];
-  const std::string& reason = machine_.reason();
+  const std::string reason(NameOf(machine_.reason()));
   if (s == SessionState::kIdle)
     std::snprintf(text, sizeof(text), "idle");
   else if (s == SessionState::kCollecting)
@@ -723,7 +725,7 @@ int Agent::Run() {
     if (reset_requested_) {
       Log("ECU reset requested over UDS: restarting");
       notifier_.Stopping();
-      machine_.Stop(step_us, "ecu_reset");
+      machine_.Stop(step_us, Reason::kEcuReset);
       EndSessionMarker();
       return kAgentExitRestart;
     }

@@ -84,7 +84,7 @@ uds::BackendReply Agent::StopCalibration() {
 }
 
 void Agent::AbortCalibration() {
-  if (machine_.Stop(MonotonicUs(), "session_ended").accepted)
+  if (machine_.Stop(MonotonicUs(), Reason::kSessionEnded).accepted)
     Log("session " + std::to_string(machine_.session()) +
         " aborted: the extended diagnostic session ended");
 }
@@ -92,7 +92,7 @@ void Agent::AbortCalibration() {
 uds::RoutineSnapshot Agent::CalibrationStatus() const {
   uds::RoutineSnapshot r;
   const SessionState s = machine_.state();
-  r.reason = uds::RoutineReasonCode(machine_.reason());
+  r.reason = machine_.reason();
   switch (s) {
     case SessionState::kIdle:
       r.status = uds::RoutineStatus::kIdle;
@@ -118,8 +118,7 @@ uds::RoutineSnapshot Agent::CalibrationStatus() const {
   if (s == SessionState::kDone && has_outcome_) {
     r.verdict = VerdictCode<uds::RoutineVerdict>(outcome_.verdict);
     // A failed commit is the news (store write failed) until a commit goes through.
-    r.reason =
-        uds::RoutineReasonCode(machine_.commit_failed() ? machine_.reason() : outcome_.reason);
+    r.reason = machine_.commit_failed() ? machine_.reason() : outcome_.reason;
     if (outcome_.solved) {
       r.delta_rotation_deg = outcome_.delta_rotation_deg;
       r.delta_translation_m = outcome_.delta_translation_m;

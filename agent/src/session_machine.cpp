@@ -73,7 +73,6 @@ SessionConfig SessionConfigFrom(const AgentConfig& config) {
 }
 
 SessionMachine::SessionMachine(const SessionConfig& config) : config_(config) {
-  reason_.reserve(kTextCapacity);
   detail_.reserve(kTextCapacity);
   guidance_.reserve(kTextCapacity);
 }
@@ -102,7 +101,7 @@ RequestReply SessionMachine::Start(const StartRequest& request, int64_t now_us) 
   verdict_ = CalibrationOutcome::Verdict::kRejected;
   committed_ = false;
   progress_ = 0.0;
-  reason_.clear();
+  reason_ = Reason::kNone;
   detail_.clear();
   state_ = SessionState::kCollecting;
   UpdateGuidance();
@@ -110,7 +109,7 @@ RequestReply SessionMachine::Start(const StartRequest& request, int64_t now_us) 
   return reply;
 }
 
-RequestReply SessionMachine::Stop(int64_t now_us, const char* reason) {
+RequestReply SessionMachine::Stop(int64_t now_us, Reason reason) {
   RequestReply reply;
   if (state_ != SessionState::kCollecting && state_ != SessionState::kSolving) {
     reply.reason = std::string("no session in progress (") + SessionStateName(state_) + ")";
@@ -121,7 +120,12 @@ RequestReply SessionMachine::Stop(int64_t now_us, const char* reason) {
     collection_end_ = CollectionEnd::kStopped;
   }
   reason_ = reason;
-  detail_ = reason_ == "stopped" ? "stopped by request while " : reason_ + " while ";
+  if (reason_ == Reason::kStopped) {
+    detail_ = "stopped by request while ";
+  } else {
+    detail_ = NameOf(reason_);
+    detail_ += " while ";
+  }
   detail_ += SessionStateName(state_);
   detail_ += " (";
   AppendInt(&detail_, figures_.frames_with_boards);
@@ -173,12 +177,12 @@ bool SessionMachine::CheckSensorTimeout(int64_t now_us) {
   }
   collection_end_ = CollectionEnd::kSensorTimeout;
   if (unpaired) {
-    EnterFailed("no_pairs");
+    EnterFailed(Reason::kNoPairs);
     detail_ = "camera and LiDAR: both sending, but no frame pair for more than ";
   } else {
     // Both silent: the one silent longer is named.
     const bool lidar = lidar_silent && (!camera_silent || last_lidar_us_ <= last_camera_us_);
-    EnterFailed(lidar ? "lidar_timeout" : "camera_timeout");
+    EnterFailed(lidar ? Reason::kLidarTimeout : Reason::kCameraTimeout);
     detail_ = lidar ? "LiDAR: no frame for more than " : "camera: no frame for more than ";
   }
   AppendInt(&detail_, timeout / 1000);
@@ -227,14 +231,14 @@ void SessionMachine::FinishCollection(CollectionEnd end) {
   const bool no_camera = last_camera_us_ == 0, no_lidar = last_lidar_us_ == 0;
   if (frames_short && no_camera != no_lidar) {
     // Nothing could pair: name the sensor that sent nothing rather than the frames it cost.
-    EnterFailed(no_lidar ? "lidar_timeout" : "camera_timeout");
+    EnterFailed(no_lidar ? Reason::kLidarTimeout : Reason::kCameraTimeout);
     detail_ = no_lidar ? "LiDAR: no frame in this session, the camera sent ("
                        : "camera: no frame in this session, the LiDAR sent (";
     detail_ += CollectionEndName(end);
     detail_ += ")";
     return;
   }
-  EnterFailed(frames_short ? "too_few_frames" : "too_few_boards");
+  EnterFailed(frames_short ? Reason::kTooFewFrames : Reason::kTooFewBoards);
   if (end == CollectionEnd::kTimeLimit) {
     detail_ = "time limit (";
     const bool whole_seconds = limit_us_ % 1000000 == 0;
@@ -257,7 +261,7 @@ void SessionMachine::EnterSolving(CollectionEnd end) {
   UpdateGuidance();
 }
 
-void SessionMachine::EnterFailed(const char* reason) {
+void SessionMachine::EnterFailed(Reason reason) {
   state_ = SessionState::kFailed;
   solve_pending_ = false;
   reason_ = reason;
@@ -280,8 +284,8 @@ bool SessionMachine::NeedsSolve() {
   return pending;
 }
 
-bool SessionMachine::SolveFinished(int session, CalibrationOutcome::Verdict verdict,
-                                   const std::string& reason, const std::string& detail) {
+bool SessionMachine::SolveFinished(int session, CalibrationOutcome::Verdict verdict, Reason reason,
+                                   const std::string& detail) {
   if (session != session_ || state_ != SessionState::kSolving) return false;
   solve_pending_ = false;
   verdict_ = verdict;
@@ -293,10 +297,9 @@ bool SessionMachine::SolveFinished(int session, CalibrationOutcome::Verdict verd
   return true;
 }
 
-bool SessionMachine::SolveFailed(int session, const std::string& reason,
-                                 const std::string& detail) {
+bool SessionMachine::SolveFailed(int session, Reason reason, const std::string& detail) {
   if (session != session_ || state_ != SessionState::kSolving) return false;
-  EnterFailed(reason.c_str());
+  EnterFailed(reason);
   detail_ = detail;
   return true;
 }
@@ -306,10 +309,10 @@ RequestReply SessionMachine::CommitRequested() {
   if (state_ != SessionState::kDone) {
     reply.reason = std::string("no finished session to commit (") + SessionStateName(state_) + ")";
   } else if (verdict_ != CalibrationOutcome::Verdict::kUpdated) {
-    reply.reason =
-        std::string("nothing to commit: the verdict was ") + VerdictName(verdict_) +
-        (verdict_ == CalibrationOutcome::Verdict::kVerified ? " (the stored calibration stands)"
-                                                            : " (" + reason_ + ")");
+    reply.reason = std::string("nothing to commit: the verdict was ") + VerdictName(verdict_) +
+                   (verdict_ == CalibrationOutcome::Verdict::kVerified
+                        ? " (the stored calibration stands)"
+                        : " (" + std::string(NameOf(reason_)) + ")");
   } else if (request_.verify_only) {
     reply.reason = "verify-only session: its result is not committed";
   } else if (committed_) {
@@ -318,7 +321,7 @@ RequestReply SessionMachine::CommitRequested() {
     committed_ = true;
     reply.accepted = true;
     if (commit_failed()) {  // retried: the failure is no longer the news
-      reason_.clear();
+      reason_ = Reason::kNone;
       detail_.clear();
     }
     UpdateGuidance();
@@ -329,7 +332,7 @@ RequestReply SessionMachine::CommitRequested() {
 void SessionMachine::CommitFailed(const std::string& detail) {
   if (state_ != SessionState::kDone || !committed_) return;
   committed_ = false;
-  reason_ = kCommitFailed;
+  reason_ = Reason::kCommitFailed;
   detail_ = detail;
   UpdateGuidance();
 }

@@ -32,7 +32,7 @@ double Ms(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-CalibrationOutcome Reject(CalibrationOutcome out, const char* reason, const std::string& detail) {
+CalibrationOutcome Reject(CalibrationOutcome out, Reason reason, const std::string& detail) {
   out.verdict = CalibrationOutcome::Verdict::kRejected;
   out.reason = reason;
   out.detail = detail;
@@ -188,20 +188,20 @@ std::vector<char> BoardsThatFit(const std::vector<BoardGeometry>& boards, const 
 }
 
 // The verdict's count gates on the correspondences: a rejection when too few frame pairs or
-// boards have one, `after` telling when they were counted; null otherwise.
-const char* TooFewCorrespondences(const QualityFigures& q, const VerdictConfig& v,
-                                  const std::string& after, std::string* detail) {
+// boards have one, `after` telling when they were counted; kNone otherwise.
+Reason TooFewCorrespondences(const QualityFigures& q, const VerdictConfig& v,
+                             const std::string& after, std::string* detail) {
   if (q.frames_used < v.min_frames) {
     *detail = std::to_string(q.frames_used) + " frame pairs with a correspondence" + after + ", " +
               std::to_string(v.min_frames) + " needed";
-    return "too_few_frames";
+    return Reason::kTooFewFrames;
   }
   if (q.boards_used < v.min_boards) {
     *detail = std::to_string(q.boards_used) + " board correspondences" + after + ", " +
               std::to_string(v.min_boards) + " needed";
-    return "too_few_boards";
+    return Reason::kTooFewBoards;
   }
-  return nullptr;
+  return Reason::kNone;
 }
 
 // Drops from `set` the observations whose points do not fit their board (BoardsThatFit) at
@@ -384,12 +384,12 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   std::string why;
   if (!engine.grid.IsValid(&why) || !engine.motion.IsValid(&why) || !engine.direct.IsValid(&why) ||
       !engine.scenery.IsValid(&why))
-    return Reject(out, "invalid_config", "engine config: " + why);
+    return Reject(out, Reason::kInvalidConfig, "engine config: " + why);
   if (observed.lidar_valid_points > 0 &&
       static_cast<double>(observed.lidar_outside_points) >
           kMaxLidarOutsideShare * static_cast<double>(observed.lidar_valid_points))
     return Reject(
-        out, "lidar_model_mismatch",
+        out, Reason::kLidarModelMismatch,
         Fmt(100.0 * static_cast<double>(observed.lidar_outside_points) /
                 static_cast<double>(observed.lidar_valid_points),
             1) +
@@ -399,9 +399,11 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
             "configuration says; configure the model that recorded them (calibd-calibrate "
             "--inspect estimates one), or 'generic'");
   if (observed.camera.empty())
-    return Reject(out, "no_camera_boards", "the camera saw no configured board in any frame pair");
+    return Reject(out, Reason::kNoCameraBoards,
+                  "the camera saw no configured board in any frame pair");
   if (observed.lidar.empty())
-    return Reject(out, "no_lidar_boards", "the LiDAR found no board cluster in any frame pair");
+    return Reject(out, Reason::kNoLidarBoards,
+                  "the LiDAR found no board cluster in any frame pair");
 
   // Clusters that stood still while the camera's boards moved are furniture (static_scenery.hpp).
   const StaticScenery scenery = FindStaticScenery(observed, config.boards, engine.scenery);
@@ -415,7 +417,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   }
   const SessionObservations& session = scenery.num_scenery > 0 ? moving : observed;
   if (session.lidar.empty())
-    return Reject(out, "no_lidar_boards",
+    return Reject(out, Reason::kNoLidarBoards,
                   "every one of the " + std::to_string(scenery.num_scenery) +
                       " LiDAR board clusters stood still while the camera's boards moved "
                       "(furniture or walls, not boards): are the configured board sizes right, "
@@ -429,8 +431,8 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   if (out.grid.status != GridSearchResult::Status::kOk) {
     const BoardSwap swap = FindSwappedBoards(engine.grid, projection, config.boards, session,
                                              config.prior_T_camera_lidar, engine.max_solve_frames);
-    if (!swap.found) return Reject(out, "no_grid_candidate", out.grid.reason);
-    return Reject(out, "board_ids_swapped",
+    if (!swap.found) return Reject(out, Reason::kNoGridCandidate, out.grid.reason);
+    return Reject(out, Reason::kBoardIdsSwapped,
                   SwappedBoardsDetail(config.boards, swap, "the LiDAR finds the boards only if",
                                       std::to_string(swap.grid.best_count) +
                                           " LiDAR board points in their regions then, too few "
@@ -457,13 +459,13 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
                 " whose board's motion the camera could not measure were dropped (the boards "
                 "moved by " +
                 Fmt(out.motion.median_shift_m * 1e3, 0) + " mm between the sensors' times)";
-  if (const char* reason = TooFewCorrespondences(q, v, unmeasured, &few))
+  if (const Reason reason = TooFewCorrespondences(q, v, unmeasured, &few); reason != Reason::kNone)
     return Reject(out, reason, few);
   {
     const BoardSwap swap = FindSwapInDistances(
         config.boards, BoardDistances(corr, out.grid.T_camera_lidar, &config.boards));
     if (swap.found)
-      return Reject(out, "board_ids_swapped",
+      return Reject(out, Reason::kBoardIdsSwapped,
                     SwappedBoardsDetail(config.boards, swap, "the camera's distances say",
                                         "it puts them at " + Fmt(swap.ratio_a, 2) + " and " +
                                             Fmt(swap.ratio_b, 2) + " times the LiDAR's"));
@@ -478,7 +480,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   if (engine.method == EngineConfig::Method::kIndirect) {
     const IndirectResult ind =
         OptimizeIndirect(boards, corr, camera, out.grid.T_camera_lidar, engine.indirect);
-    if (!ind.usable) return Reject(out, "solver_failed", "indirect method: " + ind.reason);
+    if (!ind.usable) return Reject(out, Reason::kSolverFailed, "indirect method: " + ind.reason);
     direct = OptimizeDirect(boards, corr, ind.T_camera_lidar, engine.direct, nullptr, false);
     direct.T_camera_lidar = ind.T_camera_lidar;
   } else {
@@ -528,8 +530,8 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
       return !(correct_camera_scale(distances) && !direct.usable);
     };
     direct = solve();
-    if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
-    if (!correct()) return Reject(out, "solver_failed", direct.reason);
+    if (!direct.usable) return Reject(out, Reason::kSolverFailed, direct.reason);
+    if (!correct()) return Reject(out, Reason::kSolverFailed, direct.reason);
     // A board paired with a cluster that is not on it pulls the solution: dropped, then solved
     // again without it, until none is dropped (a pulled solution can hide some at first).
     for (int round = 0; round < kMaxDropRounds; ++round) {
@@ -539,12 +541,12 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
       CoverageFigures(config, corr, &q);
       const std::string after = " once " + std::to_string(out.dropped_correspondences) +
                                 " whose LiDAR points did not lie on their board were dropped";
-      if (const char* reason = TooFewCorrespondences(q, v, after, &few))
+      if (const Reason reason = TooFewCorrespondences(q, v, after, &few); reason != Reason::kNone)
         return Reject(out, reason, few);
       direct = solve();
-      if (!direct.usable) return Reject(out, "solver_failed", direct.reason);
+      if (!direct.usable) return Reject(out, Reason::kSolverFailed, direct.reason);
     }
-    if (!correct()) return Reject(out, "solver_failed", direct.reason);
+    if (!correct()) return Reject(out, Reason::kSolverFailed, direct.reason);
   }
   out.optimise_ms = Ms(t_opt);
   out.T_camera_lidar = direct.T_camera_lidar;
@@ -736,7 +738,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   // A bent board first: it also shows as a range offset, a scale, a lens misfit or scatter.
   if (std::fabs(q.board_bend_m) > kMaxBoardBendM &&
       std::fabs(q.board_bend_m) > kBoardBendSigmas * q.board_bend_sigma_m)
-    return Reject(out, "board_not_flat",
+    return Reject(out, Reason::kBoardNotFlat,
                   "board " + std::to_string(q.board_bend_id) + "'s face bends " +
                       Fmt(std::fabs(q.board_bend_m) * 1e3, 1) + " mm (+-" +
                       Fmt(q.board_bend_sigma_m * 1e3, 1) + ") " +
@@ -745,7 +747,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
                       " mm: the LiDAR sees it off the plane of its tag; flatten or replace the "
                       "board (the operator guide asks for 2 mm under a straight edge)");
   if (q.plane_conditioning < v.min_plane_conditioning)
-    return Reject(out, "poor_observability",
+    return Reject(out, Reason::kPoorObservability,
                   "the board planes leave a direction unconstrained (conditioning " +
                       Fmt(q.plane_conditioning, 6) + " below " + Fmt(v.min_plane_conditioning, 6) +
                       "): boards too few or all parallel");
@@ -756,7 +758,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     const double ratio = std::max(q.rotation_sigma_deg / v.max_rotation_sigma_deg,
                                   q.translation_sigma_m / v.max_translation_sigma_m);
     const double needed = std::ceil(q.boards_used * ratio * ratio);
-    return Reject(out, "poor_observability",
+    return Reject(out, Reason::kPoorObservability,
                   "formal sigma " + Fmt(q.rotation_sigma_deg, 4) + " deg / " +
                       Fmt(q.translation_sigma_m, 4) + " m above " +
                       Fmt(v.max_rotation_sigma_deg, 4) + " deg / " +
@@ -782,7 +784,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     if (sigma_turn_deg > max_sigma_turn_deg &&
         q.principal_point_residual_px > kLensMisfitResidualPx)
       return Reject(
-          out, "principal_point_mismatch",
+          out, Reason::kPrincipalPointMismatch,
           "the tags do not agree on the camera's principal point: +-" + Fmt(s.x(), 1) + " / +-" +
               Fmt(s.y(), 1) + " px from one group of observations to the next, a turn of " +
               Fmt(sigma_turn_deg, 2) + " deg, more than " + Fmt(max_sigma_turn_deg, 2) +
@@ -794,7 +796,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     if (turn_deg + kPrincipalPointTurnSigmas * sigma_turn_deg > max_turn_deg &&
         chi2 > kPrincipalPointChiSquare)
       return Reject(
-          out, "principal_point_mismatch",
+          out, Reason::kPrincipalPointMismatch,
           "the tags put the camera's principal point " + Fmt(d.x(), 1) + " px (+-" +
               Fmt(q.principal_point_sigma_px.x(), 1) + ") right and " + Fmt(d.y(), 1) + " px (+-" +
               Fmt(q.principal_point_sigma_px.y(), 1) +
@@ -807,7 +809,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   }
   if (std::fabs(q.camera_scale_error) > v.max_camera_scale_error &&
       std::fabs(q.camera_scale_error) > kScaleSigmas * q.camera_scale_sigma)
-    return Reject(out, "camera_scale_mismatch",
+    return Reject(out, Reason::kCameraScaleMismatch,
                   "the camera's board distances are " +
                       Fmt(std::fabs(q.camera_scale_error) * 100.0, 2) + " % (+-" +
                       Fmt(q.camera_scale_sigma * 100.0, 2) + ") " +
@@ -818,7 +820,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   if (std::fabs(q.lidar_range_offset_m) > v.max_lidar_range_offset_m &&
       std::fabs(q.lidar_range_offset_m) > kRangeOffsetSigmas * q.lidar_range_offset_sigma_m &&
       q.lidar_range_offset_sigma_m <= kMeasuredRangeOffsetShare * v.max_lidar_range_offset_m)
-    return Reject(out, "lidar_range_offset",
+    return Reject(out, Reason::kLidarRangeOffset,
                   "the LiDAR's ranges are " + Fmt(std::fabs(q.lidar_range_offset_m) * 100.0, 1) +
                       " cm (+-" + Fmt(q.lidar_range_offset_sigma_m * 100.0, 1) + ") " +
                       (q.lidar_range_offset_m > 0.0 ? "longer" : "shorter") +
@@ -829,7 +831,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
                       "must be the board's front)");
   if (q.ring_elevation_chi2 > kRingElevationChi2 &&
       q.ring_elevation_rms_deg > kMinRingElevationRmsDeg)
-    return Reject(out, "lidar_ring_elevation",
+    return Reject(out, Reason::kLidarRingElevation,
                   "the LiDAR's lasers do not fire at the elevations of the configured model's "
                   "table: over " +
                       std::to_string(q.ring_elevation_rings) +
@@ -843,7 +845,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   // A range offset the boards do not measure could be in the translation unseen.
   const double max_range_sigma_m = kRangeOffsetSigmaTolerances * v.verify_translation_m;
   if (!(q.lidar_range_offset_sigma_m <= max_range_sigma_m))
-    return Reject(out, "poor_observability",
+    return Reject(out, Reason::kPoorObservability,
                   std::isfinite(q.lidar_range_offset_sigma_m)
                       ? "the boards measure the LiDAR's range offset only to +-" +
                             Fmt(q.lidar_range_offset_sigma_m * 100.0, 1) + " cm (" +
@@ -860,7 +862,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   // the time offset's sigma; its own words name the cause.
   if (q.time_offset_fitted && std::fabs(q.time_offset_s) > v.max_time_offset_s &&
       std::fabs(q.time_offset_s) > kTimeOffsetSigmas * q.time_offset_sigma_s)
-    return Reject(out, "time_offset_beyond_tolerance",
+    return Reject(out, Reason::kTimeOffset,
                   "the camera captured its images " + Fmt(std::fabs(q.time_offset_s) * 1e3, 1) +
                       " ms (+-" + Fmt(q.time_offset_sigma_s * 1e3, 1) + ") " +
                       (q.time_offset_s > 0.0 ? "later" : "earlier") +
@@ -870,19 +872,19 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
                       "or the clock synchronisation) and calibrate again");
   if (q.rotation_spread_deg > v.max_rotation_spread_deg ||
       q.translation_spread_m > v.max_translation_spread_m)
-    return Reject(out, "unstable_solution",
+    return Reject(out, Reason::kUnstableSolution,
                   "half-data re-solves move it by " + Fmt(q.rotation_spread_deg) + " deg / " +
                       Fmt(q.translation_spread_m) + " m");
   if (q.start_rotation_deg > v.max_start_rotation_deg ||
       q.start_translation_m > v.max_start_translation_m)
-    return Reject(out, "unstable_solution",
+    return Reject(out, Reason::kUnstableSolution,
                   "solves started " + Fmt(kStartCheckRotationDeg, 0) + " deg / " +
                       Fmt(kStartCheckTranslationM, 2) + " m away end " + Fmt(q.start_rotation_deg) +
                       " deg / " + Fmt(q.start_translation_m) +
                       " m from it: the cost has more than one minimum (boards too few or too "
                       "alike, or paired with the wrong LiDAR cluster); record more, varied poses");
   if (q.reprojection_mean_px > q.reprojection_gate_px)
-    return Reject(out, "high_reprojection_error",
+    return Reject(out, Reason::kHighReprojectionError,
                   "mean " + Fmt(q.reprojection_mean_px, 2) + " px above " +
                       Fmt(q.reprojection_gate_px, 2) + " px" +
                       (q.reprojection_gate_px > v.max_reprojection_mean_px
@@ -891,11 +893,11 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
                                  Fmt(q.lidar_spacing_px, 1) + " px)"
                            : std::string()));
   if (q.residual_rms_m > v.max_residual_rms_m)
-    return Reject(out, "high_residual",
+    return Reject(out, Reason::kHighResidual,
                   "point-to-board RMS " + Fmt(q.residual_rms_m, 4) + " m above " +
                       Fmt(v.max_residual_rms_m, 4) + " m");
   if (out.delta_rotation_deg > v.max_rotation_deg || out.delta_translation_m > v.max_translation_m)
-    return Reject(out, "delta_beyond_tolerance",
+    return Reject(out, Reason::kDeltaBeyondTolerance,
                   "change from the prior " + Fmt(out.delta_rotation_deg) + " deg / " +
                       Fmt(out.delta_translation_m) + " m exceeds " + Fmt(v.max_rotation_deg) +
                       " deg / " + Fmt(v.max_translation_m) + " m");

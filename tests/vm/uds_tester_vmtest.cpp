@@ -119,9 +119,8 @@ class ServerThread {
         if (s.progress_percent >= 100) {
           s.status = uds::RoutineStatus::kSuccess;
           s.verdict = final_verdict;
-          s.reason = final_verdict == uds::RoutineVerdict::kRejected
-                         ? uds::RoutineReason::kDeltaBeyondTolerance
-                         : uds::RoutineReason::kNone;
+          s.reason = final_verdict == uds::RoutineVerdict::kRejected ? Reason::kDeltaBeyondTolerance
+                                                                     : Reason::kNone;
           s.delta_rotation_deg = 0.123;
           s.delta_translation_m = 0.0045;
         }

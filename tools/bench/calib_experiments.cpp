@@ -209,7 +209,7 @@ ScoredRun RunEngine(const CalibConfig& config, const SessionObservations& s,
   for (const BoardObservation& o : correspondences.observations)
     if (o.lidar_cluster >= 0) r.lidar_clusters_used.push_back(o.lidar_cluster);
   r.verdict = VerdictName(outcome.verdict);
-  r.reason = outcome.reason;
+  r.reason = NameOf(outcome.reason);
   r.detail = outcome.detail;
   r.static_scenery_clusters = outcome.static_scenery_clusters;
   r.has_estimate = outcome.solved;

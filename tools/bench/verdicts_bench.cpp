@@ -444,7 +444,7 @@ bool RunSession(const Session& s, SessionResult* out) {
     // Short of the agent's minimum (too_few_frames, too_few_boards): no verdict to judge, the
     // session is counted apart (Tally::collecting).
     out->run.verdict = "collecting";
-    out->run.reason = machine.reason();
+    out->run.reason = NameOf(machine.reason());
     out->run.detail = "collection: " + machine.detail();
     out->run.frames = drive.observations.num_frames;
     out->detect_seconds = drive.detect_s;

@@ -422,7 +422,8 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += "<header id=\"verdict\" data-verdict=\"" + HtmlEscape(verdict) +
        "\" style=\"background:" + (rejected ? kRed : kGreen) + "\">\n<p class=\"word\">" +
        HtmlEscape(word) + "</p>\n<p class=\"reason\">";
-  if (!out.reason.empty()) s += "<b>" + HtmlEscape(out.reason) + "</b>: ";
+  if (out.reason != Reason::kNone)
+    s += "<b>" + HtmlEscape(std::string(NameOf(out.reason))) + "</b>: ";
   s += HtmlEscape(out.detail) + "</p>\n";
   s += "<p class=\"reason\">T_camera_lidar from " + HtmlEscape(in.lidar_frame) + " to " +
        HtmlEscape(in.camera_frame) + ", calibrated " + HtmlEscape(UtcTime(p.generated_unix_s)) +

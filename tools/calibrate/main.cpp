@@ -387,7 +387,7 @@ int main(int argc, char** argv) {
   const std::string no_pairs =
       tools::NoPairsCause(stats, config, !folder_path.empty(), &lidar_cause);
   if (!no_pairs.empty() && !out.solved) {
-    out.reason = lidar_cause ? "no_lidar_boards" : "no_camera_boards";
+    out.reason = lidar_cause ? Reason::kNoLidarBoards : Reason::kNoCameraBoards;
     out.detail = no_pairs;
   }
   const auto& q = out.quality;
@@ -407,7 +407,7 @@ int main(int argc, char** argv) {
 
   nlohmann::json report;
   report["verdict"] = VerdictName(out.verdict);
-  report["reason"] = out.reason;
+  report["reason"] = std::string(NameOf(out.reason));
   report["detail"] = out.detail;
   if (!lidar_hint.empty()) report["hint"] = lidar_hint;
   if (!motion_hint.empty()) report["motion_compensation_hint"] = motion_hint;
@@ -616,7 +616,8 @@ int main(int argc, char** argv) {
   if (!quiet) {
     const Eigen::Vector3d xyz = out.T_camera_lidar.translation();
     std::cout << std::fixed << std::setprecision(4) << "verdict: " << VerdictName(out.verdict)
-              << (out.reason.empty() ? "" : " (" + out.reason + ")") << ": " << out.detail << "\n"
+              << (out.reason == Reason::kNone ? "" : " (" + std::string(NameOf(out.reason)) + ")")
+              << ": " << out.detail << "\n"
               << "T_camera_lidar xyz [m]: " << xyz.transpose() << "\n"
               << "change vs prior: " << out.delta_rotation_deg << " deg, "
               << out.delta_translation_m << " m\n";

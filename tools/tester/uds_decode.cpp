@@ -394,38 +394,12 @@ const char* RoutineVerdictName(uint8_t verdict) {
   return "unknown verdict";
 }
 
-const char* RoutineReasonName(uint8_t reason) {
-  static constexpr const char* kNames[] = {"none",
-                                           "stopped",
-                                           "session_ended",
-                                           "too_few_frames",
-                                           "too_few_boards",
-                                           "no_camera_boards",
-                                           "no_lidar_boards",
-                                           "no_grid_candidate",
-                                           "solver_failed",
-                                           "poor_observability",
-                                           "unstable_solution",
-                                           "high_reprojection_error",
-                                           "high_residual",
-                                           "delta_beyond_tolerance",
-                                           "invalid_config",
-                                           "store_write_failed",
-                                           "interlock_released",
-                                           "ecu_reset",
-                                           "lidar_timeout",
-                                           "camera_timeout",
-                                           "no_pairs",
-                                           "camera_scale_mismatch",
-                                           "lidar_range_offset",
-                                           "time_offset_beyond_tolerance",
-                                           "principal_point_mismatch",
-                                           "lidar_model_mismatch",
-                                           "board_ids_swapped",
-                                           "board_not_flat",
-                                           "lidar_ring_elevation"};
-  if (reason < sizeof(kNames) / sizeof(kNames[0])) return kNames[reason];
-  return reason == 0xFF ? "other (see the agent's log)" : "unknown reason";
+const char* RoutineReasonName(uint8_t code) {
+  const Reason reason = ReasonFromCode(code);
+  if (reason == Reason::kNone) return "none";
+  if (reason == Reason::kOther)
+    return code == 0xFF ? "other (see the agent's log)" : "unknown reason";
+  return NameOf(reason).data();  // the table's names are string literals
 }
 
 bool ParseHex(const std::string& text, std::vector<uint8_t>* bytes) {

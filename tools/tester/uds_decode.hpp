@@ -51,7 +51,9 @@ std::string CoverageChart(const CaptureCoverage& coverage);
 
 const char* RoutineStatusName(uint8_t status);    ///< "idle", "active", "success", ...
 const char* RoutineVerdictName(uint8_t verdict);  ///< "none", "verified", "updated", "rejected"
-const char* RoutineReasonName(uint8_t reason);    ///< "too_few_frames", ... as the agent logs
+/// "too_few_frames", ... as the agent logs them (core reason.hpp), "none", "other (see the
+/// agent's log)" or "unknown reason" (a code not in this tester's table).
+const char* RoutineReasonName(uint8_t code);
 
 /// "22 F1 90" / "22f190" / "0x22,0xF1" -> bytes. False unless whole bytes of hex digits.
 bool ParseHex(const std::string& text, std::vector<uint8_t>* bytes);

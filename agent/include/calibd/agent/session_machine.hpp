@@ -115,9 +115,9 @@ class SessionMachine {
   RequestReply Start(const StartRequest& request, int64_t now_us);
   /// Aborts a collecting or solving session (a running solve's result will be ignored). Refused
   /// when no session is in progress.
-  /// `reason` is the aborted session's reason code: "stopped" for a stop request; others name
-  /// what ended it (e.g. "session_ended" when the diagnostic session ended, "interlock_released").
-  RequestReply Stop(int64_t now_us, const char* reason = "stopped");
+  /// `reason` is the aborted session's: kStopped for a stop request; others name what ended it
+  /// (kSessionEnded when the diagnostic session ended, kInterlockReleased, kEcuReset).
+  RequestReply Stop(int64_t now_us, Reason reason = Reason::kStopped);
   /// A frame pair entered the session buffer; `figures` are the session's totals so far. May end
   /// the collection (target frames, coverage gates, time limit). False (ignored) when not
   /// collecting: frames keep arriving after collection ends.
@@ -136,12 +136,12 @@ class SessionMachine {
   /// collecting.
   void EndOfData(int64_t now_us);
   /// The solve of session `session` (session() when it began) ended with a verdict: kDone.
-  /// `reason` is the engine's reason code (empty unless rejected), `detail` its explanation.
+  /// `reason` is the engine's (kNone unless rejected), `detail` its explanation.
   /// False (ignored) when that session is no longer solving, e.g. stopped meanwhile.
-  bool SolveFinished(int session, CalibrationOutcome::Verdict verdict, const std::string& reason,
+  bool SolveFinished(int session, CalibrationOutcome::Verdict verdict, Reason reason,
                      const std::string& detail);
   /// The solve of session `session` could not run to a verdict: kFailed with `reason`.
-  bool SolveFailed(int session, const std::string& reason, const std::string& detail);
+  bool SolveFailed(int session, Reason reason, const std::string& detail);
   /// Accepted only in kDone with an `updated` verdict not yet committed (and not verify-only):
   /// the caller then writes the result to the store. The session counts as committed from here.
   RequestReply CommitRequested();
@@ -160,9 +160,9 @@ class SessionMachine {
   /// 0..1, never decreasing within a session: collection covers [0, 0.9] (the larger of frames
   /// vs target and time vs limit), solving 0.9, kDone 1. kFailed and kAborted keep the value.
   double progress() const { return progress_; }
-  /// Reason code of the last failure, abort or rejection ("too_few_frames", "stopped", the
-  /// engine's reason...); empty otherwise.
-  const std::string& reason() const { return reason_; }
+  /// The reason of the last failure, abort or rejection (kTooFewFrames, kStopped, the engine's
+  /// reason...); kNone otherwise.
+  Reason reason() const { return reason_; }
   /// Human-readable explanation of reason() with its figures.
   const std::string& detail() const { return detail_; }
   /// What the operator should do next: while collecting, the distance bins and image regions
@@ -174,8 +174,8 @@ class SessionMachine {
   CalibrationOutcome::Verdict verdict() const { return verdict_; }
   bool committed() const { return committed_; }
   /// The last commit (CommitFailed) could not be written and none went through since: reason()
-  /// is then "commit_failed", the news until a commit succeeds.
-  bool commit_failed() const { return reason_ == kCommitFailed; }
+  /// is then kCommitFailed, the news until a commit succeeds.
+  bool commit_failed() const { return reason_ == Reason::kCommitFailed; }
   CollectionEnd collection_end() const { return collection_end_; }
   const CollectionFigures& figures() const { return figures_; }
   const StartRequest& request() const { return request_; }
@@ -192,7 +192,7 @@ class SessionMachine {
   /// kFailed when a sensor fell silent or no pair came for sensor_timeout_us; true if so.
   bool CheckSensorTimeout(int64_t now_us);
   void EnterSolving(CollectionEnd end);
-  void EnterFailed(const char* reason);
+  void EnterFailed(Reason reason);
   void UpdateProgress(int64_t now_us);
   void UpdateGuidance();
   bool CoverageMet() const;
@@ -214,8 +214,8 @@ class SessionMachine {
   bool committed_ = false;
   double progress_ = 0.0;
   // Reserved once: rewritten while collecting without allocating.
-  static constexpr const char* kCommitFailed = "commit_failed";
-  std::string reason_, detail_, guidance_;
+  Reason reason_ = Reason::kNone;
+  std::string detail_, guidance_;
 };
 
 }  // namespace calibd

@@ -5,36 +5,8 @@
 ///
 /// Verdicts: `verified` (the new estimate agrees with the prior within the verification
 /// tolerance: the prior is kept), `updated` (a plausible change and every quality gate passes),
-/// `rejected` (with one reason code below). Reason codes:
-/// - `invalid_config`: an engine setting is out of range (the detail names it).
-/// - `lidar_model_mismatch`: more than kMaxLidarOutsideShare of the LiDAR's points fall outside
-///   the configured model's field of view: the clouds come from another LiDAR model, or in
-///   other axes, than the configuration says.
-/// - `no_camera_boards`: no board detected by the camera in any frame pair.
-/// - `no_lidar_boards`: no board cluster detected by the LiDAR in any frame pair.
-/// - `no_grid_candidate`: no extrinsic within the search range aligns the detections.
-/// - `board_ids_swapped`: no extrinsic aligns them as configured, but one does with two boards of
-///   different sizes taking each other's ids (board_swap_check.hpp).
-/// - `lidar_ring_elevation`: a ring LiDAR's lasers disagree with its model's elevation table
-///   (ring_elevations.hpp).
-/// - `board_not_flat`: a board's LiDAR points bend away from the plane of its tag by more than
-///   kMaxBoardBendM at its centre line (board_flatness.hpp).
-/// - `too_few_frames`, `too_few_boards`: fewer frame pairs / board correspondences than required.
-/// - `solver_failed`: the optimiser did not converge to a usable solution.
-/// - `poor_observability`: the boards constrain some direction too weakly (one board, parallel
-///   boards...): the formal standard deviation of rotation or translation is above its gate.
-/// - `unstable_solution`: re-solving on halves of the data moves the result beyond its gate.
-/// - `camera_scale_mismatch`: the camera's board distances disagree with the LiDAR's in
-///   proportion to the distance (a wrong tag size or focal length in the configuration).
-/// - `lidar_range_offset`: the LiDAR's ranges are offset by a constant, told from a translation
-///   by boards in several directions.
-/// - `principal_point_mismatch`: the tags fit a principal point so far from the configured one
-///   that the result would turn by more than twice the verification tolerance.
-/// - `time_offset_beyond_tolerance`: while driving, the camera's time offset against the LiDAR
-///   is beyond what the engine corrects for.
-/// - `high_reprojection_error`: LiDAR-fitted tag corners miss the camera corners (paper Table I).
-/// - `high_residual`: LiDAR board points sit far from their boards under the solution.
-/// - `delta_beyond_tolerance`: the change from the prior exceeds the mechanical tolerance.
+/// `rejected` with a Reason (reason.hpp, which says what each one means; the operator guide's
+/// troubleshooting table says what to do).
 
 #include <limits>
 #include <string>
@@ -48,6 +20,7 @@
 #include "calibd/core/indirect_optimizer.hpp"
 #include "calibd/core/principal_point_check.hpp"
 #include "calibd/core/range_image.hpp"
+#include "calibd/core/reason.hpp"
 #include "calibd/core/session_observations.hpp"
 #include "calibd/core/static_scenery.hpp"
 
@@ -285,8 +258,8 @@ struct QualityFigures {
 
 struct CalibrationOutcome {
   enum class Verdict { kVerified, kUpdated, kRejected } verdict = Verdict::kRejected;
-  std::string reason;  ///< reason code (documented above), empty unless rejected
-  std::string detail;  ///< human-readable explanation with the figures involved
+  Reason reason = Reason::kNone;  ///< kNone unless rejected
+  std::string detail;             ///< human-readable explanation with the figures involved
   Pose prior_T_camera_lidar = Pose::Identity();
   Pose T_camera_lidar = Pose::Identity();  ///< the estimate (even when rejected, for diagnosis)
   /// True once the optimiser produced T_camera_lidar: a rejection by a later gate (observability,

@@ -28,7 +28,7 @@
 ///   byte 0    RoutineStatus
 ///   byte 1    progress, % (0-100): below 90 while collecting, 90 while solving, 100 done
 ///   byte 2    RoutineVerdict
-///   byte 3    RoutineReason (why it failed, aborted or was rejected; 0 otherwise)
+///   byte 3    Reason (core reason.hpp: why it failed, aborted or was rejected; 0 otherwise)
 ///   bytes 4-5 rotation change vs the prior calibration, u16 in 0.001 deg (saturates at 65.535)
 ///   bytes 6-7 translation change vs the prior, u16 in 0.1 mm (saturates at 6.5535 m)
 /// For commit, restore and store-reference the result is the status byte of the last start
@@ -36,6 +36,8 @@
 
 #include <cstdint>
 #include <string_view>
+
+#include "calibd/core/reason.hpp"
 
 namespace calibd::uds {
 
@@ -70,60 +72,25 @@ enum class RoutineStatus : uint8_t {
   kActive = 0x01,   ///< collecting or solving
   kSuccess = 0x02,  ///< finished with a verdict (see RoutineVerdict), or commit/restore done
   kAborted = 0x03,  ///< stopped by the tester, S3 timeout or a session change
-  kFailed = 0x04,   ///< could not reach a verdict (see RoutineReason), or commit/restore failed
+  kFailed = 0x04,   ///< could not reach a verdict (see Reason), or commit/restore failed
 };
 
 enum class RoutineVerdict : uint8_t {
   kNone = 0x00,      ///< no verdict (yet)
   kVerified = 0x01,  ///< the stored calibration still holds
   kUpdated = 0x02,   ///< a new calibration is ready (commit with 0xF0A1)
-  kRejected = 0x03,  ///< the new estimate is not trusted (see RoutineReason)
+  kRejected = 0x03,  ///< the new estimate is not trusted (see Reason)
 };
 
-/// Reason codes of the results record: the session machine's and the engine's reason strings.
-enum class RoutineReason : uint8_t {
-  kNone = 0x00,
-  kStopped = 0x01,                ///< stopRoutine
-  kSessionEnded = 0x02,           ///< S3 timeout or change to the default session
-  kTooFewFrames = 0x03,           ///< "too_few_frames"
-  kTooFewBoards = 0x04,           ///< "too_few_boards"
-  kNoCameraBoards = 0x05,         ///< "no_camera_boards"
-  kNoLidarBoards = 0x06,          ///< "no_lidar_boards"
-  kNoGridCandidate = 0x07,        ///< "no_grid_candidate"
-  kSolverFailed = 0x08,           ///< "solver_failed"
-  kPoorObservability = 0x09,      ///< "poor_observability"
-  kUnstableSolution = 0x0A,       ///< "unstable_solution"
-  kHighReprojectionError = 0x0B,  ///< "high_reprojection_error"
-  kHighResidual = 0x0C,           ///< "high_residual"
-  kDeltaBeyondTolerance = 0x0D,   ///< "delta_beyond_tolerance"
-  kInvalidConfig = 0x0E,          ///< "invalid_config"
-  kStoreWriteFailed = 0x0F,       ///< "commit_failed": commit/restore could not write the store
-  kInterlockReleased = 0x10,      ///< "interlock_released" (GPIO interlock)
-  kEcuReset = 0x11,               ///< "ecu_reset" (0x11 during the session; seen in the LCM result)
-  kLidarTimeout = 0x12,           ///< "lidar_timeout": no LiDAR frame for sensor_timeout_s
-  kCameraTimeout = 0x13,          ///< "camera_timeout": no camera frame for sensor_timeout_s
-  kNoPairs = 0x14,                ///< "no_pairs": both sensors send, no frames pair in time
-  kCameraScaleMismatch = 0x15,    ///< "camera_scale_mismatch"
-  kLidarRangeOffset = 0x16,       ///< "lidar_range_offset"
-  kTimeOffset = 0x17,             ///< "time_offset_beyond_tolerance"
-  kPrincipalPointMismatch = 0x18,  ///< "principal_point_mismatch"
-  kLidarModelMismatch = 0x19,      ///< "lidar_model_mismatch"
-  kBoardIdsSwapped = 0x1A,         ///< "board_ids_swapped"
-  kBoardNotFlat = 0x1B,            ///< "board_not_flat"
-  kLidarRingElevation = 0x1C,      ///< "lidar_ring_elevation"
-  kOther = 0xFF,                   ///< any other reason (the agent's log has the text)
-};
-
-/// The results record's code of a reason string of the session machine or the engine
-/// ("too_few_frames" -> kTooFewFrames): kNone for "", kOther for a reason without a code.
-RoutineReason RoutineReasonCode(std::string_view reason);
+/// The results record's reason byte is calibd::Reason's code (core reason.hpp: one table of codes
+/// and names for the engine, the session machine, the logs and this record).
 
 /// What the owner reports for calibrate / verify (UdsBackend::CalibrationStatus).
 struct RoutineSnapshot {
   RoutineStatus status = RoutineStatus::kIdle;
   uint8_t progress_percent = 0;
   RoutineVerdict verdict = RoutineVerdict::kNone;
-  RoutineReason reason = RoutineReason::kNone;
+  Reason reason = Reason::kNone;
   double delta_rotation_deg = 0.0;  ///< change vs the prior calibration
   double delta_translation_m = 0.0;
 };

@@ -39,7 +39,7 @@ class UdsBackend {
   virtual BackendReply StopCalibration() = 0;
   /// The extended session in which the server started calibrate/verify ended (S3 timeout, change
   /// to the default session): abort that session if it is still running, reporting
-  /// RoutineReason::kSessionEnded. No reply.
+  /// Reason::kSessionEnded. No reply.
   virtual void AbortCalibration() = 0;
   virtual RoutineSnapshot CalibrationStatus() const = 0;
   /// Commit the last `updated` result to the store.
