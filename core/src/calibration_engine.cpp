@@ -5,7 +5,6 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -13,18 +12,24 @@
 #include <random>
 #include <set>
 #include <sstream>
-#include <thread>
 
 #include "calibd/core/board_distances.hpp"
 #include "calibd/core/board_fit.hpp"
 #include "calibd/core/board_flatness.hpp"
+#include "calibd/core/parallel_for.hpp"
 #include "calibd/core/range_offset.hpp"
 #include "calibd/core/ring_elevations.hpp"
 #include "calibd/core/stats.hpp"
+#include "calibd/core/text_format.hpp"
+#include "verdict_gates.hpp"
 
 namespace calibd {
 
 namespace {
+
+using detail::FailedGate;
+using detail::kStartCheckRotationDeg;
+using detail::kStartCheckTranslationM;
 
 using Clock = std::chrono::steady_clock;
 
@@ -37,14 +42,6 @@ CalibrationOutcome Reject(CalibrationOutcome out, Reason reason, const std::stri
   out.reason = reason;
   out.detail = detail;
   return out;
-}
-
-std::string Fmt(double v, int precision = 3) {
-  std::ostringstream o;
-  o.setf(std::ios::fixed);
-  o.precision(precision);
-  o << v;
-  return o.str();
 }
 
 // Paper Table I metric over all observations: mean and p95 of the fitted corners' pixel errors.
@@ -136,11 +133,6 @@ void FormalSigmas(const Eigen::Matrix<double, 6, 6>& info, double residual_rms, 
 constexpr double kFitSigmas = 3.0;
 // Drop-and-solve rounds at most.
 constexpr int kMaxDropRounds = 3;
-
-// How far the start checks (EngineConfig::start_checks) start from the solution: two grid-search
-// steps and a mounting tolerance's worth, within the optimiser's basin when the data leave one.
-constexpr double kStartCheckRotationDeg = 3.0;
-constexpr double kStartCheckTranslationM = 0.05;
 
 // Start `k` of the start checks: the solution turned by kStartCheckRotationDeg and moved by
 // kStartCheckTranslationM along fixed directions that differ from check to check.
@@ -364,129 +356,150 @@ std::string SwappedBoardsDetail(const std::vector<BoardGeometry>& boards, const 
   const BoardGeometry& b = boards[static_cast<size_t>(swap.board_b)];
   auto name = [](const BoardGeometry& g) {
     return std::to_string(g.board_id) + " (tag id " + std::to_string(g.tag_id) + ", " +
-           Fmt(g.width_m, 3) + " x " + Fmt(g.height_m, 3) + " m)";
+           FixedDecimal(g.width_m, 3) + " x " + FixedDecimal(g.height_m, 3) + " m)";
   };
   return claim + " boards " + name(a) + " and " + name(b) + " are each other's (" + evidence +
          "): the configuration gives each of them the other's id or sizes; check which id is "
          "printed on which board and correct the configuration";
 }
 
-CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
-                                           const SessionObservations& observed,
-                                           const RangeImage& projection, const EngineConfig& engine,
-                                           ObservationSet* correspondences,
-                                           std::vector<double>* reprojection_px) {
-  if (reprojection_px) reprojection_px->clear();
-  CalibrationOutcome out;
-  out.prior_T_camera_lidar = config.prior_T_camera_lidar;
-  out.T_camera_lidar = config.prior_T_camera_lidar;
-  const VerdictConfig& v = engine.verdict;
+// What the engine cannot work from at all: an invalid engine config, clouds of another LiDAR
+// model, no board seen by one of the sensors. kNone, or the reason with `detail`.
+Reason CheckInputs(const CalibConfig& config, const SessionObservations& observed,
+                   const EngineConfig& engine, std::string* detail) {
+  auto refuse = [detail](Reason reason, std::string text) {
+    *detail = std::move(text);
+    return reason;
+  };
   std::string why;
   if (!engine.grid.IsValid(&why) || !engine.motion.IsValid(&why) || !engine.direct.IsValid(&why) ||
       !engine.scenery.IsValid(&why))
-    return Reject(out, Reason::kInvalidConfig, "engine config: " + why);
+    return refuse(Reason::kInvalidConfig, "engine config: " + why);
   if (observed.lidar_valid_points > 0 &&
       static_cast<double>(observed.lidar_outside_points) >
           kMaxLidarOutsideShare * static_cast<double>(observed.lidar_valid_points))
-    return Reject(
-        out, Reason::kLidarModelMismatch,
-        Fmt(100.0 * static_cast<double>(observed.lidar_outside_points) /
-                static_cast<double>(observed.lidar_valid_points),
-            1) +
+    return refuse(
+        Reason::kLidarModelMismatch,
+        FixedDecimal(100.0 * static_cast<double>(observed.lidar_outside_points) /
+                         static_cast<double>(observed.lidar_valid_points),
+                     1) +
             " % of the LiDAR's points fall outside the field of view of the configured model (" +
             config.lidar_model +
             "): the clouds come from another LiDAR, or in other axes (x forward, z up), than the "
             "configuration says; configure the model that recorded them (calibd-calibrate "
             "--inspect estimates one), or 'generic'");
   if (observed.camera.empty())
-    return Reject(out, Reason::kNoCameraBoards,
-                  "the camera saw no configured board in any frame pair");
+    return refuse(Reason::kNoCameraBoards, "the camera saw no configured board in any frame pair");
   if (observed.lidar.empty())
-    return Reject(out, Reason::kNoLidarBoards,
-                  "the LiDAR found no board cluster in any frame pair");
+    return refuse(Reason::kNoLidarBoards, "the LiDAR found no board cluster in any frame pair");
 
-  // Clusters that stood still while the camera's boards moved are furniture (static_scenery.hpp).
-  const StaticScenery scenery = FindStaticScenery(observed, config.boards, engine.scenery);
-  out.static_scenery_clusters = scenery.num_scenery;
-  SessionObservations moving;
-  if (scenery.num_scenery > 0) {
-    std::vector<char> keep(observed.lidar.size());
-    for (size_t j = 0; j < keep.size(); ++j) keep[j] = !scenery.scenery[j];
-    moving = Subset(observed, std::vector<char>(static_cast<size_t>(observed.num_frames), 1),
-                    std::vector<char>(observed.camera.size(), 1), keep);
-  }
-  const SessionObservations& session = scenery.num_scenery > 0 ? moving : observed;
-  if (session.lidar.empty())
-    return Reject(out, Reason::kNoLidarBoards,
-                  "every one of the " + std::to_string(scenery.num_scenery) +
-                      " LiDAR board clusters stood still while the camera's boards moved "
-                      "(furniture or walls, not boards): are the configured board sizes right, "
-                      "and do the boards stand free, 0.3 m or more in front of anything?");
+  return Reason::kNone;
+}
 
+// The coarse grid search (paper §III-D) around the prior: its extrinsic and the correspondences
+// it pairs. When no rotation in its range aligns the boards, whether one does with two boards'
+// ids swapped (board_swap_check.hpp). kNone, or the reason with `detail`.
+Reason SearchGrid(const CalibConfig& config, const SessionObservations& session,
+                  const RangeImage& projection, const EngineConfig& engine,
+                  GridSearchResult* result, ObservationSet* corr, std::string* detail) {
+  auto refuse = [detail](Reason reason, std::string text) {
+    *detail = std::move(text);
+    return reason;
+  };
   GridSearch grid(engine.grid, projection, config.boards);
-  ObservationSet local;
-  ObservationSet& corr = correspondences ? *correspondences : local;
-  corr.Reserve(static_cast<int>(session.camera.size()), static_cast<int>(session.points.size()));
-  out.grid = grid.Run(session, config.prior_T_camera_lidar, &corr, engine.max_solve_frames);
-  if (out.grid.status != GridSearchResult::Status::kOk) {
+  *result = grid.Run(session, config.prior_T_camera_lidar, corr, engine.max_solve_frames);
+  if (result->status != GridSearchResult::Status::kOk) {
     const BoardSwap swap = FindSwappedBoards(engine.grid, projection, config.boards, session,
                                              config.prior_T_camera_lidar, engine.max_solve_frames);
-    if (!swap.found) return Reject(out, Reason::kNoGridCandidate, out.grid.reason);
-    return Reject(out, Reason::kBoardIdsSwapped,
+    if (!swap.found) return refuse(Reason::kNoGridCandidate, result->reason);
+    return refuse(Reason::kBoardIdsSwapped,
                   SwappedBoardsDetail(config.boards, swap, "the LiDAR finds the boards only if",
                                       std::to_string(swap.grid.best_count) +
                                           " LiDAR board points in their regions then, too few "
                                           "without"));
   }
-  if (scenery.num_scenery > 0) {
-    // Each correspondence names its cluster in the caller's session, not in the subset.
-    std::vector<int> original;
-    original.reserve(session.lidar.size());
-    for (size_t j = 0; j < observed.lidar.size(); ++j)
-      if (!scenery.scenery[j]) original.push_back(static_cast<int>(j));
-    for (BoardObservation& o : corr.observations)
-      if (o.lidar_cluster >= 0) o.lidar_cluster = original[static_cast<size_t>(o.lidar_cluster)];
-  }
-  out.T_camera_lidar = out.grid.T_camera_lidar;
-  out.motion = CompensateBoardMotion(session, out.grid.T_camera_lidar, engine.motion, &corr);
-  CoverageFigures(config, corr, &out.quality);
-  QualityFigures& q = out.quality;
+  return Reason::kNone;
+}
+
+// Each correspondence of a session without its static scenery names its cluster in the caller's
+// session, not in the subset.
+void NameClustersInTheSession(const SessionObservations& observed, const StaticScenery& scenery,
+                              ObservationSet* corr) {
+  if (scenery.num_scenery == 0) return;
+  std::vector<int> original;
+  original.reserve(observed.lidar.size());
+  for (size_t j = 0; j < observed.lidar.size(); ++j)
+    if (!scenery.scenery[j]) original.push_back(static_cast<int>(j));
+  for (BoardObservation& o : corr->observations)
+    if (o.lidar_cluster >= 0) o.lidar_cluster = original[static_cast<size_t>(o.lidar_cluster)];
+}
+
+// Enough correspondences after motion compensation, and camera distances that do not say two
+// boards' ids are swapped (board_swap_check.hpp). kNone, or the reason with `detail`.
+Reason CheckCorrespondences(const CalibConfig& config, const VerdictConfig& v,
+                            const MotionCompensationStats& motion, const ObservationSet& corr,
+                            const Pose& T_camera_lidar, const QualityFigures& q,
+                            std::string* detail) {
+  auto refuse = [detail](Reason reason, std::string text) {
+    *detail = std::move(text);
+    return reason;
+  };
   std::string few;
   const std::string unmeasured =
-      out.motion.dropped == 0
+      motion.dropped == 0
           ? ""
-          : " once " + std::to_string(out.motion.dropped) +
+          : " once " + std::to_string(motion.dropped) +
                 " whose board's motion the camera could not measure were dropped (the boards "
                 "moved by " +
-                Fmt(out.motion.median_shift_m * 1e3, 0) + " mm between the sensors' times)";
+                FixedDecimal(motion.median_shift_m * 1e3, 0) + " mm between the sensors' times)";
   if (const Reason reason = TooFewCorrespondences(q, v, unmeasured, &few); reason != Reason::kNone)
-    return Reject(out, reason, few);
+    return refuse(reason, few);
   {
-    const BoardSwap swap = FindSwapInDistances(
-        config.boards, BoardDistances(corr, out.grid.T_camera_lidar, &config.boards));
+    const BoardSwap swap =
+        FindSwapInDistances(config.boards, BoardDistances(corr, T_camera_lidar, &config.boards));
     if (swap.found)
-      return Reject(out, Reason::kBoardIdsSwapped,
-                    SwappedBoardsDetail(config.boards, swap, "the camera's distances say",
-                                        "it puts them at " + Fmt(swap.ratio_a, 2) + " and " +
-                                            Fmt(swap.ratio_b, 2) + " times the LiDAR's"));
+      return refuse(
+          Reason::kBoardIdsSwapped,
+          SwappedBoardsDetail(config.boards, swap, "the camera's distances say",
+                              "it puts them at " + FixedDecimal(swap.ratio_a, 2) + " and " +
+                                  FixedDecimal(swap.ratio_b, 2) + " times the LiDAR's"));
   }
 
-  const CameraModel camera(config.camera);
-  const auto t_opt = Clock::now();
-  // The boards as the solve sees them: the configured ones, their patterns scaled when the
-  // camera's scale is corrected (correct_camera_scale below).
-  std::vector<BoardGeometry> boards = config.boards;
+  return Reason::kNone;
+}
+
+// The solution: the direct optimisation (paper §III-E) or the indirect baseline, from the grid
+// search's extrinsic, with the camera's time offset and scale corrected where they are measured
+// and the boards that do not fit dropped. kNone, or the reason with `detail`.
+struct Solution {
   DirectResult direct;
+  /// The boards as the solve sees them: the configured ones, their patterns scaled when the
+  /// camera's scale was corrected.
+  std::vector<BoardGeometry> boards;
+};
+
+Reason Solve(const CalibConfig& config, const EngineConfig& engine, const CameraModel& camera,
+             const Pose& T_start, ObservationSet* set, QualityFigures* quality, int* dropped_total,
+             Solution* solution, std::string* detail) {
+  auto refuse = [detail](Reason reason, std::string text) {
+    *detail = std::move(text);
+    return reason;
+  };
+  ObservationSet& corr = *set;
+  QualityFigures& q = *quality;
+  const VerdictConfig& v = engine.verdict;
+  std::string few;
+  std::vector<BoardGeometry>& boards = solution->boards;
+  boards = config.boards;
+  DirectResult& direct = solution->direct;
   if (engine.method == EngineConfig::Method::kIndirect) {
-    const IndirectResult ind =
-        OptimizeIndirect(boards, corr, camera, out.grid.T_camera_lidar, engine.indirect);
-    if (!ind.usable) return Reject(out, Reason::kSolverFailed, "indirect method: " + ind.reason);
+    const IndirectResult ind = OptimizeIndirect(boards, corr, camera, T_start, engine.indirect);
+    if (!ind.usable) return refuse(Reason::kSolverFailed, "indirect method: " + ind.reason);
     direct = OptimizeDirect(boards, corr, ind.T_camera_lidar, engine.direct, nullptr, false);
     direct.T_camera_lidar = ind.T_camera_lidar;
   } else {
     auto solve = [&] {
-      return OptimizeDirect(boards, corr, out.grid.T_camera_lidar, engine.direct, nullptr, true,
-                            &camera);
+      return OptimizeDirect(boards, corr, T_start, engine.direct, nullptr, true, &camera);
     };
     // A camera running behind its stamps biases the solution along the boards' motion: its offset
     // is measured under the solution, the points moved to the camera's capture time, and solved
@@ -530,41 +543,41 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
       return !(correct_camera_scale(distances) && !direct.usable);
     };
     direct = solve();
-    if (!direct.usable) return Reject(out, Reason::kSolverFailed, direct.reason);
-    if (!correct()) return Reject(out, Reason::kSolverFailed, direct.reason);
+    if (!direct.usable) return refuse(Reason::kSolverFailed, direct.reason);
+    if (!correct()) return refuse(Reason::kSolverFailed, direct.reason);
     // A board paired with a cluster that is not on it pulls the solution: dropped, then solved
     // again without it, until none is dropped (a pulled solution can hide some at first).
     for (int round = 0; round < kMaxDropRounds; ++round) {
       const int dropped = DropBoardsThatDoNotFit(boards, direct, &corr);
       if (dropped == 0) break;
-      out.dropped_correspondences += dropped;
+      *dropped_total += dropped;
       CoverageFigures(config, corr, &q);
-      const std::string after = " once " + std::to_string(out.dropped_correspondences) +
+      const std::string after = " once " + std::to_string(*dropped_total) +
                                 " whose LiDAR points did not lie on their board were dropped";
       if (const Reason reason = TooFewCorrespondences(q, v, after, &few); reason != Reason::kNone)
-        return Reject(out, reason, few);
+        return refuse(reason, few);
       direct = solve();
-      if (!direct.usable) return Reject(out, Reason::kSolverFailed, direct.reason);
+      if (!direct.usable) return refuse(Reason::kSolverFailed, direct.reason);
     }
-    if (!correct()) return Reject(out, Reason::kSolverFailed, direct.reason);
+    if (!correct()) return refuse(Reason::kSolverFailed, direct.reason);
   }
-  out.optimise_ms = Ms(t_opt);
-  out.T_camera_lidar = direct.T_camera_lidar;
-  out.solved = true;
-  out.refined_boards = direct.refined_boards;
-  out.board_rotation_change_deg = direct.board_rotation_change_deg;
-  out.board_translation_change_m = direct.board_translation_change_m;
-  out.delta_rotation_deg =
-      RotationAngle(config.prior_T_camera_lidar.linear(), out.T_camera_lidar.linear()) * kRad2Deg;
-  out.delta_translation_m =
-      (config.prior_T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm();
+  return Reason::kNone;
+}
 
-  const auto t_q = Clock::now();
+// The quality figures of a solution (QualityFigures): its formal sigmas and residual, the camera's
+// scale and the LiDAR's range offset, ring elevations, board flatness, the principal point, the
+// time offset left and the planes' conditioning.
+void MeasureQuality(const CalibConfig& config, const SessionObservations& session,
+                    const RangeImage& projection, const ObservationSet& corr,
+                    const Solution& solution, const Pose& T_camera_lidar, QualityFigures* quality) {
+  QualityFigures& q = *quality;
+  const DirectResult& direct = solution.direct;
+  const std::vector<BoardGeometry>& boards = solution.boards;
   q.residual_rms_m = direct.residual_rms_m;
   q.information = direct.information;
   q.min_information_eigenvalue = direct.min_information_eigenvalue;
   FormalSigmas(direct.information, direct.residual_rms_m, &q);
-  const std::vector<BoardDistance> distances = BoardDistances(corr, out.T_camera_lidar, &boards);
+  const std::vector<BoardDistance> distances = BoardDistances(corr, T_camera_lidar, &boards);
   {
     const CameraScaleEstimate e = EstimateCameraScale(corr, distances);
     if (e.scale_fitted) {
@@ -598,7 +611,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   }
   {
     const RingElevationCheck rings =
-        CheckRingElevations(boards, corr, projection, out.T_camera_lidar, direct.T_camera_board);
+        CheckRingElevations(boards, corr, projection, T_camera_lidar, direct.T_camera_board);
     if (rings.measured) {
       q.ring_elevation_rings = rings.rings;
       q.ring_elevation_rms_deg = rings.rms_deg;
@@ -606,7 +619,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     }
   }
   for (const BoardBend& b :
-       EstimateBoardBends(boards, corr, out.T_camera_lidar, direct.T_camera_board)) {
+       EstimateBoardBends(boards, corr, T_camera_lidar, direct.T_camera_board)) {
     // Where both axes are measured, the one further from flat in its own sigmas.
     for (const auto& [bend, sigma] :
          {std::pair{b.bend_u_m, b.sigma_u_m}, std::pair{b.bend_v_m, b.sigma_v_m}}) {
@@ -651,8 +664,18 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     const double top = es.eigenvalues()(5);
     q.plane_conditioning = top > 0.0 ? std::max(0.0, es.eigenvalues()(0)) / top : 0.0;
   }
-  // The reprojection errors (each board fitted alone, started from its refined pose) and the
-  // stability re-solves are independent tasks, shared out over the solver's threads.
+}
+
+// The stability figures (re-solves on random halves, solves from other starts) and the
+// reprojection errors (each board fitted alone, started from its refined pose): independent tasks
+// shared out over the solver's threads. `reprojection_px`, when given, gets each
+// correspondence's mean corner error.
+void StabilityAndReprojection(const EngineConfig& engine, const std::vector<BoardGeometry>& boards,
+                              const CameraModel& camera, const ObservationSet& corr,
+                              const DirectResult& direct, const Pose& T_camera_lidar,
+                              QualityFigures* quality, std::vector<double>* reprojection_px) {
+  QualityFigures& q = *quality;
+  const VerdictConfig& v = engine.verdict;
   const int runs = std::max(0, engine.stability_runs);
   std::mt19937_64 rng(12345);
   std::vector<std::vector<char>> use(runs, std::vector<char>(corr.observations.size()));
@@ -671,33 +694,25 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   const size_t n = corr.observations.size();
   const int chunks = 4 * threads;
   std::vector<double> errors_px(4 * n);
-  std::atomic<int> next{0};
   // Tasks [0, runs): re-solves on random halves (deterministic seed) from the full solution with
   // its board poses held, i.e. how far the extrinsic moves when half the boards are left out;
   // tasks [runs, runs + starts): solves of every board from other starts, board poses refined
   // again from the camera's (does the solve end in the same minimum?); then
   // [runs + starts, runs + starts + chunks): reprojection errors of a slice of the observations.
-  auto work = [&] {
-    for (int task = next++; task < runs + starts + chunks; task = next++) {
-      if (task < runs) {
-        half[task] = ResolveWithHeldBoards(boards, corr, out.T_camera_lidar, one,
-                                           direct.T_camera_board, &use[task]);
-      } else if (task < runs + starts) {
-        const int k = task - runs;
-        started[static_cast<size_t>(k)] = OptimizeDirect(
-            boards, corr, StartCheckPose(out.T_camera_lidar, k), one, nullptr, true, &camera);
-      } else {
-        const size_t c = static_cast<size_t>(task - runs - starts);
-        ReprojectionErrors(boards, camera, corr, out.T_camera_lidar, engine.direct,
-                           direct.T_camera_board, n * c / chunks, n * (c + 1) / chunks,
-                           errors_px.data());
-      }
+  ParallelFor(threads, runs + starts + chunks, [&](int, int task) {
+    if (task < runs) {
+      half[task] = ResolveWithHeldBoards(boards, corr, T_camera_lidar, one, direct.T_camera_board,
+                                         &use[task]);
+    } else if (task < runs + starts) {
+      const int k = task - runs;
+      started[static_cast<size_t>(k)] = OptimizeDirect(
+          boards, corr, StartCheckPose(T_camera_lidar, k), one, nullptr, true, &camera);
+    } else {
+      const size_t c = static_cast<size_t>(task - runs - starts);
+      ReprojectionErrors(boards, camera, corr, T_camera_lidar, engine.direct, direct.T_camera_board,
+                         n * c / chunks, n * (c + 1) / chunks, errors_px.data());
     }
-  };
-  std::vector<std::thread> workers;
-  for (int t = 1; t < threads; ++t) workers.emplace_back(work);
-  work();
-  for (auto& w : workers) w.join();
+  });
   if (reprojection_px) {
     reprojection_px->assign(n, std::numeric_limits<double>::quiet_NaN());
     for (size_t k = 0; k < n; ++k) {
@@ -718,200 +733,111 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     if (!h.usable) continue;
     q.rotation_spread_deg =
         std::max(q.rotation_spread_deg,
-                 RotationAngle(h.T_camera_lidar.linear(), out.T_camera_lidar.linear()) * kRad2Deg);
+                 RotationAngle(h.T_camera_lidar.linear(), T_camera_lidar.linear()) * kRad2Deg);
     q.translation_spread_m =
         std::max(q.translation_spread_m,
-                 (h.T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm());
+                 (h.T_camera_lidar.translation() - T_camera_lidar.translation()).norm());
   }
   for (size_t k = 0; k < started.size(); ++k) {
     // A solve that did not converge from there ended nowhere near: as far as its start.
     const DirectResult& r = started[k];
     const Pose end =
-        r.usable ? r.T_camera_lidar : StartCheckPose(out.T_camera_lidar, static_cast<int>(k));
+        r.usable ? r.T_camera_lidar : StartCheckPose(T_camera_lidar, static_cast<int>(k));
     q.start_rotation_deg = std::max(
-        q.start_rotation_deg, RotationAngle(end.linear(), out.T_camera_lidar.linear()) * kRad2Deg);
-    q.start_translation_m = std::max(q.start_translation_m,
-                                     (end.translation() - out.T_camera_lidar.translation()).norm());
+        q.start_rotation_deg, RotationAngle(end.linear(), T_camera_lidar.linear()) * kRad2Deg);
+    q.start_translation_m =
+        std::max(q.start_translation_m, (end.translation() - T_camera_lidar.translation()).norm());
   }
+}
+
+CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
+                                           const SessionObservations& observed,
+                                           const RangeImage& projection, const EngineConfig& engine,
+                                           ObservationSet* correspondences,
+                                           std::vector<double>* reprojection_px) {
+  if (reprojection_px) reprojection_px->clear();
+  CalibrationOutcome out;
+  out.prior_T_camera_lidar = config.prior_T_camera_lidar;
+  out.T_camera_lidar = config.prior_T_camera_lidar;
+  const VerdictConfig& v = engine.verdict;
+  std::string detail;
+  if (const Reason reason = CheckInputs(config, observed, engine, &detail); reason != Reason::kNone)
+    return Reject(out, reason, detail);
+
+  // Clusters that stood still while the camera's boards moved are furniture (static_scenery.hpp).
+  const StaticScenery scenery = FindStaticScenery(observed, config.boards, engine.scenery);
+  out.static_scenery_clusters = scenery.num_scenery;
+  SessionObservations moving;
+  if (scenery.num_scenery > 0) {
+    std::vector<char> keep(observed.lidar.size());
+    for (size_t j = 0; j < keep.size(); ++j) keep[j] = !scenery.scenery[j];
+    moving = Subset(observed, std::vector<char>(static_cast<size_t>(observed.num_frames), 1),
+                    std::vector<char>(observed.camera.size(), 1), keep);
+  }
+  const SessionObservations& session = scenery.num_scenery > 0 ? moving : observed;
+  if (session.lidar.empty())
+    return Reject(out, Reason::kNoLidarBoards,
+                  "every one of the " + std::to_string(scenery.num_scenery) +
+                      " LiDAR board clusters stood still while the camera's boards moved "
+                      "(furniture or walls, not boards): are the configured board sizes right, "
+                      "and do the boards stand free, 0.3 m or more in front of anything?");
+
+  ObservationSet local;
+  ObservationSet& corr = correspondences ? *correspondences : local;
+  corr.Reserve(static_cast<int>(session.camera.size()), static_cast<int>(session.points.size()));
+  if (const Reason reason =
+          SearchGrid(config, session, projection, engine, &out.grid, &corr, &detail);
+      reason != Reason::kNone)
+    return Reject(out, reason, detail);
+  NameClustersInTheSession(observed, scenery, &corr);
+  out.T_camera_lidar = out.grid.T_camera_lidar;
+  out.motion = CompensateBoardMotion(session, out.grid.T_camera_lidar, engine.motion, &corr);
+  CoverageFigures(config, corr, &out.quality);
+  QualityFigures& q = out.quality;
+  if (const Reason reason =
+          CheckCorrespondences(config, v, out.motion, corr, out.grid.T_camera_lidar, q, &detail);
+      reason != Reason::kNone)
+    return Reject(out, reason, detail);
+
+  const CameraModel camera(config.camera);
+  const auto t_opt = Clock::now();
+  Solution solution;
+  if (const Reason reason = Solve(config, engine, camera, out.grid.T_camera_lidar, &corr, &q,
+                                  &out.dropped_correspondences, &solution, &detail);
+      reason != Reason::kNone)
+    return Reject(out, reason, detail);
+  const DirectResult& direct = solution.direct;
+  const std::vector<BoardGeometry>& boards = solution.boards;
+  out.optimise_ms = Ms(t_opt);
+  out.T_camera_lidar = direct.T_camera_lidar;
+  out.solved = true;
+  out.refined_boards = direct.refined_boards;
+  out.board_rotation_change_deg = direct.board_rotation_change_deg;
+  out.board_translation_change_m = direct.board_translation_change_m;
+  out.delta_rotation_deg =
+      RotationAngle(config.prior_T_camera_lidar.linear(), out.T_camera_lidar.linear()) * kRad2Deg;
+  out.delta_translation_m =
+      (config.prior_T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm();
+
+  const auto t_q = Clock::now();
+  MeasureQuality(config, session, projection, corr, solution, out.T_camera_lidar, &q);
+  StabilityAndReprojection(engine, boards, camera, corr, direct, out.T_camera_lidar, &q,
+                           reprojection_px);
   out.quality_ms = Ms(t_q);
 
-  // A bent board first: it also shows as a range offset, a scale, a lens misfit or scatter.
-  if (std::fabs(q.board_bend_m) > kMaxBoardBendM &&
-      std::fabs(q.board_bend_m) > kBoardBendSigmas * q.board_bend_sigma_m)
-    return Reject(out, Reason::kBoardNotFlat,
-                  "board " + std::to_string(q.board_bend_id) + "'s face bends " +
-                      Fmt(std::fabs(q.board_bend_m) * 1e3, 1) + " mm (+-" +
-                      Fmt(q.board_bend_sigma_m * 1e3, 1) + ") " +
-                      (q.board_bend_m > 0.0 ? "towards" : "away from") +
-                      " the sensors at its centre line, more than " + Fmt(kMaxBoardBendM * 1e3, 1) +
-                      " mm: the LiDAR sees it off the plane of its tag; flatten or replace the "
-                      "board (the operator guide asks for 2 mm under a straight edge)");
-  if (q.plane_conditioning < v.min_plane_conditioning)
-    return Reject(out, Reason::kPoorObservability,
-                  "the board planes leave a direction unconstrained (conditioning " +
-                      Fmt(q.plane_conditioning, 6) + " below " + Fmt(v.min_plane_conditioning, 6) +
-                      "): boards too few or all parallel");
-  if (q.rotation_sigma_deg > v.max_rotation_sigma_deg ||
-      q.translation_sigma_m > v.max_translation_sigma_m) {
-    // A formal sigma falls with the square root of the number of like boards: how many would
-    // bring it under the gate, for the user to act on.
-    const double ratio = std::max(q.rotation_sigma_deg / v.max_rotation_sigma_deg,
-                                  q.translation_sigma_m / v.max_translation_sigma_m);
-    const double needed = std::ceil(q.boards_used * ratio * ratio);
-    return Reject(out, Reason::kPoorObservability,
-                  "formal sigma " + Fmt(q.rotation_sigma_deg, 4) + " deg / " +
-                      Fmt(q.translation_sigma_m, 4) + " m above " +
-                      Fmt(v.max_rotation_sigma_deg, 4) + " deg / " +
-                      Fmt(v.max_translation_sigma_m, 4) + " m: boards too few or too alike (" +
-                      std::to_string(q.boards_used) + " boards; about " +
-                      (std::isfinite(needed) && needed < 1e6 ? Fmt(needed, 0) : "many more") +
-                      " like them, or fewer at closer range and more varied angles, where the "
-                      "LiDAR puts more points on each)");
-  }
-  if (q.principal_point_fitted) {
-    // A principal point off by d turns the result by about d / f, which the LiDAR cannot see.
-    const Eigen::Vector2d d = q.principal_point_shift_px;
-    const double turn_deg = q.principal_point_turn_deg;
-    const double chi2 = (d.cwiseQuotient(q.principal_point_sigma_px)).squaredNorm();
-    const double max_turn_deg = kPrincipalPointTurnTolerances * v.verify_rotation_deg;
-    // Groups of observations that disagree by far more than the turn that matters, and corners
-    // that fit the lens model worse than detection explains: a wrong lens model. (Groups of a
-    // short session can scatter as much with corners that fit: not refused for that alone.)
-    const Eigen::Vector2d s = q.principal_point_sigma_px;
-    const double sigma_turn_deg =
-        std::hypot(s.x() / config.camera.fx, s.y() / config.camera.fy) * kRad2Deg;
-    const double max_sigma_turn_deg = kPrincipalPointSigmaTurns * max_turn_deg;
-    if (sigma_turn_deg > max_sigma_turn_deg &&
-        q.principal_point_residual_px > kLensMisfitResidualPx)
-      return Reject(
-          out, Reason::kPrincipalPointMismatch,
-          "the tags do not agree on the camera's principal point: +-" + Fmt(s.x(), 1) + " / +-" +
-              Fmt(s.y(), 1) + " px from one group of observations to the next, a turn of " +
-              Fmt(sigma_turn_deg, 2) + " deg, more than " + Fmt(max_sigma_turn_deg, 2) +
-              " deg; their corners fit the configured lens with " +
-              Fmt(q.principal_point_residual_px, 2) +
-              " px RMS: the camera's intrinsic calibration (its lens distortion or principal "
-              "point) is likely wrong; calibrate the camera's intrinsics again (if they are "
-              "right, boards closer to the camera and turned 20-40 deg let the tags check them)");
-    if (turn_deg + kPrincipalPointTurnSigmas * sigma_turn_deg > max_turn_deg &&
-        chi2 > kPrincipalPointChiSquare)
-      return Reject(
-          out, Reason::kPrincipalPointMismatch,
-          "the tags put the camera's principal point " + Fmt(d.x(), 1) + " px (+-" +
-              Fmt(q.principal_point_sigma_px.x(), 1) + ") right and " + Fmt(d.y(), 1) + " px (+-" +
-              Fmt(q.principal_point_sigma_px.y(), 1) +
-              ") down of the configured one, which turns the result by " + Fmt(turn_deg, 2) +
-              " deg (+-" + Fmt(sigma_turn_deg, 2) + "), possibly more than " +
-              Fmt(max_turn_deg, 2) +
-              " deg: the camera's intrinsic calibration (its principal point, or its focal "
-              "length) is wrong or belongs to another camera; calibrate the camera's "
-              "intrinsics again");
-  }
-  if (std::fabs(q.camera_scale_error) > v.max_camera_scale_error &&
-      std::fabs(q.camera_scale_error) > kScaleSigmas * q.camera_scale_sigma)
-    return Reject(out, Reason::kCameraScaleMismatch,
-                  "the camera's board distances are " +
-                      Fmt(std::fabs(q.camera_scale_error) * 100.0, 2) + " % (+-" +
-                      Fmt(q.camera_scale_sigma * 100.0, 2) + ") " +
-                      (q.camera_scale_error > 0.0 ? "longer" : "shorter") +
-                      " than the LiDAR's, more than " + Fmt(v.max_camera_scale_error * 100.0, 2) +
-                      " %: the tag size (or checkerboard square) or the camera's focal length in "
-                      "the configuration is wrong by about as much");
-  if (std::fabs(q.lidar_range_offset_m) > v.max_lidar_range_offset_m &&
-      std::fabs(q.lidar_range_offset_m) > kRangeOffsetSigmas * q.lidar_range_offset_sigma_m &&
-      q.lidar_range_offset_sigma_m <= kMeasuredRangeOffsetShare * v.max_lidar_range_offset_m)
-    return Reject(out, Reason::kLidarRangeOffset,
-                  "the LiDAR's ranges are " + Fmt(std::fabs(q.lidar_range_offset_m) * 100.0, 1) +
-                      " cm (+-" + Fmt(q.lidar_range_offset_sigma_m * 100.0, 1) + ") " +
-                      (q.lidar_range_offset_m > 0.0 ? "longer" : "shorter") +
-                      " than the camera's board distances say, more than " +
-                      Fmt(v.max_lidar_range_offset_m * 100.0, 1) +
-                      " cm: the translation would be off by about as much; have the LiDAR's range "
-                      "calibration checked (or the board thickness and tag print: the tag's face "
-                      "must be the board's front)");
-  if (q.ring_elevation_chi2 > kRingElevationChi2 &&
-      q.ring_elevation_rms_deg > kMinRingElevationRmsDeg)
-    return Reject(out, Reason::kLidarRingElevation,
-                  "the LiDAR's lasers do not fire at the elevations of the configured model's "
-                  "table: over " +
-                      std::to_string(q.ring_elevation_rings) +
-                      " rings seen on the boards, their elevations scatter by " +
-                      Fmt(q.ring_elevation_rms_deg, 3) + " deg RMS, " +
-                      Fmt(std::sqrt(q.ring_elevation_chi2), 1) +
-                      " times what their noise explains: the sensor's per-laser calibration (its "
-                      "elevation table) is not the one its driver applies, or the LiDAR is not the "
-                      "configured model; have the LiDAR's calibration checked (or load its own "
-                      "calibration file into its driver)");
-  // A range offset the boards do not measure could be in the translation unseen.
-  const double max_range_sigma_m = kRangeOffsetSigmaTolerances * v.verify_translation_m;
-  if (!(q.lidar_range_offset_sigma_m <= max_range_sigma_m))
-    return Reject(out, Reason::kPoorObservability,
-                  std::isfinite(q.lidar_range_offset_sigma_m)
-                      ? "the boards measure the LiDAR's range offset only to +-" +
-                            Fmt(q.lidar_range_offset_sigma_m * 100.0, 1) + " cm (" +
-                            Fmt(max_range_sigma_m * 100.0, 1) +
-                            " cm or better is needed): an offset that moved the translation by "
-                            "centimetres would go unseen; record boards in more varied directions "
-                            "(left and right of the LiDAR's axis, nearer, turned towards it)"
-                      : "the boards cannot measure the LiDAR's range offset (" +
-                            std::to_string(q.boards_used) + " board correspondences; " +
-                            std::to_string(kMinScaleBoards) +
-                            " or more, in varied directions, are needed), which would move the "
-                            "translation by as much unseen; record more poses");
-  // After the scale and range gates: a wrong scale also spreads the boards' distances, and so
-  // the time offset's sigma; its own words name the cause.
-  if (q.time_offset_fitted && std::fabs(q.time_offset_s) > v.max_time_offset_s &&
-      std::fabs(q.time_offset_s) > kTimeOffsetSigmas * q.time_offset_sigma_s)
-    return Reject(out, Reason::kTimeOffset,
-                  "the camera captured its images " + Fmt(std::fabs(q.time_offset_s) * 1e3, 1) +
-                      " ms (+-" + Fmt(q.time_offset_sigma_s * 1e3, 1) + ") " +
-                      (q.time_offset_s > 0.0 ? "later" : "earlier") +
-                      " than their stamps say against the LiDAR's, more than " +
-                      Fmt(v.max_time_offset_s * 1e3, 0) +
-                      " ms: correct the camera's time stamping (its trigger delay and exposure, "
-                      "or the clock synchronisation) and calibrate again");
-  if (q.rotation_spread_deg > v.max_rotation_spread_deg ||
-      q.translation_spread_m > v.max_translation_spread_m)
-    return Reject(out, Reason::kUnstableSolution,
-                  "half-data re-solves move it by " + Fmt(q.rotation_spread_deg) + " deg / " +
-                      Fmt(q.translation_spread_m) + " m");
-  if (q.start_rotation_deg > v.max_start_rotation_deg ||
-      q.start_translation_m > v.max_start_translation_m)
-    return Reject(out, Reason::kUnstableSolution,
-                  "solves started " + Fmt(kStartCheckRotationDeg, 0) + " deg / " +
-                      Fmt(kStartCheckTranslationM, 2) + " m away end " + Fmt(q.start_rotation_deg) +
-                      " deg / " + Fmt(q.start_translation_m) +
-                      " m from it: the cost has more than one minimum (boards too few or too "
-                      "alike, or paired with the wrong LiDAR cluster); record more, varied poses");
-  if (q.reprojection_mean_px > q.reprojection_gate_px)
-    return Reject(out, Reason::kHighReprojectionError,
-                  "mean " + Fmt(q.reprojection_mean_px, 2) + " px above " +
-                      Fmt(q.reprojection_gate_px, 2) + " px" +
-                      (q.reprojection_gate_px > v.max_reprojection_mean_px
-                           ? " (" + Fmt(kReprojectionSpacingShare, 1) +
-                                 " of the LiDAR's point spacing on the boards, " +
-                                 Fmt(q.lidar_spacing_px, 1) + " px)"
-                           : std::string()));
-  if (q.residual_rms_m > v.max_residual_rms_m)
-    return Reject(out, Reason::kHighResidual,
-                  "point-to-board RMS " + Fmt(q.residual_rms_m, 4) + " m above " +
-                      Fmt(v.max_residual_rms_m, 4) + " m");
-  if (out.delta_rotation_deg > v.max_rotation_deg || out.delta_translation_m > v.max_translation_m)
-    return Reject(out, Reason::kDeltaBeyondTolerance,
-                  "change from the prior " + Fmt(out.delta_rotation_deg) + " deg / " +
-                      Fmt(out.delta_translation_m) + " m exceeds " + Fmt(v.max_rotation_deg) +
-                      " deg / " + Fmt(v.max_translation_m) + " m");
+  if (const Reason reason = FailedGate(config.camera, v, out, &detail); reason != Reason::kNone)
+    return Reject(out, reason, detail);
   out.verdict = out.delta_rotation_deg <= v.verify_rotation_deg &&
                         out.delta_translation_m <= v.verify_translation_m
                     ? CalibrationOutcome::Verdict::kVerified
                     : CalibrationOutcome::Verdict::kUpdated;
   out.detail = out.verdict == CalibrationOutcome::Verdict::kVerified
                    ? "the prior calibration is confirmed"
-                   : "the extrinsic changed by " + Fmt(out.delta_rotation_deg) + " deg / " +
-                         Fmt(out.delta_translation_m) + " m";
+                   : "the extrinsic changed by " + FixedDecimal(out.delta_rotation_deg) +
+                         " deg / " + FixedDecimal(out.delta_translation_m) + " m";
   if (q.camera_scale_corrected != 0.0)
     out.detail += "; the camera's board distances were " +
-                  Fmt(std::fabs(q.camera_scale_corrected) * 100.0, 2) + " % " +
+                  FixedDecimal(std::fabs(q.camera_scale_corrected) * 100.0, 2) + " % " +
                   (q.camera_scale_corrected > 0.0 ? "longer" : "shorter") +
                   " than the LiDAR's and were corrected: measure the printed tag (or checkerboard "
                   "square) and check the camera's focal length";

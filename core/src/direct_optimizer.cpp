@@ -1,4 +1,5 @@
 #include "calibd/core/direct_optimizer.hpp"
+#include "calibd/core/parallel_for.hpp"
 
 #include <ceres/ceres.h>
 
@@ -6,7 +7,6 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
-#include <thread>
 #include <utility>
 
 #include "calibd/core/board_box_joint_cost.hpp"
@@ -258,15 +258,14 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
                           round == 0 ? HeldSolve::kStart : HeldSolve::kRound, &result);
       if (!result.usable) return result;
       T_start = result.T_camera_lidar;
+      // One slice of the observations a thread: each writes its own boards' poses.
       const size_t n = set.observations.size();
-      const size_t threads = static_cast<size_t>(std::min(config.threads, 8));
-      std::vector<std::thread> workers;
-      for (size_t t = 1; t < threads; ++t)
-        workers.emplace_back(RefineBoardPoses, std::cref(boards), std::cref(set), use,
-                             std::cref(config), std::cref(*camera), std::cref(T_start),
-                             n * t / threads, n * (t + 1) / threads, &T_camera_board);
-      RefineBoardPoses(boards, set, use, config, *camera, T_start, 0, n / threads, &T_camera_board);
-      for (auto& w : workers) w.join();
+      const int threads = std::max(1, std::min(config.threads, 8));
+      ParallelFor(threads, threads, [&](int, int t) {
+        const auto slice = [&](int k) { return n * static_cast<size_t>(k) / threads; };
+        RefineBoardPoses(boards, set, use, config, *camera, T_start, slice(t), slice(t + 1),
+                         &T_camera_board);
+      });
     }
     for (size_t k = 0; k < set.observations.size(); ++k) {
       if (!Used(boards, set, use, k)) continue;

@@ -1,10 +1,10 @@
 #include "calibd/core/lidar_detector.hpp"
+#include "calibd/core/parallel_for.hpp"
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <thread>
 
 #include "calibd/core/board_references.hpp"
 #include "calibd/core/cluster_pca.hpp"
@@ -486,16 +486,15 @@ struct LidarDetector::Impl {
         tasks.push_back({s.first, s.second, view});
     }
     std::vector<std::vector<float>> descs(tasks.size());
-    std::atomic<size_t> next{0};
     auto cancelled = [cancel] { return cancel != nullptr && cancel->load(); };
-    auto work = [&](Describer* scratch) {
-      for (size_t t = next++; t < tasks.size() && !cancelled(); t = next++)
-        DescribeView(tasks[t].width_m, tasks[t].height_m, tasks[t].view, t + 1, scratch, &descs[t]);
-    };
     Describer second(M2dpOf(config), static_cast<int>(describer.aligned.size()));
-    std::thread helper(work, &second);
-    work(&describer);
-    helper.join();
+    Describer* scratch[] = {&describer, &second};
+    ParallelFor(2, static_cast<int>(tasks.size()), [&](int worker, int task) {
+      const auto t = static_cast<size_t>(task);
+      if (!cancelled())
+        DescribeView(tasks[t].width_m, tasks[t].height_m, tasks[t].view, t + 1, scratch[worker],
+                     &descs[t]);
+    });
     if (cancelled()) return false;
     num_references = 0;
     for (const auto& d : descs) num_references += d.empty() ? 0 : 1;

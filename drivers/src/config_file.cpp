@@ -232,12 +232,6 @@ std::string ShortestDecimal(double v) {
   return std::to_string(v);
 }
 
-std::string FixedDecimal(double v, int decimals) {
-  std::ostringstream o;
-  o << std::fixed << std::setprecision(decimals) << v;
-  return o.str();
-}
-
 bool ParseConfigYaml(const std::string& text, CalibConfig* config, std::string* error,
                      const ConfigParseOptions& options) {
   CalibConfig c;

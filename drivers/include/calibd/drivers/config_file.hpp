@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "calibd/core/config.hpp"
+#include "calibd/core/text_format.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 
 namespace calibd {
@@ -48,9 +49,6 @@ std::string ConfigToYaml(const CalibConfig& config);
 
 /// Shortest decimal text that reads back to the same double (0.48, not 0.47999999999999998).
 std::string ShortestDecimal(double v);
-
-/// `v` with a fixed number of decimals (0.100 for 0.1 with 3), for tables and messages.
-std::string FixedDecimal(double v, int decimals);
 
 /// Writes the config atomically.
 bool SaveConfigFile(const std::string& path, const CalibConfig& config, std::string* error);
