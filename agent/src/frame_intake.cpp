@@ -1,4 +1,5 @@
 #include "calibd/agent/frame_intake.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -42,19 +43,16 @@ void CopyInto(const std::vector<T>& from, std::vector<T>* to) {
 }  // namespace
 
 bool IntakeConfig::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
   if (queue_capacity < 1 || queue_capacity > 64)
-    return fail("queue_capacity: must be in [1, 64] (got " + std::to_string(queue_capacity) + ")");
+    return Invalid(
+        error, "queue_capacity: must be in [1, 64] (got " + std::to_string(queue_capacity) + ")");
   if (limits.max_width < 16 || limits.max_height < 16)
-    return fail("max image size: must be at least 16x16");
-  if (limits.max_points < 100) return fail("max_points: must be >= 100");
-  if (max_image_bytes < 1024) return fail("max_image_bytes: must be >= 1024");
-  if (pair_tolerance_us < 0) return fail("pair_tolerance: must be >= 0");
+    return Invalid(error, "max image size: must be at least 16x16");
+  if (limits.max_points < 100) return Invalid(error, "max_points: must be >= 100");
+  if (max_image_bytes < 1024) return Invalid(error, "max_image_bytes: must be >= 1024");
+  if (pair_tolerance_us < 0) return Invalid(error, "pair_tolerance: must be >= 0");
   std::string why;
-  if (!camera.IsValid(&why)) return fail("camera detector: " + why);
+  if (!camera.IsValid(&why)) return Invalid(error, "camera detector: " + why);
   return true;
 }
 

@@ -1,4 +1,5 @@
 #include "calibd/core/board_motion.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -10,18 +11,14 @@
 namespace calibd {
 
 bool MotionCompensationConfig::IsValid(std::string* error) const {
-  auto fail = [&](const char* m) {
-    if (error) *error = m;
-    return false;
-  };
   if (!(window_s > 0.0 && window_s <= kMaxMotionWindowS))
-    return fail("window_s must be in (0, 2] s");
-  if (min_samples < 2) return fail("min_samples must be >= 2");
+    return Invalid(error, "window_s must be in (0, 2] s");
+  if (min_samples < 2) return Invalid(error, "min_samples must be >= 2");
   if (!(min_span_share > 0.0 && min_span_share <= 2.0))
-    return fail("min_span_share must be in (0, 2]");
-  if (!(max_speed_mps > 0.0)) return fail("max_speed_mps must be > 0");
+    return Invalid(error, "min_span_share must be in (0, 2]");
+  if (!FiniteAbove(max_speed_mps, 0.0)) return Invalid(error, "max_speed_mps must be > 0");
   if (!(max_unmeasured_shift_m >= 0.0 && std::isfinite(max_unmeasured_shift_m)))
-    return fail("max_unmeasured_shift_m must be >= 0");
+    return Invalid(error, "max_unmeasured_shift_m must be >= 0");
   return true;
 }
 

@@ -1,5 +1,6 @@
 #include "calibd/core/direct_optimizer.hpp"
 #include "calibd/core/parallel_for.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <ceres/ceres.h>
 
@@ -105,24 +106,23 @@ void RefineBoardPoses(const std::vector<BoardGeometry>& boards, const Observatio
 }  // namespace
 
 bool DirectOptimizerConfig::IsValid(std::string* error) const {
-  auto fail = [&](const char* m) {
-    if (error) *error = m;
-    return false;
-  };
-  if (!(alpha_m >= 0.0 && alpha_m < 1.0)) return fail("alpha_m must be in [0, 1) m");
-  if (!(huber_m < 1.0)) return fail("huber_m must be below 1 m");
-  if (max_points_per_observation < 3) return fail("max_points_per_observation must be >= 3");
-  if (joint_points_per_observation < 3) return fail("joint_points_per_observation must be >= 3");
-  if (max_points_per_solve < 0) return fail("max_points_per_solve must be >= 0");
-  if (max_joint_points_per_solve < 0) return fail("max_joint_points_per_solve must be >= 0");
-  if (max_iterations < 1) return fail("max_iterations must be >= 1");
-  if (round_iterations < 1) return fail("round_iterations must be >= 1");
-  if (threads < 1) return fail("threads must be >= 1");
+  if (!(alpha_m >= 0.0 && alpha_m < 1.0)) return Invalid(error, "alpha_m must be in [0, 1) m");
+  if (!(huber_m < 1.0)) return Invalid(error, "huber_m must be below 1 m");
+  if (max_points_per_observation < 3)
+    return Invalid(error, "max_points_per_observation must be >= 3");
+  if (joint_points_per_observation < 3)
+    return Invalid(error, "joint_points_per_observation must be >= 3");
+  if (max_points_per_solve < 0) return Invalid(error, "max_points_per_solve must be >= 0");
+  if (max_joint_points_per_solve < 0)
+    return Invalid(error, "max_joint_points_per_solve must be >= 0");
+  if (max_iterations < 1) return Invalid(error, "max_iterations must be >= 1");
+  if (round_iterations < 1) return Invalid(error, "round_iterations must be >= 1");
+  if (threads < 1) return Invalid(error, "threads must be >= 1");
   if (!(corner_sigma_px > 0.0 && corner_sigma_px < 100.0))
-    return fail("corner_sigma_px must be in (0, 100) px");
+    return Invalid(error, "corner_sigma_px must be in (0, 100) px");
   if (!(lidar_sigma_m > 0.0 && lidar_sigma_m < 1.0))
-    return fail("lidar_sigma_m must be in (0, 1) m");
-  if (!(corner_huber_px > 0.0)) return fail("corner_huber_px must be > 0");
+    return Invalid(error, "lidar_sigma_m must be in (0, 1) m");
+  if (!FiniteAbove(corner_huber_px, 0.0)) return Invalid(error, "corner_huber_px must be > 0");
   return true;
 }
 

@@ -1,4 +1,5 @@
 #include "calibd/core/grid_search.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -20,19 +21,17 @@ bool CellOfPoint(const RangeImage& img, const Eigen::Vector3d& p, int* row, int*
 }  // namespace
 
 bool GridSearchConfig::IsValid(std::string* error) const {
-  auto fail = [&](const char* m) {
-    if (error) *error = m;
-    return false;
-  };
-  if (!(range_deg >= 0.0 && range_deg <= 30.0)) return fail("grid.range_deg must be in [0, 30]");
-  if (!(step_deg > 0.0 && step_deg <= 10.0)) return fail("grid.step_deg must be in (0, 10]");
-  if (range_deg / step_deg > 40.0) return fail("grid.range_deg / step_deg must be <= 40");
+  if (!(range_deg >= 0.0 && range_deg <= 30.0))
+    return Invalid(error, "grid.range_deg must be in [0, 30]");
+  if (!(step_deg > 0.0 && step_deg <= 10.0))
+    return Invalid(error, "grid.step_deg must be in (0, 10]");
+  if (range_deg / step_deg > 40.0) return Invalid(error, "grid.range_deg / step_deg must be <= 40");
   if (refine && !(refine_step_deg > 0.0 && refine_range_deg / refine_step_deg <= 40.0))
-    return fail("grid.refine_step_deg must be > 0 and refine_range/refine_step <= 40");
-  if (min_points < 1) return fail("grid.min_points must be >= 1");
-  if (max_scoring_frames < 0) return fail("grid.max_scoring_frames must be >= 0");
+    return Invalid(error, "grid.refine_step_deg must be > 0 and refine_range/refine_step <= 40");
+  if (min_points < 1) return Invalid(error, "grid.min_points must be >= 1");
+  if (max_scoring_frames < 0) return Invalid(error, "grid.max_scoring_frames must be >= 0");
   if (!(min_point_fraction >= 0.0 && min_point_fraction <= 1.0))
-    return fail("grid.min_point_fraction must be in [0, 1]");
+    return Invalid(error, "grid.min_point_fraction must be in [0, 1]");
   return true;
 }
 

@@ -1,5 +1,6 @@
 #include "calibd/core/lidar_detector.hpp"
 #include "calibd/core/parallel_for.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -49,54 +50,57 @@ bool ExtractsPlanes(ClusterGate gate) {
 }  // namespace
 
 bool LidarDetectorConfig::IsValid(std::string* error) const {
-  auto fail = [&](const char* m) {
-    if (error) *error = m;
-    return false;
-  };
   if (!(segmentation_angle_deg > 0.0 && segmentation_angle_deg < 90.0))
-    return fail("segmentation_angle_deg: must be in (0, 90)");
+    return Invalid(error, "segmentation_angle_deg: must be in (0, 90)");
   if (!(ground_angle_deg >= 0.0 && ground_angle_deg < 90.0))
-    return fail("ground_angle_deg: must be in [0, 90)");
-  if (!(ground_max_step_m >= 0.0)) return fail("ground_max_step_m: must be >= 0");
-  if (!(cell_range_tolerance_m >= 0.0)) return fail("cell_range_tolerance_m: must be >= 0");
-  if (!(min_range_m >= 0.0)) return fail("min_range_m: must be >= 0");
-  if (!(max_range_m > min_range_m)) return fail("max_range_m: must exceed min_range_m");
+    return Invalid(error, "ground_angle_deg: must be in [0, 90)");
+  if (!FiniteAtLeast(ground_max_step_m, 0.0))
+    return Invalid(error, "ground_max_step_m: must be >= 0");
+  if (!FiniteAtLeast(cell_range_tolerance_m, 0.0))
+    return Invalid(error, "cell_range_tolerance_m: must be >= 0");
+  if (!FiniteAtLeast(min_range_m, 0.0)) return Invalid(error, "min_range_m: must be >= 0");
+  if (!(max_range_m > min_range_m)) return Invalid(error, "max_range_m: must exceed min_range_m");
   if (neighbor_search_cells < 0 || neighbor_search_cells > 16)
-    return fail("neighbor_search_cells: must be in 0..16");
+    return Invalid(error, "neighbor_search_cells: must be in 0..16");
   if (!(min_row_width_fraction >= 0.0 && min_row_width_fraction < 1.0))
-    return fail("min_row_width_fraction: must be in [0, 1)");
+    return Invalid(error, "min_row_width_fraction: must be in [0, 1)");
   if (!(plane_distance_sigmas > 0.0 && plane_distance_sigmas <= 10.0))
-    return fail("plane_distance_sigmas: must be in (0, 10]");
+    return Invalid(error, "plane_distance_sigmas: must be in (0, 10]");
   if (!(max_attached_fraction >= 0.0 && max_attached_fraction <= 1.0))
-    return fail("max_attached_fraction: must be in [0, 1]");
+    return Invalid(error, "max_attached_fraction: must be in [0, 1]");
   if (!(max_trimmed_fraction >= 0.0 && max_trimmed_fraction <= 0.5))
-    return fail("max_trimmed_fraction: must be in [0, 0.5]");
-  if (min_cluster_points < 3) return fail("min_cluster_points: must be >= 3");
-  if (!(min_board_clearance_m >= 0.0)) return fail("min_board_clearance_m: must be >= 0");
+    return Invalid(error, "max_trimmed_fraction: must be in [0, 0.5]");
+  if (min_cluster_points < 3) return Invalid(error, "min_cluster_points: must be >= 3");
+  if (!FiniteAtLeast(min_board_clearance_m, 0.0))
+    return Invalid(error, "min_board_clearance_m: must be >= 0");
   if (!(extent_tolerance >= 0.0 && extent_tolerance < 1.0))
-    return fail("extent_tolerance: must be in [0, 1)");
-  if (!(max_side_tolerance >= 0.0)) return fail("max_side_tolerance: must be >= 0");
+    return Invalid(error, "extent_tolerance: must be in [0, 1)");
+  if (!FiniteAtLeast(max_side_tolerance, 0.0))
+    return Invalid(error, "max_side_tolerance: must be >= 0");
   if (!(size_tolerance >= 0.0 && size_tolerance < 1.0))
-    return fail("size_tolerance: must be in [0, 1)");
-  if (!(max_planarity > 0.0)) return fail("max_planarity: must be > 0");
+    return Invalid(error, "size_tolerance: must be in [0, 1)");
+  if (!FiniteAbove(max_planarity, 0.0)) return Invalid(error, "max_planarity: must be > 0");
   if (!(max_board_tilt_deg > 0.0 && max_board_tilt_deg <= 90.0))
-    return fail("max_board_tilt_deg: must be in (0, 90]");
-  if (m2dp_elevations < 1 || m2dp_elevations > 64) return fail("m2dp_elevations: must be in 1..64");
-  if (m2dp_azimuths < 1 || m2dp_azimuths > 64) return fail("m2dp_azimuths: must be in 1..64");
-  if (m2dp_rings < 1 || m2dp_rings > 64) return fail("m2dp_rings: must be in 1..64");
-  if (m2dp_sectors < 1 || m2dp_sectors > 64) return fail("m2dp_sectors: must be in 1..64");
+    return Invalid(error, "max_board_tilt_deg: must be in (0, 90]");
+  if (m2dp_elevations < 1 || m2dp_elevations > 64)
+    return Invalid(error, "m2dp_elevations: must be in 1..64");
+  if (m2dp_azimuths < 1 || m2dp_azimuths > 64)
+    return Invalid(error, "m2dp_azimuths: must be in 1..64");
+  if (m2dp_rings < 1 || m2dp_rings > 64) return Invalid(error, "m2dp_rings: must be in 1..64");
+  if (m2dp_sectors < 1 || m2dp_sectors > 64)
+    return Invalid(error, "m2dp_sectors: must be in 1..64");
   if (max_descriptor_points < min_cluster_points)
-    return fail("max_descriptor_points: must be >= min_cluster_points");
+    return Invalid(error, "max_descriptor_points: must be >= min_cluster_points");
   if (!(reference_range_noise_m >= 0.0 && reference_range_noise_m < 1.0))
-    return fail("reference_range_noise_m: must be in [0, 1)");
+    return Invalid(error, "reference_range_noise_m: must be in [0, 1)");
   if (reference_samples < 1 || reference_samples > 256)
-    return fail("reference_samples: must be in 1..256");
+    return Invalid(error, "reference_samples: must be in 1..256");
   if (!(match_threshold >= 0.0 && match_threshold <= 1.0))
-    return fail("match_threshold: must be in [0, 1]");
-  if (max_clusters < 1) return fail("max_clusters: must be >= 1");
-  if (max_boards < 1) return fail("max_boards: must be >= 1");
-  if (max_board_points < 1) return fail("max_board_points: must be >= 1");
-  if (max_points < 0) return fail("max_points: must be >= 0 (0: from the LiDAR model)");
+    return Invalid(error, "match_threshold: must be in [0, 1]");
+  if (max_clusters < 1) return Invalid(error, "max_clusters: must be >= 1");
+  if (max_boards < 1) return Invalid(error, "max_boards: must be >= 1");
+  if (max_board_points < 1) return Invalid(error, "max_board_points: must be >= 1");
+  if (max_points < 0) return Invalid(error, "max_points: must be >= 0 (0: from the LiDAR model)");
   return true;
 }
 
@@ -510,22 +514,18 @@ struct LidarDetector::Impl {
 
 bool LidarDetector::CheckInputs(const LidarDetectorConfig& config, const LidarModel& model,
                                 const std::vector<BoardGeometry>& boards, std::string* error) {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
   if (!config.IsValid(error)) return false;
-  if (boards.empty()) return fail("boards: at least one board is needed");
+  if (boards.empty()) return Invalid(error, "boards: at least one board is needed");
   for (const BoardGeometry& g : boards) {
     std::string e;
-    if (!g.IsValid(&e)) return fail("boards: " + e);
+    if (!g.IsValid(&e)) return Invalid(error, "boards: " + e);
   }
   if (!(model.azimuth_resolution_deg > 0.0) ||
       (!model.has_rings && !(model.elevation_resolution_deg > 0.0)) ||
       !(model.azimuth_max_deg > model.azimuth_min_deg) ||
       (model.has_rings && model.ring_elevation_deg.empty()))
-    return fail(
-        "lidar model: needs positive resolutions, a field of view and, with rings, a table");
+    return Invalid(
+        error, "lidar model: needs positive resolutions, a field of view and, with rings, a table");
   return true;
 }
 

@@ -1,4 +1,5 @@
 #include "calibd/core/lidar_resolution.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <algorithm>
 #include <array>
@@ -198,26 +199,22 @@ double EdgeAbove(double v, double phase, double step) {
 }  // namespace
 
 bool LidarResolutionConfig::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
   if (!(fov_trim_fraction >= 0.0 && fov_trim_fraction < 0.1))
-    return fail("fov_trim_fraction: must be in [0, 0.1)");
+    return Invalid(error, "fov_trim_fraction: must be in [0, 0.1)");
   if (!(full_circle_max_gap_deg > 0.0 && full_circle_max_gap_deg < 180.0))
-    return fail("full_circle_max_gap_deg: must be in (0, 180)");
+    return Invalid(error, "full_circle_max_gap_deg: must be in (0, 180)");
   if (!(min_resolution_deg > 0.0 && max_resolution_deg > min_resolution_deg &&
         max_resolution_deg <= 10.0))
-    return fail("min/max_resolution_deg: need 0 < min < max <= 10");
+    return Invalid(error, "min/max_resolution_deg: need 0 < min < max <= 10");
   if (!(same_line_deg >= kQuantumDeg && same_line_deg < min_resolution_deg))
-    return fail("same_line_deg: must be in [0.001, min_resolution_deg)");
+    return Invalid(error, "same_line_deg: must be in [0.001, min_resolution_deg)");
   if (!(max_gap_deg > max_resolution_deg && max_gap_deg <= 5.0))
-    return fail("max_gap_deg: must be in (max_resolution_deg, 5]");
+    return Invalid(error, "max_gap_deg: must be in (max_resolution_deg, 5]");
   if (!(min_cluster_fraction > 0.0 && min_cluster_fraction <= 1.0))
-    return fail("min_cluster_fraction: must be in (0, 1]");
+    return Invalid(error, "min_cluster_fraction: must be in (0, 1]");
   if (!(irregular_gap_spread > 1.0 && irregular_gap_spread < 100.0))
-    return fail("irregular_gap_spread: must be in (1, 100)");
-  if (min_points_per_frame < 10) return fail("min_points_per_frame: must be >= 10");
+    return Invalid(error, "irregular_gap_spread: must be in (1, 100)");
+  if (min_points_per_frame < 10) return Invalid(error, "min_points_per_frame: must be >= 10");
   return true;
 }
 

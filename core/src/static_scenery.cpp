@@ -1,4 +1,5 @@
 #include "calibd/core/static_scenery.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -22,15 +23,11 @@ enum class Evidence { kNone, kScenery, kBoard };
 }  // namespace
 
 bool StaticSceneryConfig::IsValid(std::string* error) const {
-  auto fail = [&](const char* m) {
-    if (error) *error = m;
-    return false;
-  };
   if (!(max_normal_angle_deg > 0.0 && max_normal_angle_deg < 90.0))
-    return fail("max_normal_angle_deg: must be in (0, 90)");
+    return Invalid(error, "max_normal_angle_deg: must be in (0, 90)");
   if (!(max_plane_distance_m > 0.0 && max_plane_distance_m < 1.0))
-    return fail("max_plane_distance_m: must be in (0, 1) m");
-  if (min_frames < 1) return fail("min_frames: must be >= 1");
+    return Invalid(error, "max_plane_distance_m: must be in (0, 1) m");
+  if (min_frames < 1) return Invalid(error, "min_frames: must be >= 1");
   return true;
 }
 

@@ -1,4 +1,5 @@
 #include "calibd/drivers/can_raw_socket.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <linux/can.h>
 #include <linux/can/error.h>
@@ -34,23 +35,19 @@ const char* ToString(CanIo io) {
 }
 
 bool CanRawConfig::IsValid(std::string* error) const {
-  auto fail = [error](const std::string& text) {
-    if (error) *error = text;
-    return false;
-  };
   if (!CanInterfaceNameValid(interface, error)) return false;
   if (num_filters > kMaxFilters)
-    return fail("num_filters: " + std::to_string(num_filters) + " > " +
-                std::to_string(kMaxFilters));
+    return Invalid(
+        error, "num_filters: " + std::to_string(num_filters) + " > " + std::to_string(kMaxFilters));
   for (size_t i = 0; i < num_filters; ++i) {
     const uint32_t max = filters[i].extended ? CAN_EFF_MASK : CAN_SFF_MASK;
     if (filters[i].id > max || filters[i].mask > max)
-      return fail("filters[" + std::to_string(i) + "]: id " + CanIdText(filters[i].id) +
-                  " / mask " + CanIdText(filters[i].mask) + " beyond " +
-                  (filters[i].extended ? "29" : "11") + " bits");
+      return Invalid(error, "filters[" + std::to_string(i) + "]: id " + CanIdText(filters[i].id) +
+                                " / mask " + CanIdText(filters[i].mask) + " beyond " +
+                                (filters[i].extended ? "29" : "11") + " bits");
   }
   std::string reopen_error;
-  if (!reopen.IsValid(&reopen_error)) return fail(reopen_error);
+  if (!reopen.IsValid(&reopen_error)) return Invalid(error, reopen_error);
   return true;
 }
 

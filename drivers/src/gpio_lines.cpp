@@ -1,4 +1,5 @@
 #include "calibd/drivers/gpio_lines.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <fcntl.h>
 #include <gpiod.h>
@@ -146,10 +147,6 @@ std::optional<unsigned> ParseGpioLineOffset(const std::string& line) {
 }
 
 bool GpioConfig::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& message) {
-    if (error) *error = message;
-    return false;
-  };
   struct Named {
     const char* key;
     const GpioLineConfig* line;
@@ -161,15 +158,15 @@ bool GpioConfig::IsValid(std::string* error) const {
     if (!n.line->enabled) continue;
     const std::string key = n.key;
     if (n.line->chip.empty()) {
-      return fail(key + ".chip: required when " + key +
-                  ".enabled is true (a chip label, name, number or path)");
+      return Invalid(error, key + ".chip: required when " + key +
+                                ".enabled is true (a chip label, name, number or path)");
     }
     if (n.line->line.empty()) {
-      return fail(key + ".line: required when " + key +
-                  ".enabled is true (a line name, or an offset as a number)");
+      return Invalid(error, key + ".line: required when " + key +
+                                ".enabled is true (a line name, or an offset as a number)");
     }
     if (AllDigits(n.line->line) && !ParseGpioLineOffset(n.line->line)) {
-      return fail(key + ".line: offset " + n.line->line + " is out of range");
+      return Invalid(error, key + ".line: offset " + n.line->line + " is out of range");
     }
   }
   for (size_t i = 0; i < std::size(lines); ++i) {
@@ -177,14 +174,15 @@ bool GpioConfig::IsValid(std::string* error) const {
       const GpioLineConfig& a = *lines[i].line;
       const GpioLineConfig& b = *lines[j].line;
       if (a.enabled && b.enabled && a.chip == b.chip && a.line == b.line) {
-        return fail(std::string(lines[j].key) + ": chip " + Quoted(b.chip) + " line " +
-                    Quoted(b.line) + " is already " + lines[i].key + "'s");
+        return Invalid(error, std::string(lines[j].key) + ": chip " + Quoted(b.chip) + " line " +
+                                  Quoted(b.line) + " is already " + lines[i].key + "'s");
       }
     }
   }
   if (start_button_debounce_ms < 0 || start_button_debounce_ms > kMaxDebounceMs) {
-    return fail("agent.gpio.start_button_debounce_ms: " + std::to_string(start_button_debounce_ms) +
-                " is outside 0.." + std::to_string(kMaxDebounceMs));
+    return Invalid(
+        error, "agent.gpio.start_button_debounce_ms: " + std::to_string(start_button_debounce_ms) +
+                   " is outside 0.." + std::to_string(kMaxDebounceMs));
   }
   return true;
 }

@@ -1,4 +1,5 @@
 #include "calibd/drivers/isotp_channel.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <linux/can.h>
 #include <linux/can/isotp.h>
@@ -40,10 +41,6 @@ const char* ToString(IsoTpIo io) {
 }
 
 bool IsoTpConfig::IsValid(std::string* error) const {
-  auto fail = [error](const std::string& text) {
-    if (error) *error = text;
-    return false;
-  };
   if (!CanInterfaceNameValid(interface, error)) return false;
   const uint32_t max_id = extended_ids ? CAN_EFF_MASK : CAN_SFF_MASK;
   const char* bits = extended_ids ? "29" : "11";
@@ -55,22 +52,22 @@ bool IsoTpConfig::IsValid(std::string* error) const {
              {"functional_request_id", functional_request_id}};
   for (const auto& id : ids)
     if (id.id > max_id)
-      return fail(std::string(id.key) + ": " + CanIdText(id.id) + " does not fit in " + bits +
-                  " bits");
+      return Invalid(error, std::string(id.key) + ": " + CanIdText(id.id) + " does not fit in " +
+                                bits + " bits");
   if (physical_request_id == physical_response_id ||
       functional_request_id == physical_response_id || functional_request_id == physical_request_id)
-    return fail(
-        "physical_request_id, physical_response_id and functional_request_id must differ (" +
-        CanIdText(physical_request_id) + ", " + CanIdText(physical_response_id) + ", " +
-        CanIdText(functional_request_id) + ")");
+    return Invalid(
+        error, "physical_request_id, physical_response_id and functional_request_id must differ (" +
+                   CanIdText(physical_request_id) + ", " + CanIdText(physical_response_id) + ", " +
+                   CanIdText(functional_request_id) + ")");
   if (!ValidStMin(st_min))
-    return fail("st_min: " + CanIdText(st_min) +
-                " is reserved (0x00-0x7F ms or 0xF1-0xF9 100-900 us)");
+    return Invalid(error, "st_min: " + CanIdText(st_min) +
+                              " is reserved (0x00-0x7F ms or 0xF1-0xF9 100-900 us)");
   if (can_fd && !ValidFdTxDl(fd_tx_dl))
-    return fail("fd_tx_dl: " + std::to_string(fd_tx_dl) +
-                " is not a CAN FD length (8, 12, 16, 20, 24, 32, 48, 64)");
+    return Invalid(error, "fd_tx_dl: " + std::to_string(fd_tx_dl) +
+                              " is not a CAN FD length (8, 12, 16, 20, 24, 32, 48, 64)");
   std::string reopen_error;
-  if (!reopen.IsValid(&reopen_error)) return fail(reopen_error);
+  if (!reopen.IsValid(&reopen_error)) return Invalid(error, reopen_error);
   return true;
 }
 

@@ -1,4 +1,5 @@
 #include "private_network.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <sched.h>
 
@@ -23,24 +24,20 @@ long ReadRmemMax() {
 }  // namespace
 
 bool EnterPrivateNetwork(std::string* error) {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
   if (ReadRmemMax() < kPrivateRmemMax) {
     std::ofstream f(kRmemPath);
     f << kPrivateRmemMax;
   }
   if (ReadRmemMax() < kPrivateRmemMax)
-    return fail("net.core.rmem_max is " + std::to_string(ReadRmemMax()) +
-                " and could not be raised (needs root: sysctl -w net.core.rmem_max=" +
-                std::to_string(kPrivateRmemMax) + ")");
+    return Invalid(error, "net.core.rmem_max is " + std::to_string(ReadRmemMax()) +
+                              " and could not be raised (needs root: sysctl -w net.core.rmem_max=" +
+                              std::to_string(kPrivateRmemMax) + ")");
   if (::unshare(CLONE_NEWNET) != 0)
-    return fail(std::string("unshare(CLONE_NEWNET): ") + std::strerror(errno) +
-                " (a private network namespace needs root or CAP_SYS_ADMIN)");
+    return Invalid(error, std::string("unshare(CLONE_NEWNET): ") + std::strerror(errno) +
+                              " (a private network namespace needs root or CAP_SYS_ADMIN)");
   if (std::system("ip link set lo up && ip link set lo multicast on && "
                   "ip route add 224.0.0.0/4 dev lo") != 0)
-    return fail("could not set up multicast on the namespace's loopback (iproute2's ip)");
+    return Invalid(error, "could not set up multicast on the namespace's loopback (iproute2's ip)");
   return true;
 }
 

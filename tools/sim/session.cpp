@@ -1,4 +1,5 @@
 #include "session.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <cmath>
 #include <random>
@@ -51,52 +52,51 @@ bool FacesCameraInImage(const CameraModel& camera, const Pose& T_camera_board,
 }  // namespace
 
 bool SessionOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
   if (!workshop.IsValid(error) || !trajectory.IsValid(error)) return false;
   LidarKind kind;
   if (!LidarKindFromName(lidar_model, &kind, error)) return false;
   if (kind == LidarKind::kGeneric)
-    return fail("--lidar: the simulator needs a scan pattern, any model but generic (" +
-                LidarModelNames() +
-                "; calibrate a simulated session with lidar.model: generic instead)");
+    return Invalid(error, "--lidar: the simulator needs a scan pattern, any model but generic (" +
+                              LidarModelNames() +
+                              "; calibrate a simulated session with lidar.model: generic instead)");
   std::string why;
-  if (!camera.IsValid(&why)) return fail("camera intrinsics: " + why);
+  if (!camera.IsValid(&why)) return Invalid(error, "camera intrinsics: " + why);
   if (!(stills.min_distance_m >= 0.5 && stills.max_distance_m > stills.min_distance_m &&
         stills.max_distance_m <= 60.0))
-    return fail("--still-distance must satisfy 0.5 <= min < max <= 60 m");
+    return Invalid(error, "--still-distance must satisfy 0.5 <= min < max <= 60 m");
   if (!(stills.frames_per_pose >= 1 && stills.frames_per_pose <= 100))
-    return fail("--frames-per-pose must be in [1, 100]");
+    return Invalid(error, "--frames-per-pose must be in [1, 100]");
   if (!(stills.occluded_share >= 0.0 && stills.occluded_share <= 0.5))
-    return fail("--occluded-share must be in [0, 0.5]");
+    return Invalid(error, "--occluded-share must be in [0, 0.5]");
   if (!(stills.board_speed_mps >= 0.0 && stills.board_speed_mps <= 3.0))
-    return fail("--board-speed must be in [0, 3] m/s");
+    return Invalid(error, "--board-speed must be in [0, 3] m/s");
   if (trajectory.mode == "stills" && stills.frames_per_pose > 1 && kind != LidarKind::kGeneric &&
       (stills.frames_per_pose - 1) / MakeLidarModel(kind).frame_rate_hz >= 1.0 / trajectory.rate_hz)
-    return fail(
-        "--frames-per-pose: the sweeps of one pose must end before the next pose "
-        "(lower --rate or the frames per pose)");
-  if (!(std::abs(prior_rot_deg) <= 10.0)) return fail("--prior-rot-deg must be within +-10 deg");
-  if (!(std::abs(prior_trans_m) <= 0.5)) return fail("--prior-trans-m must be within +-0.5 m");
+    return Invalid(error,
+                   "--frames-per-pose: the sweeps of one pose must end before the next pose "
+                   "(lower --rate or the frames per pose)");
+  if (!(std::abs(prior_rot_deg) <= 10.0))
+    return Invalid(error, "--prior-rot-deg must be within +-10 deg");
+  if (!(std::abs(prior_trans_m) <= 0.5))
+    return Invalid(error, "--prior-trans-m must be within +-0.5 m");
   if (!(lidar_noise.range_sigma_m >= 0.0 && lidar_noise.range_sigma_m <= 0.5))
-    return fail("--range-noise must be in [0, 0.5] m");
+    return Invalid(error, "--range-noise must be in [0, 0.5] m");
   if (!(std::abs(lidar_noise.range_bias_m) <= 1.0))
-    return fail("--range-bias must be within +-1 m");
+    return Invalid(error, "--range-bias must be within +-1 m");
   if (!(std::abs(camera_delay_us) <= 1000000))
-    return fail("--camera-delay-us must be within +-1 s");
+    return Invalid(error, "--camera-delay-us must be within +-1 s");
   if (!(camera_readout_us >= 0 && camera_readout_us <= 200000))
-    return fail("--camera-readout-us must be in [0, 200000]");
+    return Invalid(error, "--camera-readout-us must be in [0, 200000]");
   if (!(lidar_noise.dropout_probability >= 0.0 && lidar_noise.dropout_probability < 1.0))
-    return fail("--dropout must be in [0, 1)");
+    return Invalid(error, "--dropout must be in [0, 1)");
   if (!(imaging.noise_sigma >= 0.0 && imaging.blur_sigma_px >= 0.0))
-    return fail("--image-noise and --blur must be >= 0");
+    return Invalid(error, "--image-noise and --blur must be >= 0");
   if (image_encoding != "mono8" && image_encoding != "jpeg")
-    return fail("--image-encoding must be mono8 or jpeg (got '" + image_encoding + "')");
-  if (jpeg_quality < 1 || jpeg_quality > 100) return fail("--jpeg-quality must be in [1, 100]");
+    return Invalid(error, "--image-encoding must be mono8 or jpeg (got '" + image_encoding + "')");
+  if (jpeg_quality < 1 || jpeg_quality > 100)
+    return Invalid(error, "--jpeg-quality must be in [1, 100]");
   if (camera_id.empty() || lidar_id.empty())
-    return fail("--camera-id and --lidar-id must not be empty");
+    return Invalid(error, "--camera-id and --lidar-id must not be empty");
   return true;
 }
 

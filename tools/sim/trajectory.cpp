@@ -1,22 +1,21 @@
 #include "trajectory.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <cmath>
 
 namespace calibd::sim {
 
 bool TrajectoryOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
   if (mode != "drive" && mode != "static" && mode != "close" && mode != "far" && mode != "stills")
-    return fail("--trajectory must be drive, static, close, far or stills (got '" + mode + "')");
+    return Invalid(error,
+                   "--trajectory must be drive, static, close, far or stills (got '" + mode + "')");
   if (!(min_distance_m >= 1.0 && max_distance_m > min_distance_m && max_distance_m <= 150.0))
-    return fail("--distance must satisfy 1 <= min < max <= 150 m");
+    return Invalid(error, "--distance must satisfy 1 <= min < max <= 150 m");
   if (!(static_distance_m >= 1.0 && static_distance_m <= 150.0))
-    return fail("--static-distance must be in [1, 150] m");
-  if (!(duration_s > 0.0 && duration_s <= 3600.0)) return fail("--duration must be in (0, 3600] s");
-  if (!(rate_hz > 0.0 && rate_hz <= 50.0)) return fail("--rate must be in (0, 50] Hz");
+    return Invalid(error, "--static-distance must be in [1, 150] m");
+  if (!(duration_s > 0.0 && duration_s <= 3600.0))
+    return Invalid(error, "--duration must be in (0, 3600] s");
+  if (!(rate_hz > 0.0 && rate_hz <= 50.0)) return Invalid(error, "--rate must be in (0, 50] Hz");
   return true;
 }
 

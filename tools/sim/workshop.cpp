@@ -1,4 +1,5 @@
 #include "workshop.hpp"
+#include "calibd/core/validation.hpp"
 
 #include <cmath>
 #include <random>
@@ -81,38 +82,34 @@ std::vector<BoardPlacement> Layout(const WorkshopOptions& o) {
 }  // namespace
 
 bool WorkshopOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
-  if (num_boards < 1 || num_boards > 12) return fail("--boards must be in 1..12");
+  if (num_boards < 1 || num_boards > 12) return Invalid(error, "--boards must be in 1..12");
   if (!(board_width_m > 0.05 && board_width_m < 5.0 && board_height_m > 0.05 &&
         board_height_m < 5.0))
-    return fail("--board-size must be in (0.05, 5) m");
-  if (!(tag_size_m > 0.0) || tag_size_m > std::min(board_width_m, board_height_m))
-    return fail("--tag-size must be positive and fit on the board");
+    return Invalid(error, "--board-size must be in (0.05, 5) m");
+  if (!FiniteAbove(tag_size_m, 0.0) || tag_size_m > std::min(board_width_m, board_height_m))
+    return Invalid(error, "--tag-size must be positive and fit on the board");
   if (!tag_ids.empty() && static_cast<int>(tag_ids.size()) != num_boards)
-    return fail("--tag-ids must list exactly one id per board (" + std::to_string(num_boards) +
-                ")");
+    return Invalid(
+        error, "--tag-ids must list exactly one id per board (" + std::to_string(num_boards) + ")");
   if (std::set<int>(tag_ids.begin(), tag_ids.end()).size() != tag_ids.size())
-    return fail("--tag-ids must be distinct");
+    return Invalid(error, "--tag-ids must be distinct");
   if (!board_scales.empty() && static_cast<int>(board_scales.size()) != num_boards)
-    return fail("--board-scales must list exactly one factor per board (" +
-                std::to_string(num_boards) + ")");
+    return Invalid(error, "--board-scales must list exactly one factor per board (" +
+                              std::to_string(num_boards) + ")");
   for (const double s : board_scales)
-    if (!(s >= 0.2 && s <= 1.0)) return fail("--board-scales must be in [0.2, 1]");
+    if (!(s >= 0.2 && s <= 1.0)) return Invalid(error, "--board-scales must be in [0.2, 1]");
   if (!board_bows_m.empty() && static_cast<int>(board_bows_m.size()) != num_boards)
-    return fail("--board-bows must list exactly one bow per board (" + std::to_string(num_boards) +
-                ")");
+    return Invalid(error, "--board-bows must list exactly one bow per board (" +
+                              std::to_string(num_boards) + ")");
   for (const double b : board_bows_m)
-    if (!(std::abs(b) <= 0.1)) return fail("--board-bows must be in [-0.1, 0.1] m");
+    if (!(std::abs(b) <= 0.1)) return Invalid(error, "--board-bows must be in [-0.1, 0.1] m");
   if (checkerboard_board >= num_boards)
-    return fail("--checkerboard: board index " + std::to_string(checkerboard_board) +
-                " but there are " + std::to_string(num_boards) + " boards");
+    return Invalid(error, "--checkerboard: board index " + std::to_string(checkerboard_board) +
+                              " but there are " + std::to_string(num_boards) + " boards");
   if (layout != "spread" && layout != "line" && layout != "stack")
-    return fail("--layout must be spread, line or stack (got '" + layout + "')");
+    return Invalid(error, "--layout must be spread, line or stack (got '" + layout + "')");
   if (!(board_spacing_m >= std::max(board_width_m, board_height_m) + 0.1))
-    return fail("--board-spacing must leave a gap of at least 0.1 m between boards");
+    return Invalid(error, "--board-spacing must leave a gap of at least 0.1 m between boards");
   return true;
 }
 
