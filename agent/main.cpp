@@ -1,7 +1,5 @@
 // calibd-agent: the on-vehicle LiDAR-camera calibration daemon (see agent/include/calibd/agent/
-// agent.hpp). Exit codes: 0 stopped by a signal (or --once: verified/updated), 1 could not start
-// or the loop failed, 2 bad option or config, 3 (--once) rejected, 4 (--once) failed or aborted,
-// 5 (--once) updated but its automatic commit could not be written.
+// agent.hpp; its exit codes are kAgentExit* there, and the integration guide's table).
 
 #include <unistd.h>
 
@@ -33,9 +31,9 @@ Options:
                      when replaying, e.g. file:///tmp/out.lcmlog?mode=w)
   --calibrate-now    start a session at once, as a start request would
   --once             exit when the first session has ended (and at the end of a replayed log):
-                     exit code 0 verified/updated, 3 rejected, 4 failed or aborted, 5 updated
-                     but agent.auto_commit could not write the store (the previous calibration
-                     stays in use)
+                     exit code 0 verified/updated, 3 rejected, 4 failed, aborted or no session
+                     before the log ended, 5 updated but agent.auto_commit could not write the
+                     store (the previous calibration stays in use)
   --quiet            no log lines on stderr
   --debug DIR        replays only: what the detectors made of each frame pair, as
                      calibd-calibrate --debug writes it (DIR/pair_NNNNNN.json with every camera
@@ -57,7 +55,7 @@ int main(int argc, char** argv) {
     const std::string arg = argv[i];
     if (arg == "--help" || arg == "-h") {
       std::cout << kHelp;
-      return 0;
+      return calibd::kAgentExitOk;
     } else if (arg == "--calibrate-now") {
       options.calibrate_now = true;
     } else if (arg == "--once") {
@@ -74,21 +72,21 @@ int main(int argc, char** argv) {
       options.debug_dir = argv[++i];
     } else {
       std::cerr << "calibd-agent: unknown option or missing value '" << arg << "' (see --help)\n";
-      return 2;
+      return calibd::kAgentExitBadConfig;
     }
   }
   calibd::AgentConfig config;
   std::string error;
   if (!calibd::LoadAgentConfig(config_path, &config, &error)) {
     std::cerr << "calibd-agent: " << error << "\n";
-    return 2;
+    return calibd::kAgentExitBadConfig;
   }
   const std::string url = options.lcm_url.empty() ? config.lcm_url : options.lcm_url;
   if (!options.debug_dir.empty() && url.rfind("file://", 0) != 0) {
     std::cerr << "calibd-agent: --debug writes two files per frame pair: it needs a replayed log "
                  "(--lcm-url file://...), not the vehicle's bus '"
               << url << "'\n";
-    return 2;
+    return calibd::kAgentExitBadConfig;
   }
   if (config.solve_heap_mb > 0) {
     const auto heap = calibd::ReserveHeap(static_cast<std::size_t>(config.solve_heap_mb) << 20);
@@ -97,12 +95,12 @@ int main(int argc, char** argv) {
                 << (heap.policy_set ? "" : " (glibc refused part of the heap policy)") << " in "
                 << static_cast<int>(heap.ms) << " ms\n";
   }
-  int code = 0;
+  int code = calibd::kAgentExitOk;
   {
     calibd::Agent agent(config);
     if (!agent.Init(options, &error)) {
       std::cerr << "calibd-agent: cannot start: " << error << "\n";
-      return 1;
+      return calibd::kAgentExitCannotRun;
     }
     code = agent.Run();
   }  // the agent is gone (threads joined, sockets and GPIO lines released) before a restart
@@ -112,7 +110,7 @@ int main(int argc, char** argv) {
     std::cerr << "calibd-agent: restarting (ECU reset)" << std::endl;
     ::execv("/proc/self/exe", argv);
     std::cerr << "calibd-agent: restart failed: " << std::strerror(errno) << "\n";
-    return 1;
+    return calibd::kAgentExitCannotRun;
   }
   return code;
 }

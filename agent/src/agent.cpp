@@ -650,7 +650,7 @@ int Agent::Run() {
   Fd timer_fd{timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC)};
   if (signal_fd.fd < 0 || timer_fd.fd < 0) {
     Log(std::string("cannot create the loop's descriptors: ") + std::strerror(errno));
-    return 1;
+    return kAgentExitCannotRun;
   }
   // systemd watchdog (WatchdogSec=): WATCHDOG=1 every half interval (sd_watchdog_enabled(3)), at
   // the tick nearest to it, sent from this loop's timer only, so a stuck loop stops pinging and
@@ -682,7 +682,7 @@ int Agent::Run() {
     const int n = ::poll(fds, static_cast<nfds_t>(count), read_bus ? -1 : kTickMs);
     if (n < 0 && errno != EINTR) {
       Log(std::string("poll: ") + std::strerror(errno));
-      return 1;
+      return kAgentExitCannotRun;
     }
     if (fds[0].revents & POLLIN) {
       signalfd_siginfo info{};
@@ -691,7 +691,7 @@ int Agent::Run() {
       notifier_.Stopping();
       machine_.Stop(MonotonicUs());
       EndSessionMarker();  // a clean stop: nothing to report at the next start
-      return 0;
+      return kAgentExitOk;
     }
     if (fds[1].revents & POLLIN) {
       uint64_t expirations = 0;
@@ -703,7 +703,7 @@ int Agent::Run() {
       }
     }
     if (fds[2].revents & POLLIN) wake_.Clear();
-    if (!detectors_ready_ && !CheckDetectorStartup()) return 1;
+    if (!detectors_ready_ && !CheckDetectorStartup()) return kAgentExitCannotRun;
     bool diag_readable = false;
     for (int i = first_diag; i < count; ++i) diag_readable = diag_readable || fds[i].revents != 0;
     if (diag_readable) diag_.OnReadable(MonotonicUs());
@@ -712,7 +712,7 @@ int Agent::Run() {
       if (bus_.Handle(0, replay ? 1 : 64) < 0) {
         if (!bus_.end_of_log()) {
           Log("LCM transport failed on " + bus_.url());
-          return 1;
+          return kAgentExitCannotRun;
         }
         end_of_log_ = true;
         Log("end of the replayed log");
@@ -735,15 +735,15 @@ int Agent::Run() {
       if (session_over) {
         PublishStatus();
         PublishHealth();  // the final counts, for the fleet and for replays
-        if (s != SessionState::kDone) return 4;
-        if (machine_.verdict() == CalibrationOutcome::Verdict::kRejected) return 3;
+        if (s != SessionState::kDone) return kAgentExitFailed;
+        if (machine_.verdict() == CalibrationOutcome::Verdict::kRejected) return kAgentExitRejected;
         // Updated, but auto_commit could not write the store: a factory line must not take
         // it for stored.
-        return machine_.commit_failed() ? 5 : 0;
+        return machine_.commit_failed() ? kAgentExitNotStored : kAgentExitOk;
       }
       if (end_of_log_ && machine_.session() == 0) {
         Log("the log ended before any session was started");
-        return 4;
+        return kAgentExitFailed;
       }
     }
   }

@@ -50,6 +50,13 @@ struct AgentOptions {
   std::string debug_dir;
 };
 
+/// calibd-agent's exit codes (the integration guide's table, "Exit codes of calibd-agent").
+inline constexpr int kAgentExitOk = 0;         ///< stopped by a signal; --once: verified/updated
+inline constexpr int kAgentExitCannotRun = 1;  ///< could not start, or the loop failed
+inline constexpr int kAgentExitBadConfig = 2;  ///< bad option or config (the message names it)
+inline constexpr int kAgentExitRejected = 3;   ///< --once: the verdict was rejected
+inline constexpr int kAgentExitFailed = 4;     ///< --once: failed, aborted, or no session
+inline constexpr int kAgentExitNotStored = 5;  ///< --once: updated, but auto_commit failed
 /// Run()'s exit code when a diagnostic tester asked for an ECU reset (UDS 0x11 01): the caller
 /// (main) re-executes the program, which restarts the agent in place.
 inline constexpr int kAgentExitRestart = 10;
