@@ -1,5 +1,4 @@
 #include "calibd/agent/frame_intake.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -9,6 +8,7 @@
 
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/core/lidar_resolution.hpp"
+#include "calibd/core/validation.hpp"
 
 namespace calibd {
 

@@ -1,5 +1,4 @@
 #include "calibd/core/board_motion.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -7,6 +6,8 @@
 #include <vector>
 
 #include "calibd/core/board_distances.hpp"
+#include "calibd/core/stats.hpp"
+#include "calibd/core/validation.hpp"
 
 namespace calibd {
 
@@ -17,22 +18,19 @@ bool MotionCompensationConfig::IsValid(std::string* error) const {
   if (!(min_span_share > 0.0 && min_span_share <= 2.0))
     return Invalid(error, "min_span_share must be in (0, 2]");
   if (!FiniteAbove(max_speed_mps, 0.0)) return Invalid(error, "max_speed_mps must be > 0");
-  if (!(max_unmeasured_shift_m >= 0.0 && std::isfinite(max_unmeasured_shift_m)))
+  if (!FiniteAtLeast(max_unmeasured_shift_m, 0.0))
     return Invalid(error, "max_unmeasured_shift_m must be >= 0");
   return true;
 }
 
 double MedianFrameInterval(const SessionObservations& s) {
-  std::vector<int64_t> intervals;
-  intervals.reserve(s.frame_times.size());
+  std::vector<double> intervals_s;
+  intervals_s.reserve(s.frame_times.size());
   for (size_t k = 1; k < s.frame_times.size(); ++k) {
     const int64_t d = s.frame_times[k].camera_utime - s.frame_times[k - 1].camera_utime;
-    if (d > 0) intervals.push_back(d);
+    if (d > 0) intervals_s.push_back(static_cast<double>(d) * 1e-6);
   }
-  if (intervals.empty()) return 0.0;
-  const auto mid = intervals.begin() + static_cast<std::ptrdiff_t>(intervals.size() / 2);
-  std::nth_element(intervals.begin(), mid, intervals.end());
-  return static_cast<double>(*mid) * 1e-6;
+  return Median(intervals_s);  // 0 when the times are unknown
 }
 
 bool EstimateBoardVelocity(const SessionObservations& s, int frame, int board_index,
@@ -109,11 +107,7 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
     shifts.push_back(o.num_points > 0 ? u.norm() * sum_dt / o.num_points : 0.0);
   }
   set->motion_compensated = true;
-  if (!shifts.empty()) {
-    const auto mid = shifts.begin() + static_cast<std::ptrdiff_t>(shifts.size() / 2);
-    std::nth_element(shifts.begin(), mid, shifts.end());
-    stats.median_shift_m = *mid;
-  }
+  stats.median_shift_m = Median(shifts);
   if (stats.uncompensated > 0 && stats.median_shift_m > config.max_unmeasured_shift_m) {
     std::vector<char> measured;
     measured.reserve(set->observations.size());

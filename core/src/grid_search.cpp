@@ -1,10 +1,11 @@
 #include "calibd/core/grid_search.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
+
+#include "calibd/core/validation.hpp"
 
 namespace calibd {
 

@@ -1,5 +1,4 @@
 #include "calibd/core/lidar_resolution.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <algorithm>
 #include <array>
@@ -10,6 +9,7 @@
 
 #include "calibd/core/geometry.hpp"
 #include "calibd/core/range_image.hpp"
+#include "calibd/core/validation.hpp"
 
 namespace calibd {
 

@@ -1,11 +1,11 @@
 #include "calibd/core/static_scenery.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 
 #include "calibd/core/cluster_pca.hpp"
+#include "calibd/core/validation.hpp"
 
 namespace calibd {
 

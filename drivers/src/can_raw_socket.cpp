@@ -1,5 +1,4 @@
 #include "calibd/drivers/can_raw_socket.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <linux/can.h>
 #include <linux/can/error.h>
@@ -13,6 +12,8 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+
+#include "calibd/core/validation.hpp"
 
 namespace calibd {
 

@@ -1,5 +1,4 @@
 #include "calibd/drivers/gpio_lines.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <fcntl.h>
 #include <gpiod.h>
@@ -11,6 +10,8 @@
 #include <iterator>
 #include <limits>
 #include <utility>
+
+#include "calibd/core/validation.hpp"
 
 namespace calibd {
 

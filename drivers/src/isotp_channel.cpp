@@ -1,5 +1,4 @@
 #include "calibd/drivers/isotp_channel.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <linux/can.h>
 #include <linux/can/isotp.h>
@@ -10,6 +9,8 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+
+#include "calibd/core/validation.hpp"
 
 namespace calibd {
 namespace {

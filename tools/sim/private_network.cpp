@@ -1,5 +1,4 @@
 #include "private_network.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <sched.h>
 
@@ -7,6 +6,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+
+#include "calibd/core/validation.hpp"
 
 namespace calibd::sim {
 

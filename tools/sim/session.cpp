@@ -1,8 +1,9 @@
 #include "session.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <cmath>
 #include <random>
+
+#include "calibd/core/validation.hpp"
 
 namespace calibd::sim {
 

@@ -1,7 +1,8 @@
 #include "trajectory.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <cmath>
+
+#include "calibd/core/validation.hpp"
 
 namespace calibd::sim {
 

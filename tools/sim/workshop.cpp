@@ -1,9 +1,10 @@
 #include "workshop.hpp"
-#include "calibd/core/validation.hpp"
 
 #include <cmath>
 #include <random>
 #include <set>
+
+#include "calibd/core/validation.hpp"
 
 namespace calibd::sim {
 
