@@ -34,11 +34,14 @@ TEST_P(GenericLidarTest, DriveCalibratedAsGenericMatchesTheNamedModel) {
   o.lidar_model = GetParam();
   o.prior_rot_deg = 3.0;
   o.prior_trans_m = 0.03;
+  // 6-20 m: 32 pairs of boards out to 30 m measure their distances to about the translation's
+  // tolerance only (falcon: +-1.5 cm), at the poor_observability gate.
+  o.trajectory.max_distance_m = 20.0;
   sim::SessionSimulator s;
   std::string error;
   ASSERT_TRUE(s.Init(o, &error)) << error;
   const CalibConfig config = s.UserConfig();
-  const int count = 32, stride = 6;  // 32 pairs over the default 20 s drive (6-30 m and back)
+  const int count = 32, stride = 6;  // 32 pairs over the 20 s drive
 
   // The frames, simulated once.
   std::vector<sim::LidarScan> scans(count);

@@ -142,6 +142,17 @@ Reason FailedGate(const CameraIntrinsics& camera, const VerdictConfig& v,
                             std::to_string(kMinScaleBoards) +
                             " or more, in varied directions, are needed), which would move the "
                             "translation by as much unseen; record more poses");
+  const double max_scale_translation_m = kScaleTranslationTolerances * v.verify_translation_m;
+  if (q.camera_scale_translation_m > max_scale_translation_m)
+    return refuse(Reason::kPoorObservability,
+                  "the camera measures the boards' distances against the LiDAR's only to +-" +
+                      FixedDecimal(q.camera_scale_sigma * 100.0, 2) + " % at " +
+                      FixedDecimal(q.camera_scale_translation_m / q.camera_scale_sigma, 1) +
+                      " m on average, which leaves the translation uncertain by +-" +
+                      FixedDecimal(q.camera_scale_translation_m * 100.0, 1) + " cm (" +
+                      FixedDecimal(max_scale_translation_m * 100.0, 1) +
+                      " cm or better is needed): the tags are too small in the image; bring "
+                      "the boards closer to the camera or use larger tags");
   // After the scale and range gates: a wrong scale also spreads the boards' distances, and so
   // the time offset's sigma; its own words name the cause.
   if (q.time_offset_fitted && std::fabs(q.time_offset_s) > v.max_time_offset_s &&

@@ -74,6 +74,7 @@ agent:
   store:
     directory: /var/lib/calibd
   min_frames: 60
+  min_distance_bins: 1
   max_duration_s: 150
   can:
     enabled: true

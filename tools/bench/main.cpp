@@ -120,6 +120,8 @@ soak     one calibd-agent through back-to-back workshop sessions for N minutes: 
                       (default udpm://239.255.76.67:7667?ttl=0&recv_buf_size=16777216)
   --speed X           replay speed of the drive (default 1)
   --min-frames N      the agent's min_frames (default 60)
+  --min-distance-bins N
+                      the agent's min_distance_bins (default 3; 1 for a drive within 8.5 m)
   --p2-ms MS          the tester's P2 (default 2000, for an emulated guest)
   --max-rss-growth-mb X
                       allowed RSS growth after the first session (default 16)
@@ -345,6 +347,8 @@ int main(int argc, char** argv) {
         k.speed = x;
       } else if (arg == "--min-frames" && ParseInt(value, 1, 100000, &n)) {
         k.min_frames = static_cast<int>(n);
+      } else if (arg == "--min-distance-bins" && ParseInt(value, 0, 4, &n)) {
+        k.min_distance_bins = static_cast<int>(n);
       } else if (arg == "--p2-ms" && ParseInt(value, 1, 60000, &n)) {
         k.p2_ms = static_cast<int>(n);
       } else if (arg == "--max-rss-growth-mb" && ParseDouble(value, 0, 100000, &x)) {

@@ -326,6 +326,14 @@ constexpr Fault kFaults[] = {
        s->sim.camera_readout_us = readout;
        s->magnitude = Num(static_cast<double>(readout) * 1e-3, 1) + " ms readout";
      }},
+    {"boards_far",
+     "driving out to 25-40 m, where the camera sees the tags at 13-21 px: their distances too "
+     "loose for the translation",
+     [](Rng* rng, Session* s) {
+       UseDriveInAnyRound(s, kDrivePairRateHz);
+       s->sim.trajectory.max_distance_m = Draw(rng, 25.0, 40.0);
+       s->magnitude = "to " + Num(s->sim.trajectory.max_distance_m, 1) + " m";
+     }},
 };
 constexpr int kNumFaults = static_cast<int>(std::size(kFaults));
 

@@ -149,6 +149,14 @@ inline constexpr double kMeasuredRangeOffsetShare = 0.5;
 /// tighter bound refused clean m1 drives with a small camera, whose far boards' small tags bias
 /// the in-plane centres (calibd-bench calib, Fig. 7 subsets; SensorFaultsTest).
 inline constexpr double kRangeOffsetSigmaTolerances = 4.0;
+/// The translation rests on the camera's board distances (PnP, through the tag's size in the
+/// image) wherever the LiDAR cannot pin the boards along their normals by itself: a scale error as
+/// large as the scale's sigma moves it by that sigma times the boards' mean distance
+/// (QualityFigures::camera_scale_translation_m). Beyond this many verification tolerances the
+/// result is `poor_observability`: small far tags measure their distance too loosely, and their
+/// corner bias is then taken for a scale, a range offset or a time offset and corrected for,
+/// centimetres off (CalibrationEngineTest.SmallFarTagsAreRefusedNotTrusted).
+inline constexpr double kScaleTranslationTolerances = 1.0;
 /// A principal point shift counts only when its chi-square (two degrees of freedom, each axis
 /// over its sigma) is beyond this: the 3-sigma probability, 0.27 %.
 inline constexpr double kPrincipalPointChiSquare = 11.83;
