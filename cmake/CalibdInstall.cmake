@@ -1,4 +1,4 @@
-# Install rules (issue 5, Deploy): `make install` or `cmake --install <build> [--prefix P]`, with
+# Install rules: `make install` or `cmake --install <build> [--prefix P]`, with
 # DESTDIR honoured (staging, packaging). GNUInstallDirs layout:
 #   bin/calibd-agent, bin/calibd-calibrate, bin/calibd-import, bin/calibd-sim
 #                                                             the daemon and the operator tools

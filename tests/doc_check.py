@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Doc check (issue 7): the guides in docs/ cannot rot.
+"""Doc check: the guides in docs/ cannot rot.
 
 1. Runs every command of the guides' ```sh blocks, in order, in a temporary directory, with the
    built executables first on PATH. System paths the commands name (/etc/calibd, /var/lib/calibd,

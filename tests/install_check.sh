@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Install test (issue 5, Deploy): `cmake --install` into a staging directory (DESTDIR) as a
+# Install test: `cmake --install` into a staging directory (DESTDIR) as a
 # package build would, then checks the staged tree: binaries, config, systemd unit, sysusers and
 # udev files; the unit's paths follow --prefix; an existing config is never overwritten; the unit
 # passes `systemd-analyze verify` and the sysusers file `systemd-sysusers --dry-run` (when those
@@ -54,7 +54,7 @@ if command -v systemd-analyze >/dev/null; then
   if ! out=$(systemd-analyze verify "$work/calibd.service" 2>&1) || [ -n "$out" ]; then
     fail "systemd-analyze verify: $out"
   fi
-  # Exposure of the hardening (issue 9): `systemd-analyze security` on the unit file, offline
+  # Exposure of the hardening: `systemd-analyze security` on the unit file, offline
   # (no running systemd needed; systemd >= 250). 0 is fully locked down, 10 unprotected; the
   # unit scores 1.7 with systemd 252: fail above 2.0, so a dropped option shows.
   if out=$(systemd-analyze security --offline=true "$work/calibd.service" 2>&1); then

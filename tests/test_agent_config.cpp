@@ -316,7 +316,7 @@ TEST(AgentConfigTest, CodeBuiltConfigsAreValidatedToo) {
   EXPECT_EQ(error.rfind("agent.software_version", 0), 0u) << error;
 }
 
-// The workshop diagnostics keys (issue 6): off by default; when on, parsed (hex ids too) into the
+// The workshop diagnostics keys: off by default; when on, parsed (hex ids too) into the
 // transport, UDS and GPIO configs, each error naming its key.
 std::string DiagnosticsYaml() {
   std::string yaml = ReadText(kDefaultConfigPath);

@@ -1,4 +1,4 @@
-// Live test (issue 5): the real calibd-agent calibrating from frames that calibd-sim publishes in
+// Live test: the real calibd-agent calibrating from frames that calibd-sim publishes in
 // real time at 10 Hz over LCM UDP multicast (full-size 3840x1920 mono8 images, 7.4 MB, and
 // 220k-point sweeps, 4.8 MB), inside a private network namespace so that no traffic leaves it.
 // Every frame must arrive or be counted: received + missing (gaps in the capture times) must equal

@@ -1,4 +1,4 @@
-// Replay tests (issue 5): simulated logs through the real calibd-agent process over LCM's file
+// Replay tests: simulated logs through the real calibd-agent process over LCM's file
 // provider, for each LiDAR model: the verdict, the stored calibration against the truth, and the
 // status, result and health messages the agent published (recorded with a file:// writer).
 

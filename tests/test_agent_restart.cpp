@@ -1,4 +1,4 @@
-// A SIGKILL during a session through the real calibd-agent process (issue 9): systemd restarts
+// A SIGKILL during a session through the real calibd-agent process: systemd restarts
 // the agent, which must come back idle with its stored calibration, say in its log and in DTC
 // 5A0300 (CALIBD_HEALTH and the DTC file) that the previous run stopped mid-session, and leave
 // no session marker behind. The killed session never touched the store (files byte for byte);

@@ -1,4 +1,4 @@
-// Storage faults through the real calibd-agent process (issue 9): the store's filesystem turns
+// Storage faults through the real calibd-agent process: the store's filesystem turns
 // read-only before an `updated` result is committed. The failure must reach the user (the status
 // message's last_error, the log, DTC 5A0044 in the health message and the DTC file) while the
 // previous calibration stays in use and its files stay byte for byte as they were; once the

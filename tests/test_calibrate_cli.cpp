@@ -73,7 +73,7 @@ TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
   EXPECT_EQ(html.find("https://"), std::string::npos);
 }
 
-// Board geometry from the config (issue 7): three rectangular 0.8 x 0.6 m boards, the middle one
+// Board geometry from the config: three rectangular 0.8 x 0.6 m boards, the middle one
 // printed with a 5 x 7 inner-corner checkerboard, the others with AprilTags. The checkerboard's
 // detections are counted: more camera boards than the two tag boards can give.
 TEST(CalibrateCliTest, RectangularTagAndCheckerboardBoardsAreCalibrated) {

@@ -1059,7 +1059,7 @@ TEST(CalibrationStoreTest, SurvivesSigkillAtAnyMoment) {
   EXPECT_GE(stats.commits, kRounds);
 }
 
-// Issue 9's power-loss figure: 500 kills (labelled slow in tests/CMakeLists.txt, several seconds
+// The power-loss figure: 500 kills (labelled slow in tests/CMakeLists.txt, several seconds
 // of fsyncs). Besides every load being whole, enough kills must have landed inside a commit:
 // the version in flight loaded, or a temp file left behind.
 TEST(CalibrationStoreTest, SurvivesFiveHundredSigkills) {

@@ -124,7 +124,7 @@ TEST(DirectOptimizerTest, RecoversTheExtrinsicExactlyWithoutNoise) {
 }
 
 TEST(DirectOptimizerTest, RecoversTheExtrinsicWithinTargetsUnderRangeNoise) {
-  // 2 cm noise along the board normal, 200 frames: the targets are 0.05 deg and 1.5 cm.
+  // 2 cm noise along the board normal, 200 frames: the targets are 0.05 deg and 1.5 cm.
   for (uint64_t seed = 11; seed <= 15; ++seed) {
     const Synthetic s = MakeSynthetic(seed, 200, 0.02);
     const Pose init = Perturb(s.T_camera_lidar, 1.5, 0.05, seed + 100);
@@ -390,7 +390,7 @@ TEST(DirectOptimizerTest, BoardPoseRefinementRemovesCameraPoseNoise) {
     sum_with += err_with;
     sum_without += err_without;
   }
-  EXPECT_LT(sum_with / 4.0, 0.05);  // the mean meets the 0.05 deg target
+  EXPECT_LT(sum_with / 4.0, 0.05);  // the mean meets the 0.05 deg target
   EXPECT_LT(sum_with, 0.6 * sum_without);
 }
 

@@ -1,4 +1,4 @@
-// Issue 9, sensor faults: a simulated drive goes through the agent's per-frame path as
+// Sensor faults: a simulated drive goes through the agent's per-frame path as
 // calibd-agent composes it (agent/src/agent.cpp: OnCamera/OnLidar tell the SessionMachine a frame
 // arrived and hand it to the FrameIntake; Step drains the detected pairs into the SessionRecorder
 // and reports them to the machine, ticks it every 50 ms, deactivates the intake once the

@@ -1,4 +1,4 @@
-// The session marker (agent/session_marker.hpp, issue 9): what the agent writes when a session
+// The session marker (agent/session_marker.hpp): what the agent writes when a session
 // starts, reads at start-up and removes when the session ends; the calibration store beside it
 // ignores it.
 

@@ -44,7 +44,7 @@ TEST(StreamGapsTest, ARestartOrABackwardsTimeIsNotCountedAsLoss) {
   EXPECT_EQ(g.missed(), 0);
 }
 
-// Issue 9: repeated and reordered times are counted apart from gaps; a clock stepped back by more
+// Repeated and reordered times are counted apart from gaps; a clock stepped back by more
 // than kRestartUs is a restart, after which gaps count again (before, every frame until the old
 // time was passed again was ignored, hiding its gaps).
 TEST(StreamGapsTest, DuplicatesLateFramesAndAClockStepBackAreCounted) {

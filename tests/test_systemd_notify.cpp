@@ -1,4 +1,4 @@
-// systemd notification (issue 5, Deploy): SystemdNotifier against a real NOTIFY_SOCKET (an
+// systemd notification: SystemdNotifier against a real NOTIFY_SOCKET (an
 // AF_UNIX datagram socket standing in for systemd), then the real calibd-agent process: READY=1,
 // watchdog pings within the interval systemd asks for, STOPPING=1 and exit code 0 on SIGTERM.
 

@@ -1,4 +1,4 @@
-// The camera's time offset measured and corrected on a whole simulated drive (issue 21 §2): the
+// The camera's time offset measured and corrected on a whole simulated drive: the
 // default drive (ot128, 3 boards, 6-30 m and back, 20 s at 10 Hz) with the camera 30 ms late and
 // each pair stamped with one time, its LiDAR sweep's start (pairs matched by file name), through
 // the real detectors and engine; and refused when the offset is beyond what is corrected for.

@@ -61,7 +61,8 @@ bool PositiveUpTo(const std::string& key, double v, double hi, std::string* erro
       "must be in (0, " + Num(hi) + "] (got " + Num(v) + ")" + (why.empty() ? "" : ": " + why));
 }
 
-// The issue 6 sections; each struct's own check names the field, prefixed here with its section.
+// The diagnostics sections; each struct's own check names the field, prefixed here with its
+// section.
 bool DiagnosticsValid(const AgentConfig& c, std::string* error) {
   std::string why;
   if (!c.gpio.IsValid(&why)) {  // already names agent.gpio.<line>.<key>
@@ -359,7 +360,7 @@ void ParseGpioLine(Section* gpio, const char* name, GpioLineConfig* line) {
   l.RejectUnknown();
 }
 
-// agent.can, agent.uds, agent.gpio (issue 6).
+// agent.can, agent.uds, agent.gpio.
 void ParseDiagnostics(Section* s, AgentConfig* c) {
   Section can = s->Child("can");
   can.Read("enabled", &c->can_enabled);

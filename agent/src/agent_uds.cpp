@@ -1,4 +1,4 @@
-// The agent's side of the diagnostic interfaces (issue 6): uds::UdsBackend over the session
+// The agent's side of the diagnostic interfaces: uds::UdsBackend over the session
 // machine and the calibration store, the DTC test results, and what the status frame and the
 // lamp show. The protocol itself (sessions, security, NRCs) is the UDS server's.
 

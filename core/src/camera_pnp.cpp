@@ -32,7 +32,7 @@ void RefineLm(const cv::Mat& object, const cv::Mat& image, cv::Vec3d* rvec, cv::
 
 // ---- Tag pose: IPPE for a square (Collins & Bartoli 2014) then Levenberg-Marquardt ----
 // Fixed-size Eigen only: the camera thread runs this for every tag of every frame and must not
-// allocate (issue 5; OpenCV's solvePnP + solvePnPRefineLM made about 175 heap allocations per tag).
+// allocate (OpenCV's solvePnP + solvePnPRefineLM made about 175 heap allocations per tag).
 // It computes what SOLVEPNP_IPPE_SQUARE + solvePnPRefineLM computed before (the same two IPPE
 // candidates, the one with the smaller reprojection error, refined to the same minimum of the
 // normalised reprojection error: test_camera_pnp compares both).

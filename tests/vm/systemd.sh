@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# calibd.service under systemd in the test VM (issue 9): tests/vm/systemd-job.sh, with the guest
+# calibd.service under systemd in the test VM: tests/vm/systemd-job.sh, with the guest
 # booted by the host's systemd (CALIBD_VM_INIT=systemd, see guest-init.sh).
 #   tests/vm/systemd.sh BUILD_DIR [SHARED_DIR]
 # BUILD_DIR: a release build; SHARED_DIR defaults to BUILD_DIR/tests/tmp/systemd. Exit code: the

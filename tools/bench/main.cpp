@@ -166,7 +166,7 @@ verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-
          beyond twice the verification tolerance, 0.3 deg or 3 cm), false rejects (clean
          sessions refused), refusals and their reason codes. Deterministic per seed. Fails on
          any false accept.
-  --sessions N        sessions (default 400; 2000 for the issue's campaign)
+  --sessions N        sessions (default 400; 2000 for the full campaign)
   --quick             sessions whose collection ends at 80 pairs with boards (80-pair drives,
                       still poses of 6 sweeps) instead of at the agent's target (200 pairs;
                       200-pair drives, 10 sweeps a pose)

@@ -10,7 +10,7 @@
 
 namespace calibd::bench {
 
-// Our targets (the issue) and the paper's figures.
+// Our targets and the paper's figures.
 inline constexpr double kRotationTargetDeg = 0.05, kTranslationTargetM = 0.015;
 inline constexpr double kGridTargetMs = 50.0, kOptimiseTargetMs = 300.0;
 // §IV-E, 200 pairs, i7-10750H (12 threads): grid search, direct (Eq. 4) and indirect optimisation,

@@ -27,7 +27,7 @@ namespace calibd::bench {
 
 namespace {
 
-// Our targets on 2 cores (issue 8), besides paper_figures.hpp's grid and optimisation targets.
+// Our targets on 2 cores, besides paper_figures.hpp's grid and optimisation targets.
 constexpr double kLidarMedianTargetMs = 15.0, kCameraMedianTargetMs = 25.0, kResultTargetMs = 500.0,
                  kSessionCpuTargetS = 10.0, kReadyTargetMs = 1000.0, kRssTargetMb = 256.0;
 

@@ -27,7 +27,7 @@ struct Scenario {
   bool checkerboard;  // else an AprilTag filling 78% of the board
   bool fisheye;
   bool generic;  // the config says `lidar.model: generic`: the detector's model is estimated
-  // Targets (the issue's): LiDAR board recall and precision, and the error of an `updated`.
+  // Targets: LiDAR board recall and precision, and the error of an `updated`.
   double min_recall, min_precision;
   double max_rotation_deg, max_translation_m;
   /// Frame pairs per pose, a sweep apart: a stream recorded while the board stood still (the

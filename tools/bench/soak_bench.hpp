@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// `calibd-bench soak`: one calibd-agent running for N minutes through back-to-back workshop
-/// sessions, the way a workshop's tester and the car's sensors would drive it (issue 9).
+/// sessions, the way a workshop's tester and the car's sensors would drive it.
 ///  - calibd-sim publishes a recorded drive over LCM, looping, for the whole run;
 ///  - a tester over CAN (UDS on the kernel's ISO-TP, calibd-tester's client in this process)
 ///    runs each session: unlock, calibrate to its verdict, commit, restore the reference (so the

@@ -116,7 +116,7 @@ double DrawFactor(Rng* rng, double lo, double hi, Session* s) {
   return f;
 }
 
-/// The catalogue (issue 21 §1): each fault draws its magnitude and changes the session.
+/// The catalogue: each fault draws its magnitude and changes the session.
 struct Fault {
   const char* name;
   const char* what;

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The calibration as one self-contained HTML page for people (issue 7, outputs): the verdict with
+/// The calibration as one self-contained HTML page for people: the verdict with
 /// its reason, T_camera_lidar and its inverse, the change against the prior, the quality figures
 /// beside the gates they were judged by, the reprojection errors per board and against distance
 /// as inline SVG plots, the overlay pictures, and provenance (software version, config hash,

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The agent's one configuration file (issue 5): sensors, intrinsics, boards, LiDAR model, buffer
+/// The agent's one configuration file: sensors, intrinsics, boards, LiDAR model, buffer
 /// sizes, collection limits and coverage gates, engine thresholds, store path and LCM URL.
 ///
 /// Layout of the YAML file (every key documented in deploy/config/calibd.yaml):
@@ -102,7 +102,7 @@ struct AgentConfig {
   /// Reported in health_t; empty: this build's version (see SoftwareVersion()).
   std::string software_version;
 
-  // --- agent: workshop diagnostics (issue 6), all off by default ---
+  // --- agent: workshop diagnostics, all off by default ---
   /// `agent.can`: UDS on ISO-TP and the cyclic status frame on a SocketCAN interface.
   bool can_enabled = false;
   IsoTpConfig isotp;                 ///< interface, ids, padding, BS/STmin, CAN FD

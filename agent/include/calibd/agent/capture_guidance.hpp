@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Capture guidance (issue 7): what a collecting session still lacks, for the operator who places
+/// Capture guidance: what a collecting session still lacks, for the operator who places
 /// the boards or drives the car. The same figures travel in the LCM status (as text), in DID
 /// 0xFD06 (uds/did_codec.hpp, as numbers) and are turned into the same text by calibd-tester.
 ///

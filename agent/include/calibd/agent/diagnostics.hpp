@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The agent's workshop and factory-line interfaces (issue 6), composed for its poll loop: the
+/// The agent's workshop and factory-line interfaces, composed for its poll loop: the
 /// UDS server (agent/uds/uds_server.hpp) on the kernel's ISO-TP sockets, the 1 Hz cyclic status
 /// frame (core/status_frame.hpp) on a raw CAN socket that also watches error frames for bus-off,
 /// and the GPIO lines (interlock, start button, status lamp). Each part is optional (agent.can,

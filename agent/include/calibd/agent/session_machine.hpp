@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// One calibration session as a state machine (issue 5). Pure logic: no I/O, no threads, no clock.
+/// One calibration session as a state machine. Pure logic: no I/O, no threads, no clock.
 /// The caller (the agent's poll loop) feeds it requests, recorded frames, solver results and a
 /// monotonic time in microseconds, and acts on what it reports:
 ///

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The session marker (issue 9): a small file the agent writes, atomically, when a session
+/// The session marker: a small file the agent writes, atomically, when a session
 /// starts and removes when it ends with any outcome or on a clean stop. One found at start-up
 /// means the previous run stopped during that session (SIGKILL, crash, power loss): the agent
 /// reports it (DTC 5A0300) and starts idle with the stored calibration, which a session never

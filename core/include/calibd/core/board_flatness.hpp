@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// How far each board's face bends out of its plane, from the LiDAR's points on it (a warped
-/// board, issue 21 §1). The paper's box cost (Eq. 3) takes every board as flat; a board bent by
+/// board). The paper's box cost (Eq. 3) takes every board as flat; a board bent by
 /// a centimetre puts its LiDAR points up to a centimetre off the plane its tag's corners define,
 /// and the solution takes the difference up as a shift and a turn.
 ///

@@ -86,8 +86,8 @@ MotionCompensationStats CompensateBoardMotion(const SessionObservations& session
                                               const MotionCompensationConfig& config,
                                               ObservationSet* set);
 
-/// The camera's time offset against the LiDAR, estimated from the boards' motion (issue 21 §2;
-/// the spatiotemporal idea of Furgale et al., "Unified temporal and spatial calibration for
+/// The camera's time offset against the LiDAR, estimated from the boards' motion
+/// (the spatiotemporal idea of Furgale et al., "Unified temporal and spatial calibration for
 /// multi-sensor systems", IROS 2013, reduced to one parameter). A camera that exposes `offset_s`
 /// later than its stamps say saw each board where it was `offset_s` later: the compensated
 /// points lie short of the camera's board by offset_s u (u its velocity). Along the board's

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// Whether a ring LiDAR's lasers fire at the elevations of its model's table, from the boards
-/// (issue 21 §2: residual structure per ring). A laser that fires delta above its table's
+/// (residual structure per ring). A laser that fires delta above its table's
 /// elevation puts its points, reported along the table's direction, r delta away from where
 /// they are, along the elevation direction e_el; on a board of normal n that moves them off the
 /// board's plane by r delta (n . e_el). Per ring, over every observation:

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The calibration in the file formats other stacks read (issue 7, outputs): a JSON document, an
+/// The calibration in the file formats other stacks read: a JSON document, an
 /// OpenCV FileStorage YAML, ROS `static_transform_publisher` command lines, a tf-style YAML,
 /// Autoware's sensor-kit calibration YAML and KITTI's `calib_velo_to_cam.txt`.
 ///

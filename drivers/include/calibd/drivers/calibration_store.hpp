@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// The on-vehicle calibration store: one directory holding the current T_camera_lidar, the
-/// factory/end-of-line reference and the last N previous versions (issue 5).
+/// factory/end-of-line reference and the last N previous versions.
 ///
 /// Layout (one JSON file per calibration, each with a format version and a CRC-32):
 ///   <directory>/current.json          the current calibration (a second copy of the newest)

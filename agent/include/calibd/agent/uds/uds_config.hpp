@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Settings of the UDS server (issue 6): a value struct with the defaults the issue asks for.
+/// Settings of the UDS server: a value struct with its defaults.
 /// Loading from the agent's YAML comes with the agent wiring.
 
 #include <cstdint>
