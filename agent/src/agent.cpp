@@ -15,6 +15,7 @@
 #include <iostream>
 
 #include "calibd/agent/session_marker.hpp"
+#include "calibd/agent/thread_nice.hpp"
 #include "calibd/calibration_status_t.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/core/lidar_model.hpp"
@@ -351,6 +352,7 @@ void Agent::StartSolve() {
                  std::to_string(recorder_.thinning().stride()) + ")"
            : std::string()));
   solver_ = std::thread([this, calib] {
+    NiceThisThread(kBackgroundNice);
     outcome_ = Calibrate(calib, recorder_.session(), projection_, config_.engine);
     solve_done_ = true;
     wake_.Signal();

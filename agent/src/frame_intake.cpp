@@ -1,11 +1,8 @@
 #include "calibd/agent/frame_intake.hpp"
 
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-
 #include <chrono>
 
+#include "calibd/agent/thread_nice.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/core/lidar_resolution.hpp"
 #include "calibd/core/validation.hpp"
@@ -27,8 +24,6 @@ struct FrameIntake::Slot {
 };
 
 namespace {
-
-constexpr int kReferenceBuildNice = 10;
 
 double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -278,15 +273,12 @@ void FrameIntake::OnLidar(const lidar_frame_t& msg) {
 
 void FrameIntake::BuildLidarDetector() {
   const auto t0 = std::chrono::steady_clock::now();
-  // On a thread of its own at nice 10 (its helper inherits it): on a small CPU the poll loop,
-  // which answers diagnostics within P2, keeps the upper hand meanwhile. The worker itself stays
-  // at the process's priority for detection (raising it back would need CAP_SYS_NICE). Where
-  // setpriority is refused (a sandbox), the build runs at the process's priority.
+  // On a thread of its own at kReferenceBuildNice (its helper inherits it), below the detection
+  // the worker goes on with (raising a nice value back would need CAP_SYS_NICE).
   std::unique_ptr<LidarDetector> detector;
   bool niced = false;
   std::thread builder([&] {
-    niced =
-        setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kReferenceBuildNice) == 0;
+    niced = NiceThisThread(kReferenceBuildNice);
     detector =
         std::make_unique<LidarDetector>(lidar_config_, lidar_model_, calib_.boards, &cancel_build_);
   });
@@ -324,6 +316,7 @@ bool FrameIntake::AwaitStartup() {
 }
 
 void FrameIntake::Worker(bool camera) {
+  NiceThisThread(kBackgroundNice);
   if (!camera) {
     BuildLidarDetector();
     if (!lidar_detector_) return;  // failed: the poll loop reads startup()

@@ -1,4 +1,4 @@
-// Inside the test VM: the real calibd-agent's workshop diagnostics end to end (issue 6). The agent
+// Inside the test VM: the real calibd-agent's workshop diagnostics end to end. The agent
 // runs as its own process with CAN on vcan0 (UDS on the kernel's can-isotp, the 1 Hz status frame
 // on a raw socket) and GPIO on the gpio-sim chip `calibd-sim` (tests/vm/guest-init.sh); calibd-sim
 // publishes a simulated drive over LCM UDP multicast on the guest's loopback, looping for the
@@ -76,9 +76,11 @@ constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=167772
 constexpr char kSoftwareVersion[] = "calibd-vmtest";  // DID F195 (agent.software_version)
 constexpr char kEcuSerial[] = "ECU-VM-0001";          // DID F18C (agent.uds.ecu_serial)
 constexpr unsigned kInterlock = 0, kStartButton = 1, kStatusLamp = 2;  // gpio-sim offsets
-// The replay's pace: 5 Hz frame pairs at half speed, 2.5 pairs/s, which the emulated guest's
-// detectors keep up with (a session ends on coverage after about one drive, 40 s).
-constexpr char kReplaySpeed[] = "0.5";
+// The replay's pace: 5 Hz frame pairs at a fifth of real time, a pair a second, about what the
+// emulated guest's detectors keep up with: the pairs they keep stay a capture apart, so the
+// boards' motion is measured (pairs kept further apart than the motion window leave their boards
+// uncompensated and dropped, too few remaining).
+constexpr char kReplaySpeed[] = "0.2";
 constexpr char kSecret[] = "vmtest-secret-of-this-vehicle-0123456789";  // the UDS secret file
 // agent.uds.lockout_delay_s: longer than an ECU reset takes in the emulated guest (the agent is
 // answering again 13-20 s after 0x11 on a loaded host), so the delay is seen surviving the

@@ -1,5 +1,5 @@
 #!/bin/bash
-# The installed calibd.service under systemd (issue 9), run by tests/vm/systemd.sh in the test VM
+# The installed calibd.service under systemd, run by tests/vm/systemd.sh in the test VM
 # booted with systemd as PID 1 (CALIBD_VM_INIT=systemd). Installed as a vehicle image would:
 # the unit from deploy/systemd/calibd.service.in (paths filled in), the user from
 # calibd.sysusers through systemd-sysusers, the config in /etc/calibd, the store in the unit's
@@ -90,7 +90,7 @@ systemd-analyze verify /etc/systemd/system/calibd.service || fail "systemd-analy
 # --- the sensors: the drive over LCM udpm on the loopback, looping ---
 ip link set lo multicast on && ip route replace 224.0.0.0/4 dev lo
 sysctl -q -w net.core.rmem_max=33554432 net.core.rmem_default=4194304
-./calibd-sim --replay session.lcmlog --publish-url "$lcm_url" --loops 100 --speed 0.5 \
+./calibd-sim --replay session.lcmlog --publish-url "$lcm_url" --loops 100 --speed 0.2 \
   --start-delay 0 >sim.log 2>&1 &
 sim=$!
 
