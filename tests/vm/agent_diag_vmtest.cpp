@@ -491,8 +491,9 @@ class AgentDiagVm : public ::testing::Test {
             "  software_version: " + kSoftwareVersion + "\n" +
             "  store:\n    directory: " + store_dir() + "\n" +
             // 60 pairs (the coverage gates alone end at about 30, whose small images leave
-            // 1-2 cm of translation error): 25 s of the replay, solved in about 10 s. One
-            // distance bin: the drive stays within 8.5 m (tests/CMakeLists.txt).
+            // 1-2 cm of translation error): about a minute of the replay at kReplaySpeed,
+            // solved in 40-50 s. One distance bin: the drive stays within 8.5 m
+            // (tests/CMakeLists.txt).
             "  min_frames: 60\n  min_distance_bins: 1\n  max_duration_s: 150\n" +
             "  can:\n    enabled: true\n    interface: " + kInterface + "\n" +
             "  uds:\n    secret_file: " + secret() + "\n    state_dir: " + uds_state_dir() + "\n" +

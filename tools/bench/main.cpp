@@ -121,7 +121,7 @@ soak     one calibd-agent through back-to-back workshop sessions for N minutes: 
   --speed X           replay speed of the drive (default 1)
   --min-frames N      the agent's min_frames (default 60)
   --min-distance-bins N
-                      the agent's min_distance_bins (default 3; 1 for a drive within 8.5 m)
+                      the agent's min_distance_bins (default: the agent's; 1 for a drive within 8.5 m)
   --p2-ms MS          the tester's P2 (default 2000, for an emulated guest)
   --max-rss-growth-mb X
                       allowed RSS growth after the first session (default 16)

@@ -200,7 +200,9 @@ class Soak {
         "  store:\n    directory: " + Path("store") +
         "\n    keep_previous: " + std::to_string(kKeepPrevious) +
         "\n  min_frames: " + std::to_string(o_.min_frames) +
-        "\n  min_distance_bins: " + std::to_string(o_.min_distance_bins) +
+        (o_.min_distance_bins >= 0
+             ? "\n  min_distance_bins: " + std::to_string(o_.min_distance_bins)
+             : std::string()) +
         "\n  max_duration_s: " + std::to_string(o_.max_duration_s) +
         "\n  can:\n    enabled: true\n    interface: " + o_.interface +
         "\n  uds:\n    secret_file: " + Path("secret") + "\n    state_dir: " + Path("uds") + "\n";

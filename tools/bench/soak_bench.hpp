@@ -30,11 +30,11 @@ struct SoakBenchOptions {
   std::string interface = "vcan0";
   /// Where the drive is published and the agent listens (the agent's lcm_url).
   std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=16777216";
-  double speed = 1.0;         ///< replay speed of the drive
-  int min_frames = 60;        ///< the agent's agent.min_frames
-  int min_distance_bins = 3;  ///< the agent's agent.min_distance_bins
-  int max_duration_s = 150;   ///< the agent's agent.max_duration_s, and the tester's limit
-  int p2_ms = 2000;           ///< the tester's P2 (an emulated guest answers slowly)
+  double speed = 1.0;          ///< replay speed of the drive
+  int min_frames = 60;         ///< the agent's agent.min_frames
+  int min_distance_bins = -1;  ///< the agent's agent.min_distance_bins (-1: the agent's default)
+  int max_duration_s = 150;    ///< the agent's agent.max_duration_s, and the tester's limit
+  int p2_ms = 2000;            ///< the tester's P2 (an emulated guest answers slowly)
   /// Allowed RSS growth after the first session: the heap settles over the first sessions
   /// (+7.7 MB in the first 8 of a 30-minute run in the VM, then flat).
   double max_rss_growth_mb = 16.0;
