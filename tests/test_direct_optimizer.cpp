@@ -371,7 +371,8 @@ TEST(DirectOptimizerTest, BoardPoseRefinementRemovesCameraPoseNoise) {
     plain.refine_board_poses = false;
     const DirectResult without = OptimizeDirect(s.boards, s.set, init, plain);
     DirectOptimizerConfig cfg;
-    const DirectResult with = OptimizeDirect(s.boards, s.set, init, cfg, nullptr, true, &camera);
+    const DirectResult with =
+        OptimizeDirect(s.boards, s.set, init, cfg, DirectSolveOptions::RefiningBoardPoses(camera));
     ASSERT_TRUE(without.usable) << without.reason;
     ASSERT_TRUE(with.usable) << with.reason;
     EXPECT_EQ(with.refined_boards, 300);
@@ -415,10 +416,10 @@ TEST(DirectOptimizerTest, BoardPoseRefinementStartedDegreesOffEndsWhereAStartNea
     const DirectOptimizerConfig cfg;
     const DirectResult near =
         OptimizeDirect(s.boards, s.set, Perturb(s.T_camera_lidar, 0.5, 0.01, seed + 200), cfg,
-                       nullptr, true, &camera);
+                       DirectSolveOptions::RefiningBoardPoses(camera));
     const DirectResult far =
         OptimizeDirect(s.boards, s.set, Perturb(s.T_camera_lidar, 6.0, 0.1, seed + 300), cfg,
-                       nullptr, true, &camera);
+                       DirectSolveOptions::RefiningBoardPoses(camera));
     ASSERT_TRUE(near.usable && far.usable) << near.reason << far.reason;
     const double apart =
         RotationAngle(near.T_camera_lidar.linear(), far.T_camera_lidar.linear()) / kDeg2Rad;
@@ -432,8 +433,9 @@ TEST(DirectOptimizerTest, BoardPoseRefinementStartedDegreesOffEndsWhereAStartNea
 TEST(DirectOptimizerTest, HeldBoardReSolvesStartFromTheRefinedPosesAndMoveOnlyWithTheData) {
   const CameraModel camera{CameraIntrinsics{}};
   Synthetic s = MakeSynthetic(41, 60, 0.02);
-  const DirectResult full = OptimizeDirect(s.boards, s.set, Perturb(s.T_camera_lidar, 1.0, 0.03, 7),
-                                           DirectOptimizerConfig{}, nullptr, true, &camera);
+  const DirectResult full =
+      OptimizeDirect(s.boards, s.set, Perturb(s.T_camera_lidar, 1.0, 0.03, 7),
+                     DirectOptimizerConfig{}, DirectSolveOptions::RefiningBoardPoses(camera));
   ASSERT_TRUE(full.usable) << full.reason;
   ASSERT_EQ(full.T_camera_board.size(), s.set.observations.size());
   // All the data with the final solve's own board poses: the solution does not move.
@@ -472,7 +474,8 @@ TEST(DirectOptimizerTest, InformationIsJtJOfTheAssembledProblemInTheTangentSpace
   cfg.refine_board_poses = false;
   cfg.max_points_per_solve = 0;  // every observation strided to max_points_per_observation
   const Pose at = Perturb(s.T_camera_lidar, 0.5, 0.02, 9);
-  const DirectResult r = OptimizeDirect(s.boards, s.set, at, cfg, nullptr, /*solve=*/false);
+  const DirectResult r =
+      OptimizeDirect(s.boards, s.set, at, cfg, DirectSolveOptions::EvaluateOnly());
   ASSERT_TRUE(r.usable) << r.reason;
   double params[7];
   PoseToParameters(at, params);
@@ -519,12 +522,12 @@ TEST(DirectOptimizerTest, FewObservationsUseEveryPointManyAreStrided) {
   cfg.max_points_per_observation = 8;
   cfg.max_points_per_solve = largest * static_cast<int>(s.set.observations.size());
   const DirectResult all =
-      OptimizeDirect(s.boards, s.set, s.T_camera_lidar, cfg, nullptr, /*solve=*/false);
+      OptimizeDirect(s.boards, s.set, s.T_camera_lidar, cfg, DirectSolveOptions::EvaluateOnly());
   ASSERT_TRUE(all.usable) << all.reason;
   EXPECT_EQ(all.points, total);
   cfg.max_points_per_solve = 0;
   const DirectResult strided =
-      OptimizeDirect(s.boards, s.set, s.T_camera_lidar, cfg, nullptr, /*solve=*/false);
+      OptimizeDirect(s.boards, s.set, s.T_camera_lidar, cfg, DirectSolveOptions::EvaluateOnly());
   ASSERT_TRUE(strided.usable) << strided.reason;
   EXPECT_LE(strided.points, 8 * static_cast<int>(s.set.observations.size()));
   EXPECT_LT(strided.points, total / 2);

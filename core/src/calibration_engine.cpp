@@ -495,11 +495,13 @@ Reason Solve(const CalibConfig& config, const EngineConfig& engine, const Camera
   if (engine.method == EngineConfig::Method::kIndirect) {
     const IndirectResult ind = OptimizeIndirect(boards, corr, camera, T_start, engine.indirect);
     if (!ind.usable) return refuse(Reason::kSolverFailed, "indirect method: " + ind.reason);
-    direct = OptimizeDirect(boards, corr, ind.T_camera_lidar, engine.direct, nullptr, false);
+    direct = OptimizeDirect(boards, corr, ind.T_camera_lidar, engine.direct,
+                            DirectSolveOptions::EvaluateOnly());
     direct.T_camera_lidar = ind.T_camera_lidar;
   } else {
     auto solve = [&] {
-      return OptimizeDirect(boards, corr, T_start, engine.direct, nullptr, true, &camera);
+      return OptimizeDirect(boards, corr, T_start, engine.direct,
+                            DirectSolveOptions::RefiningBoardPoses(camera));
     };
     // A camera running behind its stamps biases the solution along the boards' motion: its offset
     // is measured under the solution, the points moved to the camera's capture time, and solved
@@ -705,8 +707,9 @@ void StabilityAndReprojection(const EngineConfig& engine, const std::vector<Boar
                                          &use[task]);
     } else if (task < runs + starts) {
       const int k = task - runs;
-      started[static_cast<size_t>(k)] = OptimizeDirect(
-          boards, corr, StartCheckPose(T_camera_lidar, k), one, nullptr, true, &camera);
+      started[static_cast<size_t>(k)] =
+          OptimizeDirect(boards, corr, StartCheckPose(T_camera_lidar, k), one,
+                         DirectSolveOptions::RefiningBoardPoses(camera));
     } else {
       const size_t c = static_cast<size_t>(task - runs - starts);
       ReprojectionErrors(boards, camera, corr, T_camera_lidar, engine.direct, direct.T_camera_board,

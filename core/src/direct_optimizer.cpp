@@ -128,18 +128,19 @@ bool DirectOptimizerConfig::IsValid(std::string* error) const {
 
 // What a solve with the board poses held is for.
 enum class HeldSolve {
-  kStart,    ///< to convergence before the first board-pose refinement, half the points
-  kRound,    ///< a few steps between board-pose refinements, half the points
-  kFinal,    ///< to convergence, then residual statistics and information
-  kResolve,  ///< to convergence, no statistics (stability re-solves)
+  kStart,     ///< to convergence before the first board-pose refinement, half the points
+  kRound,     ///< a few steps between board-pose refinements, half the points
+  kFinal,     ///< to convergence, then residual statistics and information
+  kEvaluate,  ///< no solve: residual statistics and information at the start pose
+  kResolve,   ///< to convergence, no statistics (stability re-solves)
 };
 
-// Paper Eq. 4 with the board poses held: solves (or only evaluates) T_camera_lidar from `T_start`
-// and fills `result` with the solution and, for kFinal, the residual statistics and the
-// information.
+// Paper Eq. 4 with the board poses held: solves (or, for kEvaluate, only evaluates)
+// T_camera_lidar from `T_start` and fills `result` with the solution and, for kFinal and
+// kEvaluate, the residual statistics and the information.
 void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
                          const std::vector<char>* use, const DirectOptimizerConfig& config,
-                         const std::vector<Pose>& T_camera_board, const Pose& T_start, bool solve,
+                         const std::vector<Pose>& T_camera_board, const Pose& T_start,
                          HeldSolve mode, DirectResult* out) {
   DirectResult& result = *out;
   result.T_camera_lidar = T_start;
@@ -155,7 +156,7 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
   problem.AddParameterBlock(params, 7, new PoseManifold);
 
   // A solve between board-pose refinements only steers the alternation: half the points do.
-  const bool statistics = mode == HeldSolve::kFinal;
+  const bool statistics = mode == HeldSolve::kFinal || mode == HeldSolve::kEvaluate;
   const bool steering = mode == HeldSolve::kStart || mode == HeldSolve::kRound;
   const int points_per_observation = steering ? std::max(3, config.max_points_per_observation / 2)
                                               : config.max_points_per_observation;
@@ -191,7 +192,7 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // 6 unknowns, 7 rows per chunk
   // and a few steps towards the joint optimum; the final solve converges fully.
   if (mode == HeldSolve::kRound) options.max_num_iterations = config.round_iterations;
-  if (solve) {
+  if (mode != HeldSolve::kEvaluate) {
     ceres::Solver::Summary summary;
     ceres::Solve(options, &problem, &summary);
     if (result.iterations == 0) result.initial_cost = summary.initial_cost;
@@ -234,7 +235,8 @@ static bool CanSolve(const std::vector<BoardGeometry>& boards, const Observation
 
 DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
                             const Pose& T_init, const DirectOptimizerConfig& session_config,
-                            const std::vector<char>* use, bool solve, const CameraModel* camera) {
+                            const DirectSolveOptions& options) {
+  const std::vector<char>* use = options.use;
   const auto t0 = std::chrono::steady_clock::now();
   DirectResult result;
   result.T_camera_lidar = T_init;
@@ -246,7 +248,7 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
   for (size_t k = 0; k < set.observations.size(); ++k)
     T_camera_board[k] = set.observations[k].T_camera_board;
   Pose T_start = T_init;
-  const bool joint = solve && config.refine_board_poses && camera != nullptr;
+  const bool joint = options.solve && config.refine_board_poses && options.camera != nullptr;
   if (joint) {
     // Alternation: extrinsic with the board poses held, then each board's pose with the
     // extrinsic held; the final solve below starts from the last extrinsic. The first extrinsic
@@ -254,7 +256,7 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
     // (a grid search's step at close range) move to fit it, and the alternation then settles in
     // a minimum beside the right one.
     for (int round = 0; round < config.refine_rounds; ++round) {
-      SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start, true,
+      SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start,
                           round == 0 ? HeldSolve::kStart : HeldSolve::kRound, &result);
       if (!result.usable) return result;
       T_start = result.T_camera_lidar;
@@ -263,7 +265,7 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
       const int threads = std::max(1, std::min(config.threads, 8));
       ParallelFor(threads, threads, [&](int, int t) {
         const auto slice = [&](int k) { return n * static_cast<size_t>(k) / threads; };
-        RefineBoardPoses(boards, set, use, config, *camera, T_start, slice(t), slice(t + 1),
+        RefineBoardPoses(boards, set, use, config, *options.camera, T_start, slice(t), slice(t + 1),
                          &T_camera_board);
       });
     }
@@ -280,8 +282,8 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
     result.board_rotation_change_deg /= std::max(1, result.refined_boards);
     result.board_translation_change_m /= std::max(1, result.refined_boards);
   }
-  SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start, solve, HeldSolve::kFinal,
-                      &result);
+  SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start,
+                      options.solve ? HeldSolve::kFinal : HeldSolve::kEvaluate, &result);
   result.T_camera_board = std::move(T_camera_board);
   result.solve_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -302,7 +304,7 @@ DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
   }
   if (!CanSolve(boards, set, session_config, use, &result)) return result;
   const DirectOptimizerConfig config = WithSessionBudget(boards, set, use, session_config);
-  SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_init, true, HeldSolve::kResolve,
+  SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_init, HeldSolve::kResolve,
                       &result);
   result.solve_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -92,15 +92,35 @@ struct DirectResult {
   std::vector<Pose> T_camera_board;
 };
 
+/// What one OptimizeDirect call does beyond solving on every observation with the camera's board
+/// poses held. The named constructors read at the call site.
+struct DirectSolveOptions {
+  /// One entry per observation of the set, non-zero for those to use; null: all of them.
+  const std::vector<char>* use = nullptr;
+  /// False: only the residuals and information at the initial pose, no solve.
+  bool solve = true;
+  /// With config.refine_board_poses: the camera whose corners refine the board poses jointly
+  /// with the extrinsic. Null: the camera's PnP poses are held.
+  const CameraModel* camera = nullptr;
+
+  static DirectSolveOptions EvaluateOnly() {
+    DirectSolveOptions o;
+    o.solve = false;
+    return o;
+  }
+  static DirectSolveOptions RefiningBoardPoses(const CameraModel& camera) {
+    DirectSolveOptions o;
+    o.camera = &camera;
+    return o;
+  }
+};
+
 /// Minimises paper Eq. 4 starting from `T_camera_lidar_init`. `boards[o.board_index]` gives each
-/// observation's board size. `use` (optional, one entry per observation) selects a subset.
-/// With `solve` false it only evaluates residuals and information at the initial pose. With
-/// `camera` and refine_board_poses, the board poses are refined too (`information` and the
-/// residuals are then those of the extrinsic with the refined board poses held fixed).
+/// observation's board size. With board poses refined (`options.camera`), `information` and the
+/// residuals are those of the extrinsic with the refined board poses held fixed.
 DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
                             const Pose& T_camera_lidar_init, const DirectOptimizerConfig& config,
-                            const std::vector<char>* use = nullptr, bool solve = true,
-                            const CameraModel* camera = nullptr);
+                            const DirectSolveOptions& options = {});
 
 /// Re-solves T_camera_lidar from `T_init` on the observations selected by `use`, with the given
 /// board poses (one per observation, e.g. a previous OptimizeDirect's T_camera_board) held and no
