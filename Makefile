@@ -3,8 +3,8 @@
 # AddressSanitizer + UndefinedBehaviorSanitizer (asan), the latter without the whole-session
 # suites labelled `slow` and the VM tests labelled `vm` (tests/vm/: kernel I/O, not memory);
 # then every libFuzzer target for a short fixed time from its seed corpus (fuzz-smoke).
-# The sanitizer build is -O1 -g1 (ASan's recommended level, line tables for its stack traces):
-# it compiles in about half the time of -O2 -g.
+# The sanitizer build is clang at -O1 -g1 (ASan's recommended level, line tables for its stack
+# traces), and holds the libFuzzer targets too: one sanitizer build instead of two.
 # `make check PRESET=debug|release|asan` runs one build's suite.
 PRESET ?= release
 BUILD  := build/$(PRESET)
@@ -38,10 +38,9 @@ test: deps
 	@mkdir -p build && rm -f build/phase-times.tsv
 	@$(PHASE) "release: build" $(MAKE) --no-print-directory build PRESET=release
 	@$(PHASE) "release: suite" ctest --preset release -j $(JOBS)
-	@$(PHASE) "asan: build" $(MAKE) --no-print-directory build PRESET=asan
-	@$(PHASE) "asan: suite without slow, vm" ctest --preset asan -j $(JOBS) -LE 'slow|vm'
-	@$(PHASE) "fuzz: build" $(MAKE) --no-print-directory fuzz-build
-	@$(PHASE) "fuzz: smoke" ctest --preset fuzz -j $(FUZZ_JOBS)
+	@$(PHASE) "asan: build (with the fuzz targets)" $(MAKE) --no-print-directory build PRESET=asan
+	@$(PHASE) "asan: suite without slow, vm, fuzz" ctest --preset asan -j $(JOBS) -LE 'slow|vm|fuzz'
+	@$(PHASE) "fuzz: smoke" ctest --preset asan -j $(FUZZ_JOBS) -L fuzz
 	@echo "make test: phase times"; $(PHASE) --print
 
 install:
@@ -57,19 +56,20 @@ demo: build
 cross-test:
 	@JOBS=$(JOBS) bash toolchains/cross-test.sh $(CTEST_ARGS)
 
-# libFuzzer targets (tests/fuzz/, preset fuzz: clang, ASan+UBSan): `make fuzz-smoke` builds only
-# them and runs each for 10 s from its seed corpus (ctest -L fuzz; part of `make test`); `make fuzz FUZZ_SECONDS=600`
-# runs each for FUZZ_SECONDS, FUZZ_JOBS at a time, and prints executions and coverage per target.
-# Both fuzz copies of the corpora in build/fuzz/tests/fuzz/; crash inputs land in their artifacts/.
+# libFuzzer targets (tests/fuzz/, in the sanitizer build: preset asan, clang, ASan+UBSan):
+# `make fuzz-smoke` builds only them and runs each for 10 s from its seed corpus (ctest -L fuzz;
+# part of `make test`); `make fuzz FUZZ_SECONDS=600` runs each for FUZZ_SECONDS, FUZZ_JOBS at a
+# time, and prints executions and coverage per target. Both fuzz copies of the corpora in
+# build/asan/tests/fuzz/; crash inputs land in their artifacts/.
 FUZZ_SECONDS ?= 600
 FUZZ_JOBS    ?= 2
-FUZZ_DIR     := build/fuzz/tests/fuzz
+FUZZ_DIR     := build/asan/tests/fuzz
 fuzz-build: deps
-	@cmake --preset fuzz >/dev/null
-	@cmake --build --preset fuzz -j $(JOBS) --target calibd_fuzz_targets
+	@cmake --preset asan >/dev/null
+	@cmake --build --preset asan -j $(JOBS) --target calibd_fuzz_targets
 
 fuzz-smoke: fuzz-build
-	@ctest --preset fuzz -j $(FUZZ_JOBS) $(CTEST_ARGS)
+	@ctest --preset asan -j $(FUZZ_JOBS) -L fuzz $(CTEST_ARGS)
 
 fuzz: fuzz-build
 	@printf '%-26s %12s %8s %7s %7s %6s  %s\n' target executions exec/s cov ft corpus result

@@ -1,16 +1,15 @@
-# CALIBD_FUZZ (preset fuzz, clang only): every library is built with AddressSanitizer, UBSan and
-# libFuzzer's coverage instrumentation (fuzzer-no-link: the instrumentation without libFuzzer's
-# main), so the fuzz targets in tests/fuzz/ see the edges of the production code they call; the
-# targets themselves link -fsanitize=fuzzer (tests/fuzz/CMakeLists.txt). UB aborts instead of
-# printing and going on, so libFuzzer records it as a crash with its input.
+# CALIBD_FUZZ (clang only; preset asan): the libFuzzer targets of tests/fuzz/ are built in the
+# sanitizer tree beside its unit suites: the code is compiled once for both. The libraries the
+# targets call and the targets themselves carry libFuzzer's coverage instrumentation
+# (fuzzer-no-link: the instrumentation without libFuzzer's main; tests/fuzz/CMakeLists.txt), so
+# the fuzzers see the edges of the production code; the suites, tools and simulator do not (their
+# comparisons would each call the instrumentation's hook). UB aborts (CalibdSanitizers.cmake), so
+# libFuzzer records it as a crash with its input.
 if(CALIBD_FUZZ)
   if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
-    message(FATAL_ERROR "CALIBD_FUZZ needs clang (libFuzzer): use the preset fuzz")
+    message(FATAL_ERROR "CALIBD_FUZZ needs clang (libFuzzer): use the preset asan")
   endif()
-  if(CALIBD_SANITIZERS)
-    message(FATAL_ERROR "CALIBD_FUZZ sets its own sanitizers: leave CALIBD_SANITIZERS empty")
+  if(NOT "address" IN_LIST CALIBD_SANITIZERS)
+    message(FATAL_ERROR "CALIBD_FUZZ needs CALIBD_SANITIZERS with address (preset asan)")
   endif()
-  add_compile_options(-fsanitize=address,undefined,fuzzer-no-link -fno-sanitize-recover=undefined
-    -fno-omit-frame-pointer)
-  add_link_options(-fsanitize=address,undefined)
 endif()

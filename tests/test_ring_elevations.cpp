@@ -29,9 +29,12 @@ ObservationSet Boards(const LidarModel& model, const std::vector<double>& errors
     // Board frame: z towards the LiDAR (along -x of the LiDAR), turned and tipped.
     Eigen::Matrix3d facing;
     facing << 0, 0, -1, -1, 0, 0, 0, 1, 0;  // board x -> -y, y -> z, z -> -x
-    o.T_camera_board.linear() = facing * RotationFromRpy(0.5 * unit(rng), 0.5 * unit(rng), 0.0);
-    o.T_camera_board.translation() =
-        Eigen::Vector3d(5.0 + 2.0 * unit(rng), 1.5 * unit(rng), 0.3 * unit(rng));
+    // Drawn last argument first, as GCC evaluated these unsequenced arguments: the same boards
+    // with any compiler.
+    const double pitch = 0.5 * unit(rng), roll = 0.5 * unit(rng);
+    o.T_camera_board.linear() = facing * RotationFromRpy(roll, pitch, 0.0);
+    const double z = 0.3 * unit(rng), y = 1.5 * unit(rng), x = 5.0 + 2.0 * unit(rng);
+    o.T_camera_board.translation() = Eigen::Vector3d(x, y, z);
     const Eigen::Vector3d n = o.T_camera_board.linear().col(2);
     const Eigen::Vector3d c = o.T_camera_board.translation();
     std::vector<Eigen::Vector3f> pts;
@@ -70,15 +73,19 @@ class RingElevationsTest : public ::testing::Test {
   BoardGeometry board_;
 };
 
+// Several sets of boards: on one set the rms of the noise alone ranges over 0.01-0.05 deg (30
+// seeds), its chi-square per ring stays near 1; lasers 0.1 deg off stand out (below).
 TEST_F(RingElevationsTest, LasersAtTheirTableMeasureAsNoise) {
   const std::vector<double> none(model_.ring_elevation_deg.size(), 0.0);
-  const ObservationSet set = Boards(model_, none, board_, 30, 1);
-  const RingElevationCheck c =
-      CheckRingElevations({board_}, set, projection_, Pose::Identity(), {});
-  ASSERT_TRUE(c.measured);
-  EXPECT_GE(c.rings, 8);
-  EXPECT_LT(c.rms_deg, 0.02);
-  EXPECT_LT(c.chi2_per_ring, 3.0);
+  for (uint64_t seed = 1; seed <= 5; ++seed) {
+    const ObservationSet set = Boards(model_, none, board_, 30, seed);
+    const RingElevationCheck c =
+        CheckRingElevations({board_}, set, projection_, Pose::Identity(), {});
+    ASSERT_TRUE(c.measured) << "seed " << seed;
+    EXPECT_GE(c.rings, 8) << "seed " << seed;
+    EXPECT_LT(c.rms_deg, 0.06) << "seed " << seed;
+    EXPECT_LT(c.chi2_per_ring, 3.0) << "seed " << seed;
+  }
 }
 
 TEST_F(RingElevationsTest, LasersOffTheirTableStandOut) {

@@ -108,10 +108,17 @@ void UseDriveInAnyRound(Session* s, double rate_hz) {
   s->sim.workshop.tag_size_m = 0.48;
 }
 
+/// A draw in +-[lo, hi], either sign. The sign is drawn first, as GCC evaluated
+/// `Sign(rng) * Draw(rng, ...)` (whose operands are unsequenced): the sessions stay those the
+/// campaign's figures were measured on, with any compiler.
+double SignedDraw(Rng* rng, double lo, double hi) {
+  const double sign = Sign(rng);
+  return sign * Draw(rng, lo, hi);
+}
+
 /// A factor 1 +- [lo, hi] (either sign), written as the session's magnitude in %.
 double DrawFactor(Rng* rng, double lo, double hi, Session* s) {
-  const double sign = Sign(rng);  // before the size, as GCC evaluated it: sessions unchanged
-  const double f = 1.0 + sign * Draw(rng, lo, hi);
+  const double f = 1.0 + SignedDraw(rng, lo, hi);
   s->magnitude = Num((f - 1.0) * 100.0, 2) + " %";
   return f;
 }
@@ -272,7 +279,7 @@ constexpr Fault kFaults[] = {
        const double size = Draw(rng, 0.05, 0.2);
        std::vector<double>& errors = s->sim.lidar_noise.ring_elevation_error_deg;
        errors.resize(model.ring_elevation_deg.size());
-       for (double& e : errors) e = Sign(rng) * size * Draw(rng, 0.5, 1.0);
+       for (double& e : errors) e = size * SignedDraw(rng, 0.5, 1.0);
        s->magnitude = "up to " + Num(size, 3) + " deg";
      }},
     {"ids_swapped",
@@ -302,7 +309,7 @@ constexpr Fault kFaults[] = {
        const double size = Draw(rng, 0.005, 0.02);
        std::vector<double>& bows = s->sim.workshop.board_bows_m;
        bows.resize(static_cast<size_t>(s->sim.workshop.num_boards));
-       for (double& b : bows) b = Sign(rng) * size * Draw(rng, 0.5, 1.0);
+       for (double& b : bows) b = size * SignedDraw(rng, 0.5, 1.0);
        s->magnitude = "up to " + Num(size * 1e3, 1) + " mm";
      }},
     {"boards_carried",

@@ -122,9 +122,15 @@ bool SessionSimulator::Init(const SessionOptions& options, std::string* error) {
 
   std::mt19937_64 rng(Mix(options.seed, 0, 3));
   std::normal_distribution<double> n01(0.0, 1.0);
+  // Three draws z first: function arguments are unsequenced, and z, y, x is the order GCC
+  // evaluated Vector3d(n01(rng), n01(rng), n01(rng)) in, which the sessions were made with.
+  const auto draw3 = [&] {
+    const double z = n01(rng), y = n01(rng), x = n01(rng);
+    return Eigen::Vector3d(x, y, z);
+  };
   Eigen::Vector3d axis = options.prior_rot_axis;
-  if (axis.norm() < 1e-9) axis = Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
-  Eigen::Vector3d dir(n01(rng), n01(rng), n01(rng));
+  if (axis.norm() < 1e-9) axis = draw3();
+  const Eigen::Vector3d dir = draw3();
   Pose dT = Pose::Identity();
   dT.linear() = RotationFromAxisAngle(axis, options.prior_rot_deg * kDeg2Rad);
   dT.translation() = dir.normalized() * options.prior_trans_m;

@@ -62,9 +62,13 @@ void AddRoom(const Eigen::Vector3d& sensor, std::mt19937_64& rng, Scene* scene) 
   for (int i = 0; i < 4; ++i) {
     const double side = i % 2 == 0 ? 1.0 : -1.0;
     const double h = 0.4 + 0.5 * u01(rng);
-    scene->Add(Box(SurfaceKind::kClutter, {x0 + 1.0 + 2.5 * i, y0 + side * 6.4, h},
-                   0.1 * (u01(rng) - 0.5), {0.4 + 0.4 * u01(rng), 0.3, h},
-                   static_cast<float>(0.3 + 0.4 * u01(rng))));
+    // Drawn last argument first, the order GCC evaluated them in (they are unsequenced) when
+    // the sessions were made.
+    const auto reflectivity = static_cast<float>(0.3 + 0.4 * u01(rng));
+    const double width = 0.4 + 0.4 * u01(rng);
+    const double yaw = 0.1 * (u01(rng) - 0.5);
+    scene->Add(Box(SurfaceKind::kClutter, {x0 + 1.0 + 2.5 * i, y0 + side * 6.4, h}, yaw,
+                   {width, 0.3, h}, reflectivity));
   }
   scene->Add(Box(SurfaceKind::kClutter, {x0 + 6.0, y0 + 6.8, 1.05}, 0.0, {0.5, 0.02, 1.05}, 0.7f));
 }

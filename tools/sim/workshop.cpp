@@ -206,16 +206,21 @@ bool BuildWorkshop(const WorkshopOptions& o, uint64_t seed, Workshop* out, std::
     // Crates, some near the boards and the back wall.
     for (int i = 0; i < 5; ++i) {
       const double s = 0.4 + 0.4 * u01(rng);
-      scene.Add(Box(SurfaceKind::kClutter, {-30.0 * u01(rng) + 4.0, side(5.0, 12.0), s}, u01(rng),
-                    {s, s, s}, static_cast<float>(0.3 + 0.4 * u01(rng))));
+      // Drawn last argument first, the order GCC evaluated them in (function arguments are
+      // unsequenced) when the sessions were made; a braced list is sequenced left to right.
+      const auto reflectivity = static_cast<float>(0.3 + 0.4 * u01(rng));
+      const double yaw = u01(rng);
+      const double x = -30.0 * u01(rng) + 4.0;
+      scene.Add(Box(SurfaceKind::kClutter, {x, side(5.0, 12.0), s}, yaw, {s, s, s}, reflectivity));
     }
     // A parked car-sized box.
     scene.Add(
         Box(SurfaceKind::kClutter, {-12.0, side(6.5, 8.0), 0.75}, 0.05, {2.25, 0.9, 0.75}, 0.4f));
     // People-sized cylinders standing around.
-    for (int i = 0; i < 3; ++i)
-      scene.Add(Cylinder(SurfaceKind::kClutter, -2.0 - 10.0 * u01(rng), side(4.5, 9.0), 0.25, 1.75,
-                         0.45f));
+    for (int i = 0; i < 3; ++i) {
+      const double y = side(4.5, 9.0);  // before x: GCC's order of the unsequenced arguments
+      scene.Add(Cylinder(SurfaceKind::kClutter, -2.0 - 10.0 * u01(rng), y, 0.25, 1.75, 0.45f));
+    }
     // A large flat door-like panel near the boards: the hard negative for a board detector.
     scene.Add(
         Box(SurfaceKind::kClutter, {1.5, side(4.5, 5.5), 1.05}, 0.3, {0.02, 0.5, 1.05}, 0.7f));
