@@ -5,6 +5,7 @@
 #include <memory>
 #include <opencv2/core.hpp>
 
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/camera_detector.hpp"
 #include "calibd/core/lidar_detector.hpp"
 #include "calibd/core/range_image.hpp"
@@ -16,7 +17,7 @@ namespace calibd::testing {
 struct RecordedSession {
   sim::SessionSimulator session;
   SessionObservations obs;
-  RangeImage projection;  ///< configured for the session's LiDAR model
+  RangeImage projection;  ///< SessionProjection of the session's LiDAR model
   CalibConfig config;     ///< what a user would have written (prior = the simulator's prior)
 };
 
@@ -43,7 +44,7 @@ inline std::unique_ptr<RecordedSession> Record(const sim::SessionOptions& option
   LidarDetector lidar(LidarDetectorConfig{}, model, boards);
   EXPECT_TRUE(camera.ok()) << camera.error();
   EXPECT_TRUE(lidar.ok()) << lidar.error();
-  r->projection.Configure(model, 0.5, 200.0, 1);
+  r->projection = SessionProjection(model);
   r->obs.Reserve(count, static_cast<int>(boards.size()) + 4, 4096);
   cv::Mat image;
   sim::LidarScan scan;

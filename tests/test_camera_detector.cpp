@@ -19,6 +19,7 @@
 #include "calibd/core/camera_model.hpp"
 #include "calibd/core/camera_pnp.hpp"
 #include "calibd/core/geometry.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "session.hpp"
 
 namespace calibd {
@@ -232,9 +233,9 @@ TEST_F(CameraDetectorSimTest, TrackingAgreesWithFullFrameSearchWhileDriving) {
     auto t1 = std::chrono::steady_clock::now();
     full.Detect(View(image), &b);
     auto t2 = std::chrono::steady_clock::now();
-    const double ta = std::chrono::duration<double, std::milli>(t1 - t0).count();
+    const double ta = MsBetween(t0, t1);
     (a.full_frame_search ? ms_tracked_full_frames : ms_tracked).push_back(ta);
-    ms_full.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+    ms_full.push_back(MsBetween(t1, t2));
     tracked_frames += a.full_frame_search ? 0 : 1;
     ASSERT_EQ(a.boards.size(), b.boards.size()) << "frame " << k;
     for (const auto& da : a.boards) {
@@ -514,8 +515,7 @@ TEST(CameraDetector, CheckerboardGivesItsPose) {
     CameraDetections dets;
     const auto t0 = std::chrono::steady_clock::now();
     detector.Detect(View(image), &dets);
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const double ms = MsSince(t0);
     ASSERT_EQ(dets.boards.size(), 1u) << distance;
     const BoardDetection2D& det = dets.boards[0];
     EXPECT_EQ(det.board_id, 7);

@@ -22,6 +22,7 @@
 #include "calibd/core/board.hpp"
 #include "calibd/core/camera_model.hpp"
 #include "calibd/core/geometry.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "camera_render.hpp"
 #include "scene.hpp"
 #include "tag_detector.hpp"
@@ -127,8 +128,7 @@ class CameraRenderTest : public ::testing::Test {
   static void SetUpTestSuite() {
     const auto t0 = std::chrono::steady_clock::now();
     renderer_ = new CameraRenderer(CameraIntrinsics{}, CameraImaging{});
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const double ms = MsSince(t0);
     std::printf("[ timing   ] ray table build: %.1f ms\n", ms);
   }
   static void TearDownTestSuite() {
@@ -399,9 +399,7 @@ TEST_F(CameraRenderTest, WorkshopFrameTimingAndAllTagsFound) {
   const std::clock_t cpu0 = std::clock();
   for (int k = 0; k < kFrames; ++k)
     renderer_->Render(ts.scene, ts.faces, CameraPose(), 2 + k, &image);
-  const double ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() /
-      kFrames;
+  const double ms = MsSince(t0) / kFrames;
   // Process CPU time over all threads: wall time on a shared machine says little on its own.
   const double cpu_ms = 1e3 * static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC / kFrames;
   std::printf("[ timing   ] render 3840x1920: %.1f ms wall, %.1f ms CPU per frame (%d threads)\n",

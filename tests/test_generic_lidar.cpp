@@ -90,8 +90,7 @@ TEST_P(GenericLidarTest, DriveCalibratedAsGenericMatchesTheNamedModel) {
       EXPECT_TRUE(obs.AddFrame(camera[k], ld, config.boards, times[k]));
     }
     *lidar_boards = static_cast<int>(obs.lidar.size());
-    RangeImage projection;
-    projection.Configure(model, 0.5, 200.0, 1);
+    const RangeImage projection = SessionProjection(model);
     const CalibrationOutcome out = Calibrate(config, obs, projection, EngineConfig{});
     EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kUpdated)
         << model.name << ": " << out.reason << ": " << out.detail;

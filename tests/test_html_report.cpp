@@ -8,6 +8,7 @@
 #include <chrono>
 #include <string>
 
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "html_report.hpp"
 #include "html_report_inputs.hpp"
@@ -148,9 +149,7 @@ TEST(HtmlReportTest, DemoSizedReportIsFast) {
   for (int run = 0; run < 3; ++run) {
     const auto t0 = std::chrono::steady_clock::now();
     size = tools::RenderHtmlReport(in).size();
-    best_ms = std::min(
-        best_ms,
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    best_ms = std::min(best_ms, MsSince(t0));
   }
   std::cout << "demo-sized report: " << size / 1000 << " kB in " << best_ms << " ms\n";
 #if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)

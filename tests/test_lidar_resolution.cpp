@@ -3,6 +3,7 @@
 // give back the resolutions and fields of view of their built-in models; garbage gives an error.
 
 #include "calibd/core/lidar_resolution.hpp"
+#include "calibd/core/stopwatch.hpp"
 
 #include <gtest/gtest.h>
 
@@ -270,8 +271,7 @@ TEST(ResolutionTest, DeterministicAndFast) {
   const LidarResolutionEstimate a = EstimateLidarResolution(views.data(), 1);
   const auto t0 = std::chrono::steady_clock::now();
   const LidarResolutionEstimate b = EstimateLidarResolution(views.data(), 1);
-  const double ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double ms = MsSince(t0);
   ASSERT_TRUE(a.ok && b.ok);
   EXPECT_EQ(a.azimuth_resolution_deg, b.azimuth_resolution_deg);
   EXPECT_EQ(a.elevation_resolution_deg, b.elevation_resolution_deg);

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <iostream>
 
+#include "calibd/core/stopwatch.hpp"
+
 namespace calibd::sim {
 namespace {
 
@@ -379,9 +381,7 @@ TEST(LidarSimTest, ReportsTimeAndPointsPerFrame) {
     constexpr int kFrames = 5;
     const auto t0 = std::chrono::steady_clock::now();
     for (int f = 0; f < kFrames; ++f) sim.Scan(scene, start, end, f, 1 + f, &scan);
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() /
-        kFrames;
+    const double ms = MsSince(t0) / kFrames;
     int on_boards = 0;
     for (int16_t b : scan.board) on_boards += b >= 0;
     std::cout << "[ lidar    ] " << sim.model().name << ": " << ms << " ms/frame, " << scan.size()

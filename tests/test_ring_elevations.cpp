@@ -7,6 +7,7 @@
 #include <cmath>
 #include <random>
 
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/lidar_model.hpp"
 
 namespace calibd {
@@ -64,7 +65,7 @@ class RingElevationsTest : public ::testing::Test {
  protected:
   void SetUp() override {
     model_ = MakeLidarModel(LidarKind::kVlp16);
-    projection_.Configure(model_, 0.5, 200.0, 1);
+    projection_ = SessionProjection(model_);
     board_.width_m = board_.height_m = 0.9;
     board_.tag_size_m = 0.702;
   }
@@ -103,8 +104,7 @@ TEST_F(RingElevationsTest, LasersOffTheirTableStandOut) {
 }
 
 TEST_F(RingElevationsTest, ARinglessLidarMeasuresNothing) {
-  RangeImage ringless;
-  ringless.Configure(MakeLidarModel(LidarKind::kAvia), 0.5, 200.0, 1);
+  const RangeImage ringless = SessionProjection(MakeLidarModel(LidarKind::kAvia));
   const std::vector<double> none(model_.ring_elevation_deg.size(), 0.0);
   const ObservationSet set = Boards(model_, none, board_, 10, 3);
   EXPECT_FALSE(CheckRingElevations({board_}, set, ringless, Pose::Identity(), {}).measured);

@@ -177,8 +177,7 @@ class Rig {
   // Agent::StartSolve's call, on this thread: the verdict goes to the machine.
   CalibrationOutcome Solve() {
     EXPECT_TRUE(machine_.NeedsSolve());
-    RangeImage projection;
-    projection.Configure(drive_.lidar_model, 0.5, 200.0, 1);
+    const RangeImage projection = SessionProjection(drive_.lidar_model);
     const CalibrationOutcome o =
         Calibrate(config_.calib, recorder_.session(), projection, config_.engine);
     machine_.SolveFinished(machine_.session(), o.verdict, o.reason, o.detail);

@@ -19,12 +19,12 @@ constexpr int64_t kT0 = 5000 * kS;   // an arbitrary monotonic start time
 
 SessionConfig TestConfig() {
   SessionConfig c;
-  c.target_frames = 100;
-  c.min_frames = 20;
-  c.min_boards = 30;
+  c.gates.target_frames = 100;
+  c.gates.min_frames = 20;
+  c.gates.min_boards = 30;
   c.max_duration_us = 60 * kS;
-  c.min_distance_bins = 3;
-  c.min_image_cells = 4;
+  c.gates.min_distance_bins = 3;
+  c.gates.min_image_cells = 4;
   c.stop_on_coverage = true;
   return c;
 }
@@ -51,7 +51,7 @@ StartRequest Request(const std::string& requester = "tester") {
 SessionMachine Solving(const SessionConfig& config = TestConfig()) {
   SessionMachine m(config);
   EXPECT_TRUE(m.Start(Request(), kT0).accepted);
-  EXPECT_TRUE(m.FrameRecorded(Figures(config.target_frames, 300, 0b1111, 0xffff), kT0 + kS));
+  EXPECT_TRUE(m.FrameRecorded(Figures(config.gates.target_frames, 300, 0b1111, 0xffff), kT0 + kS));
   EXPECT_EQ(m.state(), SessionState::kSolving);
   return m;
 }
@@ -435,7 +435,7 @@ TEST(SessionMachineTest, GuidanceNamesMissingDistanceBinsAndImageRegions) {
             "boards needed in the image's top-right, bottom-left (2 of 16 image cells, 4 needed)");
 
   // Every quadrant holds a board but too few cells: spread them.
-  config.min_image_cells = 6;
+  config.gates.min_image_cells = 6;
   SessionMachine s(config);
   StartRequest r = Request();
   r.mode = SessionMode::kStatic;
@@ -537,12 +537,12 @@ TEST(SessionMachineTest, ConfigFromTheAgentConfig) {
   agent.stop_on_coverage = false;
   agent.engine.verdict.min_boards = 33;
   const SessionConfig c = SessionConfigFrom(agent);
-  EXPECT_EQ(c.target_frames, 150);
-  EXPECT_EQ(c.min_frames, 40);
-  EXPECT_EQ(c.min_boards, 33);
+  EXPECT_EQ(c.gates.target_frames, 150);
+  EXPECT_EQ(c.gates.min_frames, 40);
+  EXPECT_EQ(c.gates.min_boards, 33);
   EXPECT_EQ(c.max_duration_us, 90500000);
-  EXPECT_EQ(c.min_distance_bins, 2);
-  EXPECT_EQ(c.min_image_cells, 5);
+  EXPECT_EQ(c.gates.min_distance_bins, 2);
+  EXPECT_EQ(c.gates.min_image_cells, 5);
   EXPECT_FALSE(c.stop_on_coverage);
 }
 

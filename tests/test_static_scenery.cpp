@@ -120,8 +120,7 @@ TEST(StaticSceneryTest, TheEngineSolvesFromTheMovingBoardsAndNamesTheirClusters)
   config.boards = Boards();
   config.prior_T_camera_lidar.linear() = RotationFromRpy(-90.0 * kDeg2Rad, 0.0, -90.0 * kDeg2Rad);
   config.prior_T_camera_lidar.translation() = Eigen::Vector3d(0.1, -0.2, 0.05);
-  RangeImage projection;
-  projection.Configure(MakeLidarModel(LidarKind::kVlp16), 0.5, 200.0, 1);
+  const RangeImage projection = SessionProjection(MakeLidarModel(LidarKind::kVlp16));
   ObservationSet correspondences;
   EngineConfig engine;  // no image corners here: the board poses are held as given
   engine.direct.refine_board_poses = false;

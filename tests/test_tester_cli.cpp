@@ -122,6 +122,7 @@ TEST(TesterDid, CaptureCoverageShowsWhereBoardsAreMissing) {
   c.image_cells = (1u << 0) | (1u << 1) | (1u << 4);  // three cells of the top-left quadrant
   c.frames_with_boards = 12;
   c.boards = 30;
+  c.gates = {200, 50, 20, 3, 4};  // target, frames, boards, bins, cells
   uint8_t bytes[uds::kCoverageSize];
   ASSERT_EQ(uds::EncodeCoverage(c, bytes), uds::kCoverageSize);
   EXPECT_EQ(DidSize(0xFD06), uds::kCoverageSize);

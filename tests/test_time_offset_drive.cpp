@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "calib_experiments.hpp"
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "session.hpp"
 
@@ -26,8 +27,7 @@ TEST(TimeOffsetDriveTest, ACameraThirtyMsLateOnOneTimePerPairIsMeasuredAndCorrec
   // The camera triggers camera_phase_us into the sweep, and exposes 30 ms after its trigger.
   const double true_offset_s = static_cast<double>(sim.camera_phase_us() + 30000) * 1e-6;
 
-  RangeImage projection;
-  projection.Configure(MakeLidarModel(LidarKind::kOt128), 0.5, 200.0, 1);
+  const RangeImage projection = SessionProjection(MakeLidarModel(LidarKind::kOt128));
   EngineConfig engine;
   const ScoredRun run =
       RunEngine(drive.config, drive.observations, projection, engine, drive.T_camera_lidar);

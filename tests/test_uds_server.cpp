@@ -261,8 +261,12 @@ TEST_F(UdsServerTest, ReadDataByIdentifierSupplierScalings) {
   EXPECT_EQ(Tx({0x22, 0xFD, 0x05}), (Bytes{0x62, 0xFD, 0x05, 0x02, 0x01}));
   // Capture coverage: static session, bins 0 and 2 seen of 3 needed, cells 0, 5 and 15 of 4
   // needed, 37 of 50 frame pairs (target 200), 70000 boards (saturates at 0xFFFF) of 20.
-  backend_.coverage = {false, 0b101, 3, (1u << 0) | (1u << 5) | (1u << 15), 4, 37, 50,
-                       200,   70000, 20};
+  backend_.coverage.moving = false;
+  backend_.coverage.distance_bins = 0b101;
+  backend_.coverage.image_cells = (1u << 0) | (1u << 5) | (1u << 15);
+  backend_.coverage.frames_with_boards = 37;
+  backend_.coverage.boards = 70000;
+  backend_.coverage.gates = {200, 50, 20, 3, 4};  // target, frames, boards, bins, cells
   const Bytes coverage{0x62, 0xFD, 0x06, 0x01, 0x05, 0x03, 0x80, 0x21, 0x04, 0x00,
                        0x25, 0x00, 0x32, 0x00, 0xC8, 0xFF, 0xFF, 0x00, 0x14};
   EXPECT_EQ(Tx({0x22, 0xFD, 0x06}), coverage);
@@ -272,7 +276,7 @@ TEST_F(UdsServerTest, ReadDataByIdentifierSupplierScalings) {
   EXPECT_EQ(back.image_cells, backend_.coverage.image_cells);
   EXPECT_EQ(back.frames_with_boards, 37);
   EXPECT_EQ(back.boards, 0xFFFF);
-  EXPECT_EQ(back.min_boards, 20);
+  EXPECT_EQ(back.gates.min_boards, 20);
 }
 
 TEST(DidCodecTest, ScalingSaturatesAndRounds) {

@@ -1,6 +1,7 @@
 // WakeEvent on a real eventfd: a signal from another thread wakes poll(2) at once, Clear()
 // consumes every signal so far, and nothing is readable before a signal.
 
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/wake_event.hpp"
 
 #include <gtest/gtest.h>
@@ -30,8 +31,7 @@ TEST(WakeEventTest, SignalFromAnotherThreadWakesPollAndClearResetsIt) {
     e.Signal();
   });
   EXPECT_TRUE(Readable(e, 5000));
-  const double waited_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double waited_ms = MsSince(t0);
   t.join();
   EXPECT_GE(waited_ms, 15.0);    // woke by the signal, not before it
   EXPECT_LT(waited_ms, 2000.0);  // and not by the timeout

@@ -18,6 +18,7 @@
 #include "calibd/agent/thread_nice.hpp"
 #include "calibd/calibration_status_t.hpp"
 #include "calibd/channels.hpp"
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/core/lidar_resolution.hpp"
 #include "calibd/drivers/atomic_file.hpp"
@@ -192,7 +193,7 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
   if (!LidarModelFromConfig(config_.calib.lidar_model, config_.calib.lidar_generic, &lidar_model,
                             error))
     return false;
-  projection_.Configure(lidar_model, 0.5, 200.0, 1);
+  projection_ = SessionProjection(lidar_model);
   recorder_.Init(config_);
 
   const std::string url = options.lcm_url.empty() ? config_.lcm_url : options.lcm_url;

@@ -65,7 +65,7 @@ void AppendCaptureGuidance(const CaptureCoverage& c, std::string* out) {
   }
   const size_t start = out->size();
   const int bins = DistanceBinsSeen(c);
-  if (bins < c.min_distance_bins) {
+  if (bins < c.gates.min_distance_bins) {
     *out += c.moving ? "drive so that boards are seen at " : "move boards to ";
     const char* separator = "";
     for (int b = 0; b < kDistanceBins; ++b) {
@@ -74,10 +74,10 @@ void AppendCaptureGuidance(const CaptureCoverage& c, std::string* out) {
       *out += kDistanceBinNames[b];
       separator = ", ";
     }
-    AppendCount(out, bins, kDistanceBins, "distance bins", c.min_distance_bins);
+    AppendCount(out, bins, kDistanceBins, "distance bins", c.gates.min_distance_bins);
   }
   const int cells = ImageCellsSeen(c);
-  if (cells < c.min_image_cells) {
+  if (cells < c.gates.min_image_cells) {
     if (out->size() > start) *out += "; ";
     const uint32_t quadrants = CoveredQuadrants(c.image_cells);
     if (quadrants == 0xfu) {
@@ -92,24 +92,24 @@ void AppendCaptureGuidance(const CaptureCoverage& c, std::string* out) {
         separator = ", ";
       }
     }
-    AppendCount(out, cells, kImageCells, "image cells", c.min_image_cells);
+    AppendCount(out, cells, kImageCells, "image cells", c.gates.min_image_cells);
   }
   if (out->size() > start) return;
-  if (c.frames_with_boards < c.min_frames) {
+  if (c.frames_with_boards < c.gates.min_frames) {
     *out += "coverage complete: keep collecting (";
     AppendInt(out, c.frames_with_boards);
     *out += " of ";
-    AppendInt(out, c.min_frames);
+    AppendInt(out, c.gates.min_frames);
     *out += " frame pairs)";
-  } else if (c.boards < c.min_boards) {
+  } else if (c.boards < c.gates.min_boards) {
     *out += "coverage complete: keep collecting (";
     AppendInt(out, c.boards);
     *out += " of ";
-    AppendInt(out, c.min_boards);
+    AppendInt(out, c.gates.min_boards);
     *out += " boards)";
   } else {
     *out += "coverage complete: collecting up to ";
-    AppendInt(out, c.target_frames);
+    AppendInt(out, c.gates.target_frames);
     *out += " frame pairs";
   }
 }

@@ -5,6 +5,7 @@
 #include "calibd/agent/thread_nice.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/core/lidar_resolution.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/core/validation.hpp"
 
 namespace calibd {
@@ -24,10 +25,6 @@ struct FrameIntake::Slot {
 };
 
 namespace {
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // Copies a vector into one whose capacity was reserved: assign() reuses the storage.
 template <typename T>

@@ -10,6 +10,8 @@
 #include <cstdlib>
 #include <vector>
 
+#include "calibd/core/stopwatch.hpp"
+
 namespace calibd {
 
 namespace {
@@ -57,7 +59,7 @@ HeapReserveResult ReserveHeap(std::size_t bytes) {
   bool kernel = true;
   r.reserved = Populate(bytes, &kernel);
   r.populated_by_kernel = kernel && r.reserved > 0;
-  r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  r.ms = MsSince(t0);
   return r;
 }
 

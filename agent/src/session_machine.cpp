@@ -62,12 +62,12 @@ int DistanceBin(double distance_m) {
 
 SessionConfig SessionConfigFrom(const AgentConfig& config) {
   SessionConfig s;
-  s.target_frames = config.target_frames;
-  s.min_frames = config.min_frames;
-  s.min_boards = config.engine.verdict.min_boards;
+  s.gates.target_frames = config.target_frames;
+  s.gates.min_frames = config.min_frames;
+  s.gates.min_boards = config.engine.verdict.min_boards;
   s.max_duration_us = static_cast<int64_t>(std::llround(config.max_duration_s * 1e6));
-  s.min_distance_bins = config.min_distance_bins;
-  s.min_image_cells = config.min_image_cells;
+  s.gates.min_distance_bins = config.min_distance_bins;
+  s.gates.min_image_cells = config.min_image_cells;
   s.stop_on_coverage = config.stop_on_coverage;
   return s;
 }
@@ -171,7 +171,8 @@ bool SessionMachine::CheckSensorTimeout(int64_t now_us) {
                         !lidar_silent &&
                         now_us - std::max(last_pair_us_, both_sending_us_) > timeout;
   if (!camera_silent && !lidar_silent && !unpaired) return false;
-  if (figures_.frames_with_boards >= config_.min_frames && figures_.boards >= config_.min_boards) {
+  if (figures_.frames_with_boards >= config_.gates.min_frames &&
+      figures_.boards >= config_.gates.min_boards) {
     EnterSolving(CollectionEnd::kSensorTimeout);  // enough already: solve what was collected
     return true;
   }
@@ -196,13 +197,14 @@ bool SessionMachine::CheckSensorTimeout(int64_t now_us) {
 
 bool SessionMachine::CoverageMet() const {
   const CaptureCoverage c = Coverage();
-  return c.frames_with_boards >= c.min_frames && c.boards >= c.min_boards &&
-         DistanceBinsSeen(c) >= c.min_distance_bins && ImageCellsSeen(c) >= c.min_image_cells;
+  return c.frames_with_boards >= c.gates.min_frames && c.boards >= c.gates.min_boards &&
+         DistanceBinsSeen(c) >= c.gates.min_distance_bins &&
+         ImageCellsSeen(c) >= c.gates.min_image_cells;
 }
 
 void SessionMachine::CheckCollectionEnd(int64_t now_us) {
   UpdateProgress(now_us);
-  if (figures_.frames_with_boards >= config_.target_frames) {
+  if (figures_.frames_with_boards >= config_.gates.target_frames) {
     EnterSolving(CollectionEnd::kTargetFrames);
     return;
   }
@@ -223,8 +225,8 @@ void SessionMachine::EndOfData(int64_t now_us) {
 
 void SessionMachine::FinishCollection(CollectionEnd end) {
   collection_end_ = end;
-  const bool frames_short = figures_.frames_with_boards < config_.min_frames;
-  if (!frames_short && figures_.boards >= config_.min_boards) {
+  const bool frames_short = figures_.frames_with_boards < config_.gates.min_frames;
+  if (!frames_short && figures_.boards >= config_.gates.min_boards) {
     EnterSolving(end);
     return;
   }
@@ -249,7 +251,7 @@ void SessionMachine::FinishCollection(CollectionEnd end) {
   }
   AppendInt(&detail_, frames_short ? figures_.frames_with_boards : figures_.boards);
   detail_ += frames_short ? " frame pairs with boards, " : " board observations, ";
-  AppendInt(&detail_, frames_short ? config_.min_frames : config_.min_boards);
+  AppendInt(&detail_, frames_short ? config_.gates.min_frames : config_.gates.min_boards);
   detail_ += " needed";
 }
 
@@ -271,7 +273,7 @@ void SessionMachine::EnterFailed(Reason reason) {
 
 void SessionMachine::UpdateProgress(int64_t now_us) {
   const double frames = static_cast<double>(figures_.frames_with_boards) /
-                        static_cast<double>(std::max(1, config_.target_frames));
+                        static_cast<double>(std::max(1, config_.gates.target_frames));
   // A clock that steps back (it should not: monotonic) counts as no time passed.
   const double time = static_cast<double>(std::max<int64_t>(0, now_us - started_us_)) /
                       static_cast<double>(std::max<int64_t>(1, limit_us_));
@@ -341,14 +343,10 @@ CaptureCoverage SessionMachine::Coverage() const {
   CaptureCoverage c;
   c.moving = request_.mode == SessionMode::kMoving;
   c.distance_bins = figures_.distance_bins;
-  c.min_distance_bins = config_.min_distance_bins;
   c.image_cells = figures_.image_cells;
-  c.min_image_cells = config_.min_image_cells;
   c.frames_with_boards = figures_.frames_with_boards;
-  c.min_frames = config_.min_frames;
-  c.target_frames = config_.target_frames;
   c.boards = figures_.boards;
-  c.min_boards = config_.min_boards;
+  c.gates = config_.gates;
   return c;
 }
 

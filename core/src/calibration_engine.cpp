@@ -1,6 +1,7 @@
 #include "calibd/core/calibration_engine.hpp"
 
 #include "calibd/core/board_swap_check.hpp"
+#include "calibd/core/stopwatch.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -30,12 +31,6 @@ namespace {
 using detail::FailedGate;
 using detail::kStartCheckRotationDeg;
 using detail::kStartCheckTranslationM;
-
-using Clock = std::chrono::steady_clock;
-
-double Ms(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 CalibrationOutcome Reject(CalibrationOutcome out, Reason reason, const std::string& detail) {
   out.verdict = CalibrationOutcome::Verdict::kRejected;
@@ -635,7 +630,7 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
     }
   }
   {
-    const auto t_pp = Clock::now();
+    const auto t_pp = SteadyClock::now();
     const PrincipalPointEstimate pp = EstimatePrincipalPoint(config.camera, config.boards, session);
     q.principal_point_fitted = pp.fitted;
     q.principal_point_shift_px = pp.shift_px;
@@ -645,7 +640,7 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
     q.principal_point_turn_deg =
         std::hypot(pp.shift_px.x() / config.camera.fx, pp.shift_px.y() / config.camera.fy) *
         kRad2Deg;
-    q.principal_point_ms = Ms(t_pp);
+    q.principal_point_ms = MsSince(t_pp);
   }
   {
     // What is left of the time offset after the corrections, added to what they applied.
@@ -803,7 +798,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     return Reject(out, reason, detail);
 
   const CameraModel camera(config.camera);
-  const auto t_opt = Clock::now();
+  const auto t_opt = SteadyClock::now();
   Solution solution;
   if (const Reason reason = Solve(config, engine, camera, out.grid.T_camera_lidar, &corr, &q,
                                   &out.dropped_correspondences, &solution, &detail);
@@ -811,7 +806,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
     return Reject(out, reason, detail);
   const DirectResult& direct = solution.direct;
   const std::vector<BoardGeometry>& boards = solution.boards;
-  out.optimise_ms = Ms(t_opt);
+  out.optimise_ms = MsSince(t_opt);
   out.T_camera_lidar = direct.T_camera_lidar;
   out.solved = true;
   out.refined_boards = direct.refined_boards;
@@ -822,11 +817,11 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   out.delta_translation_m =
       (config.prior_T_camera_lidar.translation() - out.T_camera_lidar.translation()).norm();
 
-  const auto t_q = Clock::now();
+  const auto t_q = SteadyClock::now();
   MeasureQuality(config, session, projection, corr, solution, out.T_camera_lidar, &q);
   StabilityAndReprojection(engine, boards, camera, corr, direct, out.T_camera_lidar, &q,
                            reprojection_px);
-  out.quality_ms = Ms(t_q);
+  out.quality_ms = MsSince(t_q);
 
   if (const Reason reason = FailedGate(config.camera, v, out, &detail); reason != Reason::kNone)
     return Reject(out, reason, detail);
@@ -848,6 +843,13 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
 }
 
 }  // namespace
+
+RangeImage SessionProjection(const LidarModel& model) {
+  RangeImage projection;
+  // Only the grid is used (CellOf, rows): any range limits do, and no point map.
+  projection.Configure(model, 0.5, 200.0, 1);
+  return projection;
+}
 
 CalibrationOutcome Calibrate(const CalibConfig& config, const SessionObservations& observed,
                              const RangeImage& projection, const EngineConfig& engine,

@@ -1,5 +1,6 @@
 #include "calibd/core/direct_optimizer.hpp"
 #include "calibd/core/parallel_for.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/core/validation.hpp"
 
 #include <ceres/ceres.h>
@@ -285,8 +286,7 @@ DirectResult OptimizeDirect(const std::vector<BoardGeometry>& boards, const Obse
   SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_start,
                       options.solve ? HeldSolve::kFinal : HeldSolve::kEvaluate, &result);
   result.T_camera_board = std::move(T_camera_board);
-  result.solve_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  result.solve_ms = MsSince(t0);
   return result;
 }
 
@@ -306,8 +306,7 @@ DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
   const DirectOptimizerConfig config = WithSessionBudget(boards, set, use, session_config);
   SolveWithBoardPoses(boards, set, use, config, T_camera_board, T_init, HeldSolve::kResolve,
                       &result);
-  result.solve_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  result.solve_ms = MsSince(t0);
   return result;
 }
 

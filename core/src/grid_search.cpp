@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/core/validation.hpp"
 
 namespace calibd {
@@ -328,8 +329,7 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
       }
     }
   }
-  result.search_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  result.search_ms = MsSince(t0);
   return result;
 }
 

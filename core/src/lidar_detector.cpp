@@ -1,5 +1,6 @@
 #include "calibd/core/lidar_detector.hpp"
 #include "calibd/core/parallel_for.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/core/validation.hpp"
 
 #include <algorithm>
@@ -18,12 +19,6 @@
 namespace calibd {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double Ms(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration<double, std::milli>(b - a).count();
-}
 
 // Zero mean, unit norm: the Pearson correlation (paper Eq. 1) of two such vectors is their dot
 // product. False for a constant vector.
@@ -677,7 +672,7 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
   out->times = LidarStageTimes{};
   if (!d.ok) return;
 
-  const Clock::time_point t0 = Clock::now();
+  const SteadyClock::time_point t0 = SteadyClock::now();
   RangeImageStats stats;
   d.image.Build(cloud, &stats);
   out->invalid_points = stats.invalid_points;
@@ -685,12 +680,12 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
   out->dropped_points = stats.dropped_points;
   out->chained_points = stats.chained_points;
   out->overflow_points = stats.overflow_points;
-  const Clock::time_point t1 = Clock::now();
+  const SteadyClock::time_point t1 = SteadyClock::now();
   d.segmenter.LabelGround(d.image);
-  const Clock::time_point t2 = Clock::now();
+  const SteadyClock::time_point t2 = SteadyClock::now();
   d.segmenter.Cluster(d.image);
   out->num_clusters = d.segmenter.num_segments();
-  const Clock::time_point t3 = Clock::now();
+  const SteadyClock::time_point t3 = SteadyClock::now();
 
   const int32_t* members = d.segmenter.members();
   for (int s = 0; s < d.segmenter.num_segments(); ++s) {
@@ -752,12 +747,12 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
                  d.planes.cell_region().data(), p + 1, &plane_report, out);
     }
   }
-  const Clock::time_point t4 = Clock::now();
-  out->times.range_image_ms = Ms(t0, t1);
-  out->times.ground_ms = Ms(t1, t2);
-  out->times.segmentation_ms = Ms(t2, t3);
-  out->times.descriptor_ms = Ms(t3, t4);
-  out->times.total_ms = Ms(t0, t4);
+  const SteadyClock::time_point t4 = SteadyClock::now();
+  out->times.range_image_ms = MsBetween(t0, t1);
+  out->times.ground_ms = MsBetween(t1, t2);
+  out->times.segmentation_ms = MsBetween(t2, t3);
+  out->times.descriptor_ms = MsBetween(t3, t4);
+  out->times.total_ms = MsBetween(t0, t4);
 }
 
 }  // namespace calibd

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "notify_socket.hpp"
 #include "private_network.hpp"
@@ -19,8 +20,6 @@
 namespace calibd::bench {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 std::string Errno(const char* what) { return std::string(what) + ": " + std::strerror(errno); }
 
@@ -74,7 +73,7 @@ bool RunAgentSession(const AgentSessionSpec& spec, AgentSessionRun* run, std::st
   const std::string notify_path =
       (std::filesystem::path(spec.out_log).parent_path() / "notify.sock").string();
   if (!notify.Bind(notify_path, error)) return false;
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   const pid_t pid = ::fork();
   if (pid < 0) {
     *error = Errno("fork");
@@ -99,7 +98,7 @@ bool RunAgentSession(const AgentSessionSpec& spec, AgentSessionRun* run, std::st
              spec.config_path + ")";
     return false;
   }
-  run->ready_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  run->ready_ms = MsSince(t0);
   notify.Close();
   const std::string agent_log =
       (std::filesystem::path(spec.out_log).parent_path() / "agent.log").string();
@@ -107,9 +106,8 @@ bool RunAgentSession(const AgentSessionSpec& spec, AgentSessionRun* run, std::st
   for (std::string log, ignored; run->detectors_ready_ms < 0.0; ::usleep(10000)) {
     if (ReadWholeFile(agent_log, &log, &ignored) &&
         log.find("LiDAR detector ready") != std::string::npos)
-      run->detectors_ready_ms =
-          std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-    else if (Clock::now() > give_up) {
+      run->detectors_ready_ms = MsSince(t0);
+    else if (SteadyClock::now() > give_up) {
       Stop(pid);
       *error = "calibd-agent's LiDAR detector not ready within " +
                std::to_string(static_cast<int>(spec.ready_timeout_s)) + " s; its log: " + agent_log;
@@ -132,7 +130,7 @@ bool RunAgentSession(const AgentSessionSpec& spec, AgentSessionRun* run, std::st
     *error = Errno("wait4");
     return false;
   }
-  run->wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  run->wall_s = std::chrono::duration<double>(SteadyClock::now() - t0).count();
   run->exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   run->peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB
   auto seconds = [](const timeval& tv) {

@@ -10,6 +10,7 @@
 #include "calib_experiments.hpp"
 #include "calib_json.hpp"
 #include "calib_tables.hpp"
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "session_detector.hpp"
@@ -60,8 +61,7 @@ bool RunLidar(const CalibBenchOptions& o, const std::string& lidar, std::ostream
               LidarResults* res, std::string* error) {
   LidarKind kind;
   if (!LidarKindFromName(lidar, &kind, error)) return false;
-  RangeImage projection;  // as calibd-calibrate configures it
-  projection.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
+  const RangeImage projection = SessionProjection(MakeLidarModel(kind));
   auto say = [&](const std::string& what, Clock::time_point t0) {
     if (progress)
       *progress << "calibd-bench calib: " << lidar << ": " << what << " in "

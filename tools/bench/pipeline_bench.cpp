@@ -16,8 +16,10 @@
 
 #include "agent_session.hpp"
 #include "calib_experiments.hpp"
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/core/stats.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "paper_figures.hpp"
 #include "private_network.hpp"
@@ -56,8 +58,7 @@ EngineRun RunTimedOnce(const RecordedDrive& drive, const RangeImage& projection,
   static_cast<ScoredRun&>(e) =
       RunEngine(drive.config, drive.observations, projection, engine, drive.T_camera_lidar);
   e.cpu_ms = ProcessCpuMs() - c0;
-  e.wall_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  e.wall_ms = MsSince(t0);
   return e;
 }
 
@@ -118,8 +119,7 @@ bool RunModel(const PipelineBenchOptions& o, const std::string& lidar,
   m->camera_wall = Of(cw);
   m->camera_cpu = Of(cc);
 
-  RangeImage projection;  // as calibd-calibrate and the agent configure it
-  projection.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
+  const RangeImage projection = SessionProjection(MakeLidarModel(kind));
   if (progress)
     *progress << "calibd-bench pipeline: " << lidar << ": engine runs (" << o.engine_runs
               << " of each configuration, the median kept)\n";

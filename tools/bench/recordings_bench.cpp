@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib_experiments.hpp"
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/core/lidar_resolution.hpp"
 #include "calibd/core/session_observations.hpp"
@@ -208,8 +209,7 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
       if (error) *error = std::string(s.name) + ": " + *error;
       return false;
     }
-    RangeImage projection;  // as calibd-calibrate configures it
-    projection.Configure(model, 0.5, 200.0, 1);
+    const RangeImage projection = SessionProjection(model);
     const ScoredRun run = RunEngine(drive.config, drive.observations, projection, EngineConfig{},
                                     drive.T_camera_lidar);
     // The same engine on the true LiDAR boards only: what the estimator makes of this session

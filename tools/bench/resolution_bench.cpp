@@ -11,6 +11,7 @@
 
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/core/lidar_resolution.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "session.hpp"
 
 namespace calibd::bench {
@@ -62,8 +63,7 @@ int RunResolutionBench(int argc, char** argv) {
       const double c0 = ThreadCpuMs();
       const auto t0 = std::chrono::steady_clock::now();
       est = EstimateLidarResolution(&view, 1);
-      ms.push_back(
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      ms.push_back(MsSince(t0));
       cpu.push_back(ThreadCpuMs() - c0);
     }
     std::sort(ms.begin(), ms.end());

@@ -4,17 +4,11 @@
 
 #include <chrono>
 
+#include "calibd/core/stopwatch.hpp"
+
 namespace calibd::bench {
 
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-}  // namespace
+namespace {}  // namespace
 
 double ProcessCpuMs() {
   timespec ts{};
@@ -59,7 +53,7 @@ void DetectedSession::Detect(int k, bool with_camera, FrameDetections* out) {
       scan_.x.data(), scan_.y.data(),
       scan_.z.data(), session_.lidar_model().has_rings ? scan_.ring.data() : nullptr,
       scan_.size(),   scan_.time_offset_us.data()};
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   const double c0 = ProcessCpuMs();
   lidar_detector_->Detect(cloud, &out->lidar);
   out->lidar_ms = MsSince(t0);
@@ -67,7 +61,7 @@ void DetectedSession::Detect(int k, bool with_camera, FrameDetections* out) {
   out->camera_ms = out->camera_cpu_ms = 0.0;
   if (!with_camera) return;
   const ImageView view{image_.data, image_.cols, image_.rows, static_cast<int>(image_.step[0])};
-  const auto tc = Clock::now();
+  const auto tc = SteadyClock::now();
   const double cc = ProcessCpuMs();
   camera_detector_->Detect(view, &out->camera, out->truth.camera_utime);
   out->camera_ms = MsSince(tc);

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib_experiments.hpp"
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
@@ -58,10 +59,9 @@ bool RunDrive(const Drive& d, unsigned long long seed, DriveResult* out) {
     if (!sim.Init(options, &out->error)) return false;
     out->true_offset_ms += static_cast<double>(sim.camera_phase_us()) * 1e-3;
   }
-  RangeImage projection;  // as calibd-calibrate configures it
   LidarKind kind;
   LidarKindFromName(d.lidar, &kind, nullptr);
-  projection.Configure(MakeLidarModel(kind), 0.5, 200.0, 1);
+  const RangeImage projection = SessionProjection(MakeLidarModel(kind));
   EngineConfig engine;
   engine.direct.threads = 1;
   out->run = RunEngine(drive.config, drive.observations, projection, engine, drive.T_camera_lidar);

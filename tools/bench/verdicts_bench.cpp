@@ -12,6 +12,7 @@
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/session_machine.hpp"
 #include "calibd/agent/session_recorder.hpp"
+#include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/camera_model.hpp"
 #include "calibd/core/geometry.hpp"
 #include "calibd/core/grid_search.hpp"
@@ -378,11 +379,10 @@ Session MakeSession(int i, unsigned long long seed, bool quick) {
   o.workshop.num_boards = stills ? 1 + variant : 2 + variant % 2;
   o.prior_rot_deg = Draw(&rng, 2.0, 8.0);
   o.prior_trans_m = Draw(&rng, 0.03, 0.15);
-  // As long as the agent collects (SessionConfig: it solves from min_frames pairs with boards,
-  // 50, and stops at target_frames, 200): quick sessions just above the minimum, full ones at
-  // the target.
+  // As long as the agent collects (CoverageGates: it solves from min_frames pairs with boards
+  // and stops at target_frames): quick sessions just above the minimum, full ones at the target.
   s.quick = quick;
-  s.drive_frames = quick ? kQuickTargetFrames : SessionConfig{}.target_frames;
+  s.drive_frames = quick ? kQuickTargetFrames : CoverageGates{}.target_frames;
   if (stills)
     UseStillPoses(&s);
   else
@@ -418,7 +418,7 @@ bool RunSession(const Session& s, SessionResult* out) {
   // its target (quick sessions: kQuickTargetFrames), at the coverage gates, at its time limit,
   // or where the recording ends; short of min_frames or min_boards it fails.
   SessionConfig agent = SessionConfigFrom(AgentConfig{});
-  if (s.quick) agent.target_frames = kQuickTargetFrames;
+  if (s.quick) agent.gates.target_frames = kQuickTargetFrames;
   agent.sensor_timeout_us = 0;  // a replay: the sensors' pace is the simulator's
   SessionMachine machine(agent);
   CollectionFigures figures;
@@ -467,8 +467,7 @@ bool RunSession(const Session& s, SessionResult* out) {
     return true;
   }
   out->collection_end = CollectionEndName(machine.collection_end());
-  RangeImage projection;  // as calibd-calibrate configures it
-  projection.Configure(model, 0.5, 200.0, 1);
+  const RangeImage projection = SessionProjection(model);
   EngineConfig engine;
   engine.direct.threads = 1;
   out->detect_seconds = drive.detect_s;

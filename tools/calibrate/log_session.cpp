@@ -9,6 +9,7 @@
 #include "calibd/channels.hpp"
 #include "calibd/core/frame_pairing.hpp"
 #include "calibd/core/lidar_model.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/frame_debug.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
 #include "calibd/drivers/recorded_folder.hpp"
@@ -17,9 +18,6 @@
 namespace calibd::tools {
 
 namespace {
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 // Pairs frames by time and detects the boards of every pair: the part a log and a folder share.
 class SessionBuilder {
  public:

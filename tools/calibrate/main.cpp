@@ -18,6 +18,7 @@
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/stats.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
 #include "calibd/drivers/config_file.hpp"
@@ -367,8 +368,7 @@ int main(int argc, char** argv) {
   const double read_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 
-  RangeImage projection;
-  projection.Configure(lidar_model, 0.5, 200.0, 1);
+  const RangeImage projection = SessionProjection(lidar_model);
   // The command line's choices over the config's engine section.
   if (method_given)
     engine.method =
@@ -606,10 +606,7 @@ int main(int argc, char** argv) {
       return 1;
     }
     if (!quiet)
-      std::cerr << "calibd-calibrate: HTML report " << html_path << " in "
-                << std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
-                                                             t_html)
-                       .count()
+      std::cerr << "calibd-calibrate: HTML report " << html_path << " in " << MsSince(t_html)
                 << " ms (pictures rendered before)\n";
   }
 

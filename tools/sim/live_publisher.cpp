@@ -9,6 +9,7 @@
 
 #include "calibd/camera_frame_t.hpp"
 #include "calibd/channels.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
 #include "calibd/lidar_frame_t.hpp"
 #include "calibd/sensor_info_t.hpp"
@@ -16,8 +17,6 @@
 namespace calibd::sim {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 struct LogSpan {
   int64_t first = 0;                          ///< the first event's time, us
@@ -86,7 +85,7 @@ bool PublishLive(const LivePublishOptions& options, LivePublishSummary* summary,
   lidar_frame_t lidar;
   sensor_info_t info;
   std::vector<uint8_t> buffer;
-  const Clock::time_point start = Clock::now();
+  const SteadyClock::time_point start = SteadyClock::now();
   for (int loop = 0; loop < options.loops; ++loop) {
     lcm::LogFile log(options.log_path, "r");
     if (!log.good()) {
@@ -96,10 +95,10 @@ bool PublishLive(const LivePublishOptions& options, LivePublishSummary* summary,
     const int64_t shift = loop * loop_us;
     while (const lcm::LogEvent* ev = log.readNextEvent()) {
       const double at_s = static_cast<double>(ev->timestamp - first + shift) * 1e-6 / options.speed;
-      const Clock::time_point due =
-          start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(at_s));
+      const SteadyClock::time_point due = start + std::chrono::duration_cast<SteadyClock::duration>(
+                                                      std::chrono::duration<double>(at_s));
       std::this_thread::sleep_until(due);
-      const double late_ms = std::chrono::duration<double, std::milli>(Clock::now() - due).count();
+      const double late_ms = MsSince(due);
       s.max_lateness_ms = std::max(s.max_lateness_ms, late_ms);
       if (late_ms > 1e3 / channels::kCamera.rate_hz) ++s.late;
 
@@ -139,7 +138,7 @@ bool PublishLive(const LivePublishOptions& options, LivePublishSummary* summary,
       *progress << "calibd-sim: loop " << loop + 1 << "/" << options.loops << " published ("
                 << s.camera << " camera, " << s.lidar << " LiDAR frames so far)\n";
   }
-  s.duration_s = std::chrono::duration<double>(Clock::now() - start).count();
+  s.duration_s = std::chrono::duration<double>(SteadyClock::now() - start).count();
   if (summary) *summary = s;
   return true;
 }

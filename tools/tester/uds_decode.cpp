@@ -334,9 +334,9 @@ std::string CoverageSummary(const CaptureCoverage& c) {
   std::snprintf(line, sizeof(line),
                 "%s session, distance bins %d of %d (%d needed), image cells %d of %d (%d "
                 "needed), frame pairs %d (%d needed, target %d), boards %d (%d needed)",
-                c.moving ? "moving" : "static", bins, kDistanceBins, c.min_distance_bins, cells,
-                kImageCells, c.min_image_cells, c.frames_with_boards, c.min_frames, c.target_frames,
-                c.boards, c.min_boards);
+                c.moving ? "moving" : "static", bins, kDistanceBins, c.gates.min_distance_bins,
+                cells, kImageCells, c.gates.min_image_cells, c.frames_with_boards,
+                c.gates.min_frames, c.gates.target_frames, c.boards, c.gates.min_boards);
   return line;
 }
 
@@ -346,8 +346,9 @@ std::string CoverageChart(const CaptureCoverage& c) {
     s += (c.distance_bins >> b) & 1u ? "  [x] " : "  [ ] ";
     s += DistanceBinName(b);
   }
-  s += "   (" + std::to_string(c.min_distance_bins) + " needed)\n";
-  s += "image cells (x: a board centre seen; " + std::to_string(c.min_image_cells) + " needed):\n";
+  s += "   (" + std::to_string(c.gates.min_distance_bins) + " needed)\n";
+  s += "image cells (x: a board centre seen; " + std::to_string(c.gates.min_image_cells) +
+       " needed):\n";
   for (int row = 0; row < kImageGridSide; ++row) {
     s += "  ";
     for (int col = 0; col < kImageGridSide; ++col)
@@ -355,9 +356,9 @@ std::string CoverageChart(const CaptureCoverage& c) {
     s += "\n";
   }
   s += "frame pairs with boards: " + std::to_string(c.frames_with_boards) + " (" +
-       std::to_string(c.min_frames) + " needed, target " + std::to_string(c.target_frames) +
-       "), boards: " + std::to_string(c.boards) + " (" + std::to_string(c.min_boards) +
-       " needed)\n";
+       std::to_string(c.gates.min_frames) + " needed, target " +
+       std::to_string(c.gates.target_frames) + "), boards: " + std::to_string(c.boards) + " (" +
+       std::to_string(c.gates.min_boards) + " needed)\n";
   s += "next: ";
   AppendCaptureGuidance(c, &s);
   s += "\n";

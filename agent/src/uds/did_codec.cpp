@@ -78,10 +78,11 @@ size_t EncodeCoverage(const CaptureCoverage& c, uint8_t* out) {
   size_t n = 0;
   out[n++] = c.moving ? 0 : 1;
   out[n++] = static_cast<uint8_t>(c.distance_bins & 0xFFu);
-  out[n++] = byte(c.min_distance_bins);
+  out[n++] = byte(c.gates.min_distance_bins);
   n += PutU16(out + n, static_cast<uint16_t>(c.image_cells & 0xFFFFu));
-  out[n++] = byte(c.min_image_cells);
-  for (const int v : {c.frames_with_boards, c.min_frames, c.target_frames, c.boards, c.min_boards})
+  out[n++] = byte(c.gates.min_image_cells);
+  for (const int v : {c.frames_with_boards, c.gates.min_frames, c.gates.target_frames, c.boards,
+                      c.gates.min_boards})
     n += PutU16(out + n, ScaleToUint16(v, 1.0));
   return n;
 }
@@ -91,14 +92,14 @@ CaptureCoverage DecodeCoverage(const uint8_t* in) {
   CaptureCoverage c;
   c.moving = in[0] == 0;
   c.distance_bins = in[1];
-  c.min_distance_bins = in[2];
+  c.gates.min_distance_bins = in[2];
   c.image_cells = static_cast<uint32_t>(u16(3));
-  c.min_image_cells = in[5];
+  c.gates.min_image_cells = in[5];
   c.frames_with_boards = u16(6);
-  c.min_frames = u16(8);
-  c.target_frames = u16(10);
+  c.gates.min_frames = u16(8);
+  c.gates.target_frames = u16(10);
   c.boards = u16(12);
-  c.min_boards = u16(14);
+  c.gates.min_boards = u16(14);
   return c;
 }
 

@@ -15,6 +15,7 @@
 #include <array>
 #include <string>
 
+#include "calibd/agent/capture_guidance.hpp"
 #include "calibd/agent/uds/uds_config.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/core/calibration_engine.hpp"
@@ -78,15 +79,15 @@ struct AgentConfig {
   double max_duration_s = 120.0;
   /// Collection ends once this many frame pairs with boards are recorded; more than max_frames
   /// keeps the store thinned to pairs spread over the whole session.
-  int target_frames = 200;
+  int target_frames = CoverageGates{}.target_frames;
   /// Fewest frame pairs with boards a session solves with: fewer at the time limit fails the
   /// session; the coverage gates end collection only from this many on. At least
   /// engine.verdict.min_frames (the engine would reject fewer anyway).
-  int min_frames = 50;
+  int min_frames = CoverageGates{}.min_frames;
   /// Coverage gate: boards seen in at least this many of the kDistanceBins distance bins.
-  int min_distance_bins = 3;
+  int min_distance_bins = CoverageGates{}.min_distance_bins;
   /// Coverage gate: board centres in at least this many of the kImageCells image cells.
-  int min_image_cells = 4;
+  int min_image_cells = CoverageGates{}.min_image_cells;
   /// End collection as soon as both coverage gates are met (and min_frames are recorded),
   /// instead of waiting for target_frames or the time limit.
   bool stop_on_coverage = true;

@@ -11,20 +11,32 @@
 #include <cstdint>
 #include <string>
 
+#include "calibd/core/calibration_engine.hpp"
+
 namespace calibd {
 
-/// A collecting session's coverage against its gates (SessionConfig).
+/// The gates a collecting session ends on and solves with, defined once: the config's
+/// agent.target_frames, agent.min_frames, agent.min_distance_bins, agent.min_image_cells
+/// (AgentConfig) and engine.verdict.min_boards (SessionConfigFrom).
+struct CoverageGates {
+  int target_frames = 200;  ///< collection ends at this many frame pairs with boards
+  /// Fewest frame pairs with boards a session solves with: fewer at the time limit fails it
+  /// (too_few_frames); the coverage gates end collection only from this many on.
+  int min_frames = 50;
+  /// Fewest board observations a session solves with (too_few_boards): the engine's own.
+  int min_boards = VerdictConfig{}.min_boards;
+  int min_distance_bins = 3;  ///< boards seen in at least this many of the kDistanceBins bins
+  int min_image_cells = 4;    ///< board centres in at least this many of the kImageCells cells
+};
+
+/// A collecting session's coverage against its gates.
 struct CaptureCoverage {
   bool moving = true;          ///< moving session (the car drives) or static (boards move)
   uint32_t distance_bins = 0;  ///< bit b: a board seen in distance bin b
-  int min_distance_bins = 3;   ///< gate: bins needed
   uint32_t image_cells = 0;    ///< bit c: a board centre seen in image cell c
-  int min_image_cells = 4;     ///< gate: cells needed
   int frames_with_boards = 0;  ///< frame pairs with a board seen by both sensors
-  int min_frames = 50;         ///< gate: frame pairs needed
-  int target_frames = 200;     ///< collection ends at this many
   int boards = 0;              ///< board observations seen by both sensors
-  int min_boards = 20;         ///< gate: boards needed
+  CoverageGates gates;
 };
 
 /// Distance bins and image cells holding a board (bits outside the bins or the grid ignored).

@@ -82,12 +82,8 @@ int DistanceBin(double distance_m);
 
 /// The part of the agent config the machine uses.
 struct SessionConfig {
-  int target_frames = 200;  ///< collection ends at this many frame pairs with boards
-  int min_frames = 50;      ///< fewer at the time limit: failed (too_few_frames)
-  int min_boards = 20;      ///< fewer at the time limit: failed (too_few_boards)
+  CoverageGates gates;
   int64_t max_duration_us = 120LL * 1000 * 1000;  ///< collection time limit unless requested
-  int min_distance_bins = 3;                      ///< coverage gates (AgentConfig)
-  int min_image_cells = 4;
   bool stop_on_coverage = true;  ///< end collection once the gates and min_frames are met
   /// A sensor that sent a frame in this session and then none for longer than this (arrival
   /// time, us) ends the collection (CollectionEnd::kSensorTimeout): solving with min_frames and

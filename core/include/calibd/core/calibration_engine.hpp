@@ -354,8 +354,13 @@ bool FittedTagCornersPx(const CameraModel& camera, const std::vector<BoardGeomet
                         std::array<Eigen::Vector2d, 4>* px,
                         const Pose* T_camera_board_start = nullptr);
 
-/// Runs the whole session-level calibration. `projection` is a RangeImage configured for the
-/// config's LiDAR model (the grid search projects into it). `correspondences` (optional) receives
+/// The range image Calibrate's session-level steps map LiDAR directions into (the grid search's
+/// windows, paper §III-D; the ring-elevation check's rows): `model`'s grid, for directions only
+/// (it holds no sweep). It allocates: build it once, e.g. at start-up.
+RangeImage SessionProjection(const LidarModel& model);
+
+/// Runs the whole session-level calibration. `projection` is SessionProjection of the config's
+/// LiDAR model. `correspondences` (optional) receives
 /// the camera-LiDAR board pairs the grid search found (for pictures and reports), each naming
 /// its cluster in `session.lidar` (BoardObservation::lidar_cluster).
 /// `reprojection_px` (optional, for reports) receives the paper Table I error of each of those

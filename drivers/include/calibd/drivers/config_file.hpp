@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// The calibration config as a YAML file (keys documented in deploy/config/ and the README).
-/// Loading validates every key once; errors name the key and the file.
+/// The calibration config as a YAML file (keys documented in deploy/config/ and
+/// docs/offline-tools.md). Loading validates every key once; errors name the key and the file.
 
 #include <string>
 #include <vector>
