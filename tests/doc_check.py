@@ -26,6 +26,8 @@
    the integration guide names every LCM channel, type and field, DID, routine, DBC signal,
    LiDAR model and config key (deploy/config/calibd.yaml's and every key the config loader
    accepts).
+3. Checks every relative link and image of README.md and docs/*.md: the file exists, and a
+   #anchor names a heading of the document it points to.
 
 A failure prints the guide, the line and the command. Usage:
   doc_check.py --source DIR --bin-dir DIR [--bin-dir DIR ...] [--tmp DIR] [--only FILE]
@@ -496,6 +498,63 @@ def check_coverage(source, operator, integration):
     return missing
 
 
+# --- links -----------------------------------------------------------------------------------
+
+LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
+
+
+def slug(heading):
+    """GitHub's anchor of a Markdown heading: lower case, punctuation dropped, spaces to '-'."""
+    text = re.sub(r"[^\w\- ]", "", heading.strip().lower())
+    return text.replace(" ", "-")
+
+
+def anchors(text):
+    """Every heading's anchor in a Markdown text (code blocks skipped; repeats get -1, -2...)."""
+    seen, out, fenced = {}, set(), False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+        m = None if fenced else re.match(r"#{1,6} (.*)", line)
+        if m:
+            base = slug(m.group(1))
+            n = seen.get(base, 0)
+            seen[base] = n + 1
+            out.add(base if n == 0 else f"{base}-{n}")
+    return out
+
+
+def check_links(source):
+    """Every relative link (and image) of README.md and docs/*.md names a file of the repository,
+    and its #anchor a heading of the document it points to."""
+    documents = ["README.md"] + sorted(
+        os.path.join("docs", f) for f in os.listdir(os.path.join(source, "docs"))
+        if f.endswith(".md"))
+    missing = []
+    for doc in documents:
+        # Code blocks blanked (their lines kept for the numbers): link text may span lines.
+        lines, fenced = [], False
+        for line in read(source, doc).splitlines():
+            if line.startswith("```"):
+                fenced = not fenced
+                line = ""
+            lines.append("" if fenced else line)
+        text = "\n".join(lines)
+        for match in LINK.finditer(text):
+            target = match.group(1)
+            number = text.count("\n", 0, match.start()) + 1
+            if re.match(r"[a-z]+:", target):
+                continue  # http(s), mailto: outside the repository
+            path, _, anchor = target.partition("#")
+            resolved = os.path.normpath(os.path.join(os.path.dirname(doc), path)) if path else doc
+            if not os.path.exists(os.path.join(source, resolved)):
+                missing.append(f"{doc}:{number}: link to {target}: no file {resolved}")
+            elif anchor and resolved.endswith(".md") and \
+                    anchor not in anchors(read(source, resolved)):
+                missing.append(f"{doc}:{number}: link to {target}: no heading #{anchor}")
+    return missing
+
+
 # --- main ------------------------------------------------------------------------------------
 
 
@@ -517,6 +576,7 @@ def main():
     try:
         texts = {g: read(source, g) for g in GUIDES}
         failures += check_coverage(source, texts[GUIDES[0]], texts[GUIDES[1]])
+        failures += check_links(source)
     except (Failure, OSError, IndexError) as e:
         failures.append(f"coverage check: {e}")
     count = 0
