@@ -93,6 +93,12 @@ bool IsoTpSocket::Open(const IsoTpConfig& config, int ifindex, uint32_t tx_id, u
     return false;
   };
   fd_ = ::socket(PF_CAN, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_ISOTP);
+  // A kernel without its can-isotp module (in mainline Linux since 5.10) knows no such protocol:
+  // say what to load rather than only "Protocol not supported".
+  if (fd_ < 0 && errno == EPROTONOSUPPORT)
+    return fail(
+        "socket(PF_CAN, SOCK_DGRAM, CAN_ISOTP): the kernel's ISO-TP module is not "
+        "loaded (as root: modprobe can-isotp)");
   if (fd_ < 0) return fail("socket(PF_CAN, SOCK_DGRAM, CAN_ISOTP)");
 
   // Options must be set before bind (the kernel refuses them on a bound socket with EISCONN).

@@ -8,6 +8,12 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cstdlib>
+#include <string>
+
+#include "calibd/drivers/isotp_channel.hpp"
+
 namespace {
 
 int BindOnVcan0(int type, int protocol) {
@@ -32,6 +38,26 @@ TEST(CanStackVmTest, RawAndIsoTpSocketsBindToVcan0) {
   EXPECT_GE(isotp, 0) << "ISO-TP socket on vcan0 (can-isotp module)";
   if (raw >= 0) ::close(raw);
   if (isotp >= 0) ::close(isotp);
+}
+
+// A kernel without the can-isotp module: the transport's error says what to load (the tester
+// prints it and exits 7). The last test of this binary (GoogleTest runs them in file order): it
+// unloads the module, and this guest ends with the run (the job's root has no copy of the guest
+// kernel's modules to load it again).
+TEST(CanStackVmTest, AMissingIsoTpModuleIsNamed) {
+  ASSERT_EQ(std::system("rmmod can_isotp"), 0) << "rmmod can_isotp";
+  calibd::IsoTpConfig config;
+  config.interface = "vcan0";
+  calibd::UdsClientTransport client;
+  std::string error;
+  const int64_t now_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                             std::chrono::steady_clock::now().time_since_epoch())
+                             .count();
+  client.Start(config, now_us, &error);
+  const std::string said = error + " " + client.status().last_error;
+  EXPECT_NE(said.find("ISO-TP module is not loaded (as root: modprobe can-isotp)"),
+            std::string::npos)
+      << said;
 }
 
 }  // namespace
