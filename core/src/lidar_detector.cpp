@@ -160,7 +160,8 @@ struct LidarDetector::Impl {
   std::vector<int> row_cells;
   Eigen::VectorXf scores;
 
-  // The describer's scratch is sized once the config is checked (Describer::Resize).
+  // The describer's scratch is sized for one point here and replaced by one sized for
+  // max_descriptor_points once the config is checked (LidarDetector's constructor).
   Impl(const LidarDetectorConfig& c, const LidarModel& m)
       : config(c), model(m), describer(M2dpOf(c), 1) {}
 

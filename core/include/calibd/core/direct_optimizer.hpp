@@ -43,11 +43,11 @@ struct DirectOptimizerConfig {
   /// With refinement, the extrinsic is solved with the board poses held (to convergence, from a
   /// start that may be degrees off), then every board's pose is refined with the extrinsic held,
   /// from its tag corners (CornerReprojectionCost) and its LiDAR points (BoardBoxJointCost) weighed
-  /// by their noise, refine_rounds times; then the extrinsic is solved once more. A joint solve of
-  /// all poses (Schur complement) reached the same accuracy in 30 slow iterations: the alternation
-  /// is 2-3x faster. Simulated Falcon drive, 200 pairs, seed 1, motion compensation on: 0.037 ->
-  /// 0.017 deg (0.009 deg with the true board poses). Needs the camera model (OptimizeDirect's
-  /// `camera`).
+  /// by their noise, refine_rounds times; then the extrinsic is solved once more (an alternation:
+  /// a joint solve of all poses by Schur complement reached the same accuracy more slowly). Its
+  /// effect on accuracy: `calibd-bench calib`, Table II's "direct with board-pose refinement"
+  /// (docs/performance-and-reliability.md). Needs the camera model
+  /// (DirectSolveOptions::RefiningBoardPoses).
   bool refine_board_poses = true;
   double corner_sigma_px = 0.25;  ///< tag corner noise (1 sigma) that weighs the camera's term
   double lidar_sigma_m = 0.02;    ///< LiDAR range noise (1 sigma) that weighs the LiDAR's term
