@@ -70,17 +70,17 @@ struct VerdictConfig {
   /// kRangeOffsetSigmaTolerances verification tolerances, the verdict is `poor_observability`.
   double max_lidar_range_offset_m = 0.015;
   /// Time offset gate (QualityFigures::time_offset_s): the solution is corrected for the camera's
-  /// offset against the LiDAR up to this (calibd-bench time-offset: 0-100 ms recovered within
-  /// 0.5 ms on the default drive); beyond it and kTimeOffsetSigmas of its sigma the stamping is
-  /// broken rather than late, and the verdict is `time_offset_beyond_tolerance`. A session that
-  /// cannot measure the offset (still boards, no capture times, or a drive whose boards' speed
-  /// along their normals hardly varies) relies on the stamps: QualityFigures says how far an
-  /// offset as large as its sigma would move the translation.
+  /// offset against the LiDAR up to this (how well: calibd-bench time-offset); beyond it and
+  /// kTimeOffsetSigmas of its sigma the stamping is broken rather than late, and the verdict is
+  /// `time_offset_beyond_tolerance`. A session that cannot measure the offset (still boards, no
+  /// capture times, or a drive whose boards' speed along their normals hardly varies) relies on the
+  /// stamps: QualityFigures says how far an offset as large as its sigma would move the
+  /// translation.
   double max_time_offset_s = 0.1;
   /// Paper Table I metric. It measures each board's own LiDAR fit as much as the extrinsic:
-  /// measured means over 5 simulated drives (calibd-bench calib) 3.1 px ot128, 4.9 px m1,
-  /// 2.4 px falcon with correct results; a rotation error of 0.1 deg adds about 6 px at
-  /// fx = 3325 px, so 8 px still catches errors near the verification tolerance.
+  /// correct results stay well under it (calibd-bench calib's Table I), and a rotation error of
+  /// 0.1 deg adds fx * 0.1 deg, about 6 px at fx = 3325 px: 8 px still catches errors near the
+  /// verification tolerance.
   double max_reprojection_mean_px = 8.0;  ///< raised for a sparse LiDAR: reprojection_gate_px
   double max_residual_rms_m = 0.05;
 };
@@ -126,16 +126,16 @@ inline constexpr double kScaleSigmas = 3.0;
 inline constexpr double kMaxBoardBendM = 0.005;
 /// Ring gate (QualityFigures::ring_elevation_*): the rings' elevation deltas scatter by more than
 /// kRingElevationChi2 times their variance (mean squared sigmas) and by more than
-/// kMinRingElevationRmsDeg: `lidar_ring_elevation`. Clean simulated sessions of four ring LiDARs
-/// measure 0.8-6; lasers 0.05-0.2 deg off their table 5-40, those that moved results by more than
-/// 0.15 deg 10.8 and more (calibd-bench verdicts, ring_elevation).
+/// kMinRingElevationRmsDeg: `lidar_ring_elevation`. Set between what clean ring LiDARs' sessions
+/// scatter by and what lasers off their table by enough to move the result make
+/// (docs/performance-and-reliability.md, "Why the thresholds are where they are").
 inline constexpr double kRingElevationChi2 = 10.0;
 inline constexpr double kMinRingElevationRmsDeg = 0.05;
 inline constexpr double kBoardBendSigmas = 4.0;
 /// A range offset counts only beyond this many of its standard deviations: its sigma underrates
-/// the in-plane centres' errors shared by a session's boards (a clean falcon drive's subset
-/// measured 2.2 +-0.7 cm, a clean falcon still session 2.5 +-0.6 cm; calibd-bench calib and
-/// verdicts).
+/// the in-plane centres' errors shared by a session's boards (clean sessions measured offsets of
+/// three to four sigmas: docs/performance-and-reliability.md, "Why the thresholds are where they
+/// are").
 inline constexpr double kRangeOffsetSigmas = 4.0;
 /// A range offset counts only when measured to this share of its gate: its sigma comes from the
 /// boards' scatter, which underrates errors shared by all of a session's boards (the in-plane
@@ -167,17 +167,15 @@ inline constexpr double kPrincipalPointChiSquare = 11.83;
 inline constexpr double kPrincipalPointTurnTolerances = 2.0;
 /// The turn compared with them is the measured one raised by this many of its sigmas: a shift
 /// shown to be there can be that much larger than measured, and the extrinsic takes up the true
-/// one (a drive's tags measured 4.9 +-2.8 px of a 6.9 px shift, 0.26 deg of a 0.33 deg error).
+/// one (docs/performance-and-reliability.md, "Why the thresholds are where they are").
 inline constexpr double kPrincipalPointTurnSigmas = 2.0;
 /// A principal point whose sigma alone turns the result by more than this many of those turns is
-/// refused too: the tags disagree with each other, as a wrong lens model makes them (another
-/// lens's distortion, 194 px at the image corner, left +-17 px of scatter at f = 1100 px and was
-/// accepted 0.98 deg off; clean drives of a 960 x 480 camera scatter by up to 0.33 deg).
+/// refused too: the tags disagree with each other, as a wrong lens model makes them (the figures:
+/// docs/performance-and-reliability.md, "Why the thresholds are where they are").
 inline constexpr double kPrincipalPointSigmaTurns = 2.0;
 /// ... when their corners also fit the lens model worse than this (RMS, px): three times the
 /// corner precision the fit assumes (kCornerNoisePx). A short session's groups can scatter as
-/// much with corners that fit (+-19 / +-88 px over 70 pairs of a 960 x 480 drive, 0.15 px RMS);
-/// the wrong lens above left 0.52 px.
+/// much with corners that fit, while a wrong lens leaves them misfit (the same section).
 inline constexpr double kLensMisfitResidualPx = 3.0 * kCornerNoisePx;
 /// A time offset is corrected for only beyond this many of its standard deviations.
 inline constexpr double kTimeOffsetSigmas = 3.0;

@@ -19,15 +19,13 @@ namespace calibd {
 struct DirectOptimizerConfig {
   double alpha_m = 0.0;  ///< half-thickness allowance along the board normal (paper: 0 best)
   /// Huber threshold on a point's residual norm, m; <= 0 disables it. About the LiDAR's range
-  /// sigma: mixed ("ghost") returns at board edges then pull linearly, not quadratically.
-  /// Measured on simulated drives (seed 1, 200 pairs): 0.05 -> 0.02 m moved the M1's rotation
-  /// error 0.063 -> 0.035 deg, Falcon 0.017 -> 0.014, OT128 0.011 -> 0.008.
+  /// sigma: mixed ("ghost") returns at board edges then pull linearly, not quadratically
+  /// (the gain over 0.05 m: docs/performance-and-reliability.md, "Why the thresholds are where
+  /// they are").
   double huber_m = 0.02;
   /// Larger clusters are strided down to about this many points; the solve's time is about
-  /// proportional to it. 200 was tried when the solve was slow and lost accuracy
-  /// (DirectOptimizerTest.BoardPoseRefinementRemovesCameraPoseNoise: 0.089 > 0.08 deg, the m1
-  /// agent replay rejected); since the solve works on the normal equations
-  /// (compressed_box_cost.hpp) 256 costs falcon's 200 pairs about 126 ms.
+  /// proportional to it (calibd-bench pipeline). Fewer lost accuracy
+  /// (DirectOptimizerTest.BoardPoseRefinementRemovesCameraPoseNoise).
   int max_points_per_observation = 256;
   /// The session's point budget: with fewer observations than a drive's, each gets up to
   /// this / observations points instead, so a dozen still poses of one board use every point
