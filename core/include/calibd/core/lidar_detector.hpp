@@ -99,15 +99,16 @@ struct LidarDetectorConfig {
   /// Weigh each row of a cluster by the elevation gap its samples stand for (the gaps to the
   /// neighbouring non-empty rows, averaged over the row) in the PCA and the M2DP counts, so that
   /// a scan pattern's dense and sparse parts count alike (the Falcon's dense band around the
-  /// horizon, the OT128's): a Falcon board across the band's edge scores 0.93 unweighted, 0.99
-  /// weighted. Costs a few cell look-ups per cell; false counts every cell once.
+  /// horizon, the OT128's): a board across the band's edge scores higher weighted
+  /// (docs/performance-and-reliability.md, "Why the thresholds are where they are"). Costs a few
+  /// cell look-ups per cell; false counts every cell once.
   bool weight_by_sample_area = true;
   // M2DP (He et al. 2016): p x q projection planes, l x t bins per plane. He's l = 8, t = 16
-  // resolve shapes finely but a sparse cluster spreads its points thinly over the 128 bins of a
-  // plane: a 0.6 m board with 25-60 points (M1 and OT128 at 20-30 m) scores 0.88-0.94 against
-  // its own references. The gates above leave the descriptor to tell boards from board-sized
-  // flat pieces, which coarse bins do as well: with l = 2, t = 8 the M1's recall at 0.94 goes
-  // from 0.58 to 0.97 and no false positive is added (measured on both bench seeds).
+  // resolve shapes finely but a sparse cluster (a far board of a few dozen points) spreads its
+  // points thinly over the 128 bins of a plane and scores low against its own references. The
+  // gates above leave the descriptor to tell boards from board-sized flat pieces, which coarse
+  // bins do as well: l = 2, t = 8 raise a sparse LiDAR's recall without false positives
+  // (docs/performance-and-reliability.md, "Why the thresholds are where they are").
   int m2dp_elevations = 4;
   int m2dp_azimuths = 16;
   int m2dp_rings = 2;
@@ -118,20 +119,19 @@ struct LidarDetectorConfig {
   // References (paper §III-C-2, Fig. 2b): simulated board clusters for every configured board size
   // seen from DefaultReferenceViews().
   /// Range noise (1 sigma) added to the simulated reference clusters: set it to the sensor's. Real
-  /// clusters are noisy across the board plane; with He's fine M2DP bins noise-free references
-  /// describe them badly (a 28 m Falcon board correlates 0.73 with its noise-free reference and
-  /// 0.98 with the averaged noisy one; OT128 recall at 0.94 rises from 0.81 to 0.94). With the
-  /// coarse default bins it changes nothing measurable (bench, both seeds). 0: noise-free.
+  /// clusters are noisy across the board plane, and with He's fine M2DP bins noise-free
+  /// references describe them badly; with the coarse default bins it changes little
+  /// (docs/performance-and-reliability.md, "Why the thresholds are where they are"). 0: noise-free.
   double reference_range_noise_m = 0.02;
   /// Noisy samplings averaged into each reference view, each at another phase of the beam grid
   /// (BoardView::azimuth_phase, elevation_phase) with its own noise: the reference is the mean
   /// (standardized) descriptor, which a single real cluster correlates with better than with any
-  /// single sampling. More costs start-up time (400 views x 4 per board size) for small
-  /// gains (8 samplings: the same precision and recall on the bench, twice the start-up).
+  /// single sampling. More costs start-up time (400 views x this per board size) for no gain
+  /// measured (docs/performance-and-reliability.md, "Why the thresholds are where they are").
   int reference_samples = 4;
   /// Pearson correlation with the best reference (paper Eq. 1); the paper's 0.94. Lower admits
-  /// sparser or odder clusters (recall) and board-like clutter (precision); on the simulated
-  /// sessions precision and recall stay flat from 0.90 to 0.94 and recall falls beyond.
+  /// sparser or odder clusters (recall) and board-like clutter (precision); calibd-bench detect
+  /// prints the precision/recall curve over thresholds.
   double match_threshold = 0.94;
   // Capacities (fixed memory).
   int max_clusters = 256;       ///< candidates kept per frame

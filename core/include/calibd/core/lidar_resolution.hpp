@@ -43,7 +43,7 @@
 ///   full circle gets 360 / round(360 / resolution) so that its columns close up.
 ///
 /// Deterministic (no randomness, fixed summation order); allocates only arrays sized from the
-/// input. 7.5 ms of CPU for a 216k-point OT128 sweep in Release (calibd-bench resolution).
+/// input. Its time per sweep: calibd-bench resolution.
 
 #include <string>
 #include <vector>
