@@ -1,7 +1,8 @@
 # Thin wrapper over CMake presets. `make demo` and `make test` install missing Debian packages,
 # configure, build and run. `make test` runs the suite twice: optimised (release) and under
 # AddressSanitizer + UndefinedBehaviorSanitizer (asan), the latter without the whole-session
-# suites labelled `slow` and the VM tests labelled `vm` (tests/vm/: kernel I/O, not memory);
+# suites labelled `slow`, the simulator's own suites (`sim`) and the VM tests labelled `vm`
+# (tests/vm/: kernel I/O, not memory);
 # then every libFuzzer target for a short fixed time from its seed corpus (fuzz-smoke).
 # The sanitizer build is clang at -O1 -g1 (ASan's recommended level, line tables for its stack
 # traces), and holds the libFuzzer targets too: one sanitizer build instead of two.
