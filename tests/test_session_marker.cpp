@@ -97,5 +97,53 @@ TEST(SessionMarkerTest, TheCalibrationStoreIgnoresIt) {
   EXPECT_TRUE(fs::exists(SessionMarkerPath(config.directory)));
 }
 
+// The agent's marker across two runs: the first run's session left its marker (a kill), the
+// second run finds it once, with who started it and when, and removes it; its own session's
+// marker is gone when that session ends, and End without a Begin has nothing to remove.
+TEST(SessionMarkerFileTest, APreviousRunsMarkerIsTakenOnceAndASessionsIsRemovedAtItsEnd) {
+  testing::TempDir dir;
+  std::string error;
+  {
+    SessionMarkerFile killed;
+    killed.Open(dir.path().string());
+    EXPECT_EQ(killed.TakeInterrupted(&error), "") << "no marker yet";
+    SessionMarker m;
+    m.session = 2;
+    m.trigger = "start_button";
+    m.started_unix_s = 1795436018;  // 2026-11-23T12:13:38Z
+    ASSERT_TRUE(killed.Begin(m, &error)) << error;
+  }  // no End: the run was killed
+  SessionMarkerFile next;
+  next.Open(dir.path().string());
+  EXPECT_EQ(next.TakeInterrupted(&error),
+            "the previous run stopped during session 2 (started by 'start_button' at "
+            "2026-11-23T12:13:38Z) without a result: aborted; the stored calibration is unchanged");
+  EXPECT_EQ(error, "");
+  EXPECT_EQ(next.TakeInterrupted(&error), "") << "taken once";
+  const std::string path = SessionMarkerPath(dir.path().string());
+  EXPECT_TRUE(next.End(&error)) << "nothing written: nothing to remove";
+  SessionMarker m;
+  m.session = 1;
+  m.trigger = "uds calibrate";
+  ASSERT_TRUE(next.Begin(m, &error)) << error;
+  EXPECT_TRUE(fs::exists(path));
+  EXPECT_TRUE(next.End(&error)) << error;
+  EXPECT_FALSE(fs::exists(path));
+}
+
+// A marker cut short still tells of an interrupted run, with what was wrong with it.
+TEST(SessionMarkerFileTest, ADamagedMarkerStillTellsOfTheInterruptedRun) {
+  testing::TempDir dir;
+  const std::string path = SessionMarkerPath(dir.path().string());
+  std::ofstream(path) << "calibd-session 1\nsess";
+  SessionMarkerFile marker;
+  marker.Open(dir.path().string());
+  std::string error;
+  const std::string line = marker.TakeInterrupted(&error);
+  EXPECT_EQ(line.rfind("the previous run stopped during a session (", 0), 0u) << line;
+  EXPECT_NE(line.find("without a result"), std::string::npos) << line;
+  EXPECT_FALSE(fs::exists(path));
+}
+
 }  // namespace
 }  // namespace calibd

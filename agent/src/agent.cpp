@@ -14,16 +14,11 @@
 #include <ctime>
 #include <iostream>
 
-#include "calibd/agent/session_marker.hpp"
-#include "calibd/agent/thread_nice.hpp"
-#include "calibd/calibration_status_t.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/lidar_model.hpp"
-#include "calibd/core/lidar_resolution.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
-#include "calibd/drivers/can_link.hpp"
 #include "clock.hpp"
 
 namespace calibd {
@@ -44,36 +39,6 @@ struct Fd {
   }
 };
 
-int8_t StatusState(SessionState s) {
-  switch (s) {
-    case SessionState::kIdle:
-      return calibration_status_t::STATE_IDLE;
-    case SessionState::kCollecting:
-      return calibration_status_t::STATE_COLLECTING;
-    case SessionState::kSolving:
-      return calibration_status_t::STATE_SOLVING;
-    case SessionState::kDone:
-      return calibration_status_t::STATE_DONE;
-    case SessionState::kFailed:
-      return calibration_status_t::STATE_FAILED;
-    case SessionState::kAborted:
-      return calibration_status_t::STATE_ABORTED;
-  }
-  return calibration_status_t::STATE_IDLE;
-}
-
-int8_t ResultVerdict(CalibrationOutcome::Verdict v) {
-  switch (v) {
-    case CalibrationOutcome::Verdict::kVerified:
-      return calibration_result_t::VERDICT_VERIFIED;
-    case CalibrationOutcome::Verdict::kUpdated:
-      return calibration_result_t::VERDICT_UPDATED;
-    case CalibrationOutcome::Verdict::kRejected:
-      return calibration_result_t::VERDICT_REJECTED;
-  }
-  return calibration_result_t::VERDICT_NONE;
-}
-
 bool Terminal(SessionState s) {
   return s == SessionState::kDone || s == SessionState::kFailed || s == SessionState::kAborted;
 }
@@ -89,42 +54,27 @@ sigset_t StopSignals() {
 
 }  // namespace
 
-Agent::Agent(const AgentConfig& config) : config_(config), machine_(SessionConfigFrom(config)) {}
+Agent::Agent(const AgentConfig& config)
+    : config_(config),
+      machine_(SessionConfigFrom(config)),
+      sensors_(config.calib.camera_id, config.calib.lidar_id) {}
 
-Agent::~Agent() {
-  if (solver_.joinable()) solver_.join();
-}
+Agent::~Agent() = default;
 
 void Agent::Log(const std::string& line) const {
   if (!options_.quiet) std::cerr << "calibd-agent: " << line << std::endl;
 }
 
 void Agent::CheckInterruptedSession() {
-  marker_path_ = SessionMarkerPath(config_.store.directory);
-  SessionMarker marker;
+  marker_.Open(config_.store.directory);
   std::string error;
-  const MarkerRead read = ReadSessionMarker(marker_path_, &marker, &error);
-  if (read == MarkerRead::kNone) {
-    RemoveSessionMarker(marker_path_, &error);  // a temp file of a write cut short, if any
-    return;
-  }
-  std::string line;
-  if (read == MarkerRead::kFound) {
-    char started[32] = "an unknown time";
-    const time_t t = static_cast<time_t>(marker.started_unix_s);
-    tm utc{};
-    if (gmtime_r(&t, &utc) != nullptr) std::strftime(started, sizeof(started), "%FT%TZ", &utc);
-    line = "the previous run stopped during session " + std::to_string(marker.session) +
-           " (started by '" + marker.trigger + "' at " + started + ")";
-  } else {
-    line = "the previous run stopped during a session (" + error + ")";
-  }
-  line += " without a result: aborted; the stored calibration is unchanged";
+  const std::string line = marker_.TakeInterrupted(&error);
+  if (line.empty()) return;
   Log(line);
   // In CALIBD_STATUS until a session starts (Start clears it).
   last_error_ = "session_interrupted: " + line;
   diag_.Report(uds::Dtc::kSessionInterrupted, true);
-  if (!RemoveSessionMarker(marker_path_, &error)) Log("session marker: " + error);
+  if (!error.empty()) Log("session marker: " + error);
 }
 
 bool Agent::CheckDetectorStartup() {
@@ -142,10 +92,8 @@ bool Agent::CheckDetectorStartup() {
 }
 
 void Agent::EndSessionMarker() {
-  if (marker_session_ == 0) return;
   std::string error;
-  if (!RemoveSessionMarker(marker_path_, &error)) Log("session marker: " + error);
-  marker_session_ = 0;
+  if (!marker_.End(&error)) Log("session marker: " + error);
 }
 
 bool Agent::Init(const AgentOptions& options, std::string* error) {
@@ -211,7 +159,7 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
                       channels::kRequest.name, kEventQueue,
                       [this](const calibration_request_t& m, int64_t) { OnRequest(m); }, error);
   if (!ok) return false;
-  const bool replay = bus_.url().rfind("file://", 0) == 0;
+  const bool replay = bus_.is_replay();
   if (replay) {
     // A log is read at its own pace (and held back while the detectors catch up): the time
     // between its frames is not the sensors', so no sensor timeout (session_machine.hpp).
@@ -219,14 +167,12 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
     session.sensor_timeout_us = 0;
     machine_ = SessionMachine(session);
   }
-  if (!options.publish_url.empty()) {
-    if (!out_bus_.Open(options.publish_url, error)) return false;
-    publisher_ = &out_bus_;
-  } else if (!replay) {
-    publisher_ = &bus_;
-  } else {
+  if (!reports_.Open(
+          &bus_, options.publish_url, replay, [this](const std::string& line) { Log(line); },
+          error))
+    return false;
+  if (!reports_.publishing())
     Log("replaying a log without --publish-url: status, health and results are not published");
-  }
   Log("ready on " + bus_.url() + " (camera '" + config_.calib.camera_id + "', LiDAR '" +
       config_.calib.lidar_id + "' " + config_.calib.lidar_model + ")");
   if (options.calibrate_now) {
@@ -237,46 +183,28 @@ bool Agent::Init(const AgentOptions& options, std::string* error) {
   return true;
 }
 
-template <typename Msg>
-void Agent::Publish(std::string_view channel, const Msg& msg) {
-  std::string error;
-  if (publisher_ != nullptr && !publisher_->Publish(channel, msg, &error)) Log(error);
-}
-
 void Agent::OnCamera(const camera_frame_t& msg) {
-  last_camera_us_ = MonotonicUs();
+  const int64_t now_us = MonotonicUs();
+  sensors_.FrameArrived(SensorStream::kCamera, now_us);
   if (detectors_ready_ && msg.camera_id == config_.calib.camera_id)
-    machine_.FrameArrived(SensorStream::kCamera, last_camera_us_);
+    machine_.FrameArrived(SensorStream::kCamera, now_us);
   intake_.OnCamera(msg);
 }
 void Agent::OnLidar(const lidar_frame_t& msg) {
-  last_lidar_us_ = MonotonicUs();
+  const int64_t now_us = MonotonicUs();
+  sensors_.FrameArrived(SensorStream::kLidar, now_us);
   if (detectors_ready_ && msg.lidar_id == config_.calib.lidar_id)
-    machine_.FrameArrived(SensorStream::kLidar, last_lidar_us_);
+    machine_.FrameArrived(SensorStream::kLidar, now_us);
   const int64_t pairs_formed = intake_.counters().pairs_formed;
   intake_.OnLidar(msg);
-  if (intake_.counters().pairs_formed > pairs_formed) machine_.PairFormed(last_lidar_us_);
+  if (intake_.counters().pairs_formed > pairs_formed) machine_.PairFormed(now_us);
 }
 
 void Agent::OnSensorInfo(const sensor_info_t& msg) {
-  const bool lidar =
-      msg.kind == sensor_info_t::KIND_LIDAR && msg.sensor_id == config_.calib.lidar_id;
-  const bool camera =
-      msg.kind == sensor_info_t::KIND_CAMERA && msg.sensor_id == config_.calib.camera_id;
-  if (!lidar && !camera) return;
-  std::string& serial = lidar ? lidar_serial_ : camera_serial_;
-  if (serial == msg.serial_number) return;
-  serial = msg.serial_number;
-  const StoredCalibration* current = store_.current();
-  if (current == nullptr) return;
-  const std::string& stored = lidar ? current->lidar_serial : current->camera_serial;
-  // "unknown": committed before any sensor_info was seen, nothing to compare with.
-  if (!serial.empty() && stored != "unknown" && serial != stored && !sensor_mismatch_) {
-    sensor_mismatch_ = true;
-    diag_.Report(uds::Dtc::kRecalibrationRequired, true);
-    Log(std::string(lidar ? "LiDAR" : "camera") + " serial " + serial +
-        " differs from the stored calibration's " + stored + ": recalibration required");
-  }
+  std::string line;
+  if (!sensors_.OnSensorInfo(msg, store_.current(), &line)) return;
+  diag_.Report(uds::Dtc::kRecalibrationRequired, true);
+  Log(line);
 }
 
 void Agent::OnRequest(const calibration_request_t& msg) {
@@ -304,12 +232,11 @@ void Agent::OnRequest(const calibration_request_t& msg) {
 
 RequestReply Agent::Start(const StartRequest& request) {
   RequestReply reply;
-  if (solver_.joinable() && !solve_done_) {
+  if (solve_.running()) {
     reply.reason = "the previous session's solve is still finishing";
   } else if (!diag_.Interlock()) {
     reply.reason = "the interlock is not asserted (agent.gpio.interlock)";
   } else {
-    if (solver_.joinable()) solver_.join();  // an aborted session's finished solve
     reply = machine_.Start(request, MonotonicUs());
   }
   if (!reply.accepted) {
@@ -318,7 +245,7 @@ RequestReply Agent::Start(const StartRequest& request) {
     return reply;
   }
   recorder_.Clear();
-  has_outcome_ = result_published_ = false;
+  solve_.Clear();  // the last session's outcome, or an aborted session's finished solve
   last_error_.clear();
   intake_.SetActive(true);
   // Kept until the session ends: found at the next start-up, it tells of a run that died
@@ -329,10 +256,7 @@ RequestReply Agent::Start(const StartRequest& request) {
   marker.trigger = request.requester;
   marker.started_unix_s = WallUs() / 1000000;
   std::string error;
-  if (WriteSessionMarker(marker_path_, marker, &error))
-    marker_session_ = marker.session;
-  else
-    Log("session marker not written: " + error);
+  if (!marker_.Begin(marker, &error)) Log("session marker not written: " + error);
   Log("session " + std::to_string(machine_.session()) + " started by '" + request.requester + "'");
   return reply;
 }
@@ -340,10 +264,7 @@ RequestReply Agent::Start(const StartRequest& request) {
 void Agent::StartSolve() {
   CalibConfig calib = config_.calib;
   if (store_.current() != nullptr) calib.prior_T_camera_lidar = store_.current()->T_camera_lidar;
-  solve_session_ = machine_.session();
-  solve_started_us_ = MonotonicUs();
-  solve_done_ = false;
-  Log("solving session " + std::to_string(solve_session_) + ": " +
+  Log("solving session " + std::to_string(machine_.session()) + ": " +
       std::to_string(recorder_.figures().frames_with_boards) + " frame pairs, " +
       std::to_string(recorder_.figures().boards) + " boards (" +
       CollectionEndName(machine_.collection_end()) + "), " +
@@ -352,23 +273,18 @@ void Agent::StartSolve() {
            ? " (1 run of " + std::to_string(SessionThinning::kRun) + " in " +
                  std::to_string(recorder_.thinning().stride()) + ")"
            : std::string()));
-  solver_ = std::thread([this, calib] {
-    NiceThisThread(kBackgroundNice);
-    outcome_ = Calibrate(calib, recorder_.session(), projection_, config_.engine);
-    solve_done_ = true;
-    wake_.Signal();
-  });
+  solve_.Start(machine_.session(), calib, recorder_.session(), projection_, config_.engine, &wake_,
+               MonotonicUs());
 }
 
 void Agent::FinishSolve() {
-  solver_.join();
-  has_outcome_ = true;
-  const CalibrationOutcome& o = outcome_;
-  if (!machine_.SolveFinished(solve_session_, o.verdict, o.reason, o.detail)) return;  // stopped
+  solve_.Collect();
+  const CalibrationOutcome& o = *solve_.outcome();
+  if (!machine_.SolveFinished(solve_.session(), o.verdict, o.reason, o.detail)) return;  // stopped
   Log(std::string("verdict ") + VerdictName(o.verdict) +
       (o.reason == Reason::kNone ? "" : " (" + std::string(NameOf(o.reason)) + ")") + ": " +
       o.detail + "; solved in " +
-      std::to_string(static_cast<int>((MonotonicUs() - solve_started_us_) / 1000)) +
+      std::to_string(static_cast<int>((MonotonicUs() - solve_.started_us()) / 1000)) +
       " ms (grid search " + std::to_string(static_cast<int>(o.grid.search_ms)) + ", optimisation " +
       std::to_string(static_cast<int>(o.optimise_ms)) + ", quality " +
       std::to_string(static_cast<int>(o.quality_ms)) + ")");
@@ -383,7 +299,7 @@ void Agent::FinishSolve() {
   }
   diag_.Report(uds::Dtc::kResultRejected, o.verdict == CalibrationOutcome::Verdict::kRejected);
   diag_.Report(uds::Dtc::kSessionInterrupted, false);  // a session ended with a result
-  PublishResult();
+  reports_.PublishResult(o, config_.calib);
   if (o.verdict == CalibrationOutcome::Verdict::kUpdated && config_.auto_commit &&
       !machine_.request().verify_only)
     Commit();
@@ -396,12 +312,14 @@ uds::BackendReply Agent::Commit() {
     Log(last_error_);
     return uds::BackendReply::kSequenceError;
   }
-  const CalibrationOutcome& o = outcome_;
+  const CalibrationOutcome& o = *solve_.outcome();
   StoredCalibration c;
   c.created_unix_s = WallUs() / 1000000;
   c.T_camera_lidar = o.T_camera_lidar;
-  c.lidar_serial = lidar_serial_.empty() ? "unknown" : lidar_serial_;
-  c.camera_serial = camera_serial_.empty() ? "unknown" : camera_serial_;
+  const std::string& lidar_serial = sensors_.serial(SensorStream::kLidar);
+  const std::string& camera_serial = sensors_.serial(SensorStream::kCamera);
+  c.lidar_serial = lidar_serial.empty() ? "unknown" : lidar_serial;
+  c.camera_serial = camera_serial.empty() ? "unknown" : camera_serial;
   c.source = "agent:" + machine_.request().requester;
   c.verdict = VerdictName(o.verdict);
   c.reprojection_mean_px = o.quality.reprojection_mean_px;
@@ -418,14 +336,18 @@ uds::BackendReply Agent::Commit() {
     diag_.Report(uds::Dtc::kStoreWriteFailed, true);
     return uds::BackendReply::kFailure;
   }
-  diag_.Report(uds::Dtc::kStoreWriteFailed, false);
-  sensor_mismatch_ = false;
-  diag_.Report(uds::Dtc::kCalibrationNotPerformed, false);
+  CalibrationStored();
   diag_.Report(uds::Dtc::kRecalibrationRequired, false);
   diag_.Report(uds::Dtc::kStoreCorrupt, false);  // a valid current version was written
   Log("committed calibration version " + std::to_string(store_.current()->version));
   WriteExports();
   return uds::BackendReply::kAccepted;
+}
+
+void Agent::CalibrationStored() {
+  diag_.Report(uds::Dtc::kStoreWriteFailed, false);
+  sensors_.ClearMismatch();
+  diag_.Report(uds::Dtc::kCalibrationNotPerformed, false);
 }
 
 void Agent::WriteExports() {
@@ -473,177 +395,71 @@ void Agent::Step(int64_t now_us) {
   }
   if (machine_.state() != SessionState::kCollecting && intake_.active()) {
     intake_.SetActive(false);
-    const IntakeCounters& c = intake_.counters();
-    Log("collection ended (" + std::string(CollectionEndName(machine_.collection_end())) +
-        "): " + std::to_string(c.camera_frames) + " camera and " + std::to_string(c.lidar_frames) +
-        " LiDAR frames, " + std::to_string(c.pairs_formed) + " pairs formed, " +
-        std::to_string(c.pairs_detected) + " detected, " + std::to_string(c.dropped_queue_full) +
-        " dropped (queue full), " + std::to_string(c.camera_missed) + "/" +
-        std::to_string(c.lidar_missed) + " camera/LiDAR missing from the streams, " +
-        std::to_string(c.unpaired_camera) + "/" + std::to_string(c.unpaired_lidar) +
-        " unpaired camera/LiDAR, " + std::to_string(c.out_of_order) +
-        " out of order (camera/LiDAR duplicates " + std::to_string(c.camera_duplicates) + "/" +
-        std::to_string(c.lidar_duplicates) + ", late " + std::to_string(c.camera_late) + "/" +
-        std::to_string(c.lidar_late) + ", restarts " + std::to_string(c.camera_restarts) + "/" +
-        std::to_string(c.lidar_restarts) + "), " + std::to_string(c.bad_messages) + " bad" +
-        (c.last_error.empty() ? "" : " (last: " + c.last_error + ")") + ", " +
-        std::to_string(c.over_capacity) + " over the session store's capacity; LiDAR detector: " +
-        std::to_string(c.lidar_boards_dropped) + " boards and " +
-        std::to_string(c.lidar_candidates_dropped) + " clusters beyond its capacity, " +
-        std::to_string(c.lidar_points_overflow) + " points beyond max_points, " +
-        std::to_string(c.lidar_boards_subsampled) + " boards subsampled to max_points_per_board" +
-        (c.debug_write_failures > 0
-             ? "; " + std::to_string(c.debug_write_failures) +
-                   " --debug pair(s) not written (first: " + c.first_debug_error + ")"
-             : std::string()));
+    LogCollectionEnd();
   }
   if (machine_.NeedsSolve()) StartSolve();
-  if (solver_.joinable() && solve_done_) FinishSolve();
+  if (solve_.finished()) FinishSolve();
   if (machine_.state() != SessionState::kCollecting && machine_.state() != SessionState::kSolving)
     EndSessionMarker();
   ReportDtcs(now_us);
-  if (now_us - last_status_us_ >= static_cast<int64_t>(1e6 / config_.status_rate_hz)) {
-    PublishStatus();
-    last_status_us_ = now_us;
-  }
-  if (now_us - last_health_us_ >= static_cast<int64_t>(1e6 / config_.health_rate_hz)) {
-    PublishHealth();
-    last_health_us_ = now_us;
-  }
+  if (LcmReports::Due(config_.status_rate_hz, now_us, &last_status_us_)) PublishStatus();
+  if (LcmReports::Due(config_.health_rate_hz, now_us, &last_health_us_)) PublishHealth();
+}
+
+void Agent::LogCollectionEnd() {
+  const IntakeCounters& c = intake_.counters();
+  Log("collection ended (" + std::string(CollectionEndName(machine_.collection_end())) +
+      "): " + std::to_string(c.camera_frames) + " camera and " + std::to_string(c.lidar_frames) +
+      " LiDAR frames, " + std::to_string(c.pairs_formed) + " pairs formed, " +
+      std::to_string(c.pairs_detected) + " detected, " + std::to_string(c.dropped_queue_full) +
+      " dropped (queue full), " + std::to_string(c.camera_missed) + "/" +
+      std::to_string(c.lidar_missed) + " camera/LiDAR missing from the streams, " +
+      std::to_string(c.unpaired_camera) + "/" + std::to_string(c.unpaired_lidar) +
+      " unpaired camera/LiDAR, " + std::to_string(c.out_of_order) +
+      " out of order (camera/LiDAR duplicates " + std::to_string(c.camera_duplicates) + "/" +
+      std::to_string(c.lidar_duplicates) + ", late " + std::to_string(c.camera_late) + "/" +
+      std::to_string(c.lidar_late) + ", restarts " + std::to_string(c.camera_restarts) + "/" +
+      std::to_string(c.lidar_restarts) + "), " + std::to_string(c.bad_messages) + " bad" +
+      (c.last_error.empty() ? "" : " (last: " + c.last_error + ")") + ", " +
+      std::to_string(c.over_capacity) + " over the session store's capacity; LiDAR detector: " +
+      std::to_string(c.lidar_boards_dropped) + " boards and " +
+      std::to_string(c.lidar_candidates_dropped) + " clusters beyond its capacity, " +
+      std::to_string(c.lidar_points_overflow) + " points beyond max_points, " +
+      std::to_string(c.lidar_boards_subsampled) + " boards subsampled to max_points_per_board" +
+      (c.debug_write_failures > 0
+           ? "; " + std::to_string(c.debug_write_failures) +
+                 " --debug pair(s) not written (first: " + c.first_debug_error + ")"
+           : std::string()));
 }
 
 void Agent::PublishStatus() {
-  calibration_status_t s;
-  s.utime = WallUs();
-  s.state = StatusState(machine_.state());
-  s.progress = static_cast<float>(machine_.progress());
-  s.frames_used = recorder_.figures().frames_with_boards;
-  s.boards_observed = recorder_.figures().boards;
-  const IntakeCounters& c = intake_.counters();
-  s.frames_dropped = static_cast<int32_t>(c.dropped_queue_full);
-  if (machine_.reason() != Reason::kNone)
-    s.last_error = std::string(NameOf(machine_.reason())) +
-                   (machine_.detail().empty() ? "" : ": " + machine_.detail());
-  else if (!last_error_.empty())
-    s.last_error = last_error_;
-  else
-    s.last_error = c.last_error;
-  s.guidance = machine_.guidance();
-  Publish(channels::kStatus.name, s);
-}
-
-int8_t Agent::CalibrationState() const {
-  if (store_.current() == nullptr) return health_t::CALIB_NOT_PERFORMED;
-  if (sensor_mismatch_) return health_t::CALIB_RECALIBRATION_REQUIRED;
-  return health_t::CALIB_VALID;
+  reports_.PublishStatus(machine_, recorder_.figures(), intake_.counters(), last_error_);
 }
 
 void Agent::PublishHealth() {
-  health_t h;
-  h.utime = WallUs();
-  h.software_version = config_.SoftwareVersion();
-  h.calibration_state = CalibrationState();
-  const StoredCalibration* current = store_.current();
-  h.calibration_age_s = current == nullptr ? 0
-                                           : h.utime / 1000000 - std::max(current->created_unix_s,
-                                                                          current->verified_unix_s);
-  h.last_verdict =
-      has_outcome_ ? ResultVerdict(outcome_.verdict) : calibration_result_t::VERDICT_NONE;
-  h.last_reason = has_outcome_ ? NameOf(outcome_.reason) : "";
-  h.last_delta_rotation_deg = has_outcome_ ? outcome_.delta_rotation_deg : 0.0;
-  h.last_delta_translation_m = has_outcome_ ? outcome_.delta_translation_m : 0.0;
-  h.last_reprojection_mean_px = has_outcome_ ? outcome_.quality.reprojection_mean_px : 0.0;
-  // Frame rates over the last health period.
-  const IntakeCounters& c = intake_.counters();
-  const int64_t now = MonotonicUs();
-  const double dt = rate_since_us_ > 0 ? static_cast<double>(now - rate_since_us_) * 1e-6 : 0.0;
-  auto rate = [dt](int64_t frames, int64_t before) {
-    return dt > 0.0 ? static_cast<float>(static_cast<double>(frames - before) / dt) : 0.f;
-  };
-  h.camera_rate_hz = rate(c.camera_frames, rate_camera_frames_);
-  h.lidar_rate_hz = rate(c.lidar_frames, rate_lidar_frames_);
-  rate_camera_frames_ = c.camera_frames;
-  rate_lidar_frames_ = c.lidar_frames;
-  rate_since_us_ = now;
-  h.camera_frames_received = c.camera_frames;
-  h.lidar_frames_received = c.lidar_frames;
-  h.camera_frames_dropped = static_cast<int32_t>(c.dropped_queue_full);
-  h.lidar_frames_dropped = static_cast<int32_t>(c.lidar_dropped_queue_full);
-  h.camera_frames_missed = static_cast<int32_t>(c.camera_missed);
-  h.lidar_frames_missed = static_cast<int32_t>(c.lidar_missed);
-  h.camera_serial = camera_serial_;
-  h.lidar_serial = lidar_serial_;
-  // lcm-gen leaves scalars uninitialised: every field is set here.
-  h.can_state = "off";
-  h.can_link_losses = h.can_bus_off_events = 0;
-  h.num_active_dtcs = 0;
-  if (const CanLinkStatus* isotp = diag_.isotp_status()) {
-    const CanLinkStatus* raw = diag_.raw_status();
-    h.can_state = ToString(raw->state == CanLinkState::kBusOff ? raw->state : isotp->state);
-    h.can_link_losses = static_cast<int32_t>(isotp->counters.link_losses);
-    h.can_bus_off_events = static_cast<int32_t>(raw->counters.bus_off_events);
+  HealthFacts facts;
+  facts.software_version = software_version_;
+  switch (State()) {
+    case uds::CalibrationState::kValid:
+      facts.calibration_state = health_t::CALIB_VALID;
+      break;
+    case uds::CalibrationState::kNotPerformed:
+      facts.calibration_state = health_t::CALIB_NOT_PERFORMED;
+      break;
+    case uds::CalibrationState::kRecalibrationRequired:
+      facts.calibration_state = health_t::CALIB_RECALIBRATION_REQUIRED;
+      break;
   }
-  if (uds::UdsServer* server = diag_.server()) {
-    for (size_t i = 0; i < uds::kDtcCount; ++i)
-      if (server->dtcs().status(i) & uds::kTestFailed)
-        h.active_dtcs.push_back(static_cast<int32_t>(uds::kDtcNumbers[i]));
-    h.num_active_dtcs = static_cast<int16_t>(h.active_dtcs.size());
-  }
-  Publish(channels::kHealth.name, h);
-}
-
-void Agent::PublishResult() {
-  const CalibrationOutcome& o = outcome_;
-  calibration_result_t r;
-  r.utime = WallUs();
-  r.camera_id = config_.calib.camera_id;
-  r.lidar_id = config_.calib.lidar_id;
-  r.verdict = ResultVerdict(o.verdict);
-  r.reason = NameOf(o.reason);
-  const Eigen::Matrix4d T = o.T_camera_lidar.matrix();
-  for (int i = 0; i < 16; ++i) r.T_camera_lidar[i] = T(i / 4, i % 4);
-  const Eigen::Vector3d t = o.T_camera_lidar.translation();
-  for (int i = 0; i < 3; ++i) r.xyz_m[i] = t[i];
-  const Eigen::Vector3d rpy = RpyFromRotation(o.T_camera_lidar.linear()) * kRad2Deg;
-  for (int i = 0; i < 3; ++i) r.rpy_deg[i] = rpy[i];
-  r.delta_rotation_deg = o.delta_rotation_deg;
-  r.delta_translation_m = o.delta_translation_m;
-  r.reprojection_mean_px = o.quality.reprojection_mean_px;
-  r.reprojection_p95_px = o.quality.reprojection_p95_px;
-  r.residual_rms_m = o.quality.residual_rms_m;
-  r.frames_used = o.quality.frames_used;
-  r.boards_used = o.quality.boards_used;
-  r.min_information_eigenvalue = o.quality.min_information_eigenvalue;
-  Publish(channels::kResult.name, r);
-  result_published_ = true;
+  facts.current = store_.current();
+  facts.outcome = solve_.outcome();
+  facts.camera_serial = sensors_.serial(SensorStream::kCamera);
+  facts.lidar_serial = sensors_.serial(SensorStream::kLidar);
+  reports_.PublishHealth(facts, intake_.counters(), diag_);
 }
 
 void Agent::NotifyStatus() {
   if (!notifier_.enabled()) return;
-  const SessionState s = machine_.state();
-  const int percent =
-      s == SessionState::kCollecting ? static_cast<int>(machine_.progress() * 10.0) * 10 : 0;
-  if (static_cast<int>(s) == notified_state_ && machine_.session() == notified_session_ &&
-      percent == notified_percent_)
-    return;
-  notified_state_ = static_cast<int>(s);
-  notified_session_ = machine_.session();
-  notified_percent_ = percent;
-  char text[SystemdNotifier::kMaxStatusChars + 1];
-  const std::string reason(NameOf(machine_.reason()));
-  if (s == SessionState::kIdle)
-    std::snprintf(text, sizeof(text), "idle");
-  else if (s == SessionState::kCollecting)
-    std::snprintf(text, sizeof(text), "session %d: collecting %d%%", machine_.session(), percent);
-  else if (s == SessionState::kDone)
-    std::snprintf(text, sizeof(text), "session %d: done, %s%s%s%s", machine_.session(),
-                  VerdictName(machine_.verdict()), reason.empty() ? "" : " (", reason.c_str(),
-                  reason.empty() ? "" : ")");
-  else
-    std::snprintf(text, sizeof(text), "session %d: %s%s%s%s", machine_.session(),
-                  SessionStateName(s), reason.empty() ? "" : " (", reason.c_str(),
-                  reason.empty() ? "" : ")");
-  notifier_.Status(text);
+  if (const char* text = service_status_.Changed(machine_)) notifier_.Status(text);
 }
 
 int Agent::Run() {
@@ -666,7 +482,7 @@ int Agent::Run() {
   period.it_interval.tv_nsec = static_cast<long>(tick_ns);
   period.it_value = period.it_interval;
   timerfd_settime(timer_fd.fd, 0, &period, nullptr);
-  const bool replay = bus_.url().rfind("file://", 0) == 0;
+  const bool replay = bus_.is_replay();
   notifier_.Ready();
   NotifyStatus();
 
@@ -733,23 +549,29 @@ int Agent::Run() {
       return kAgentExitRestart;
     }
     if (options_.once) {
-      const SessionState s = machine_.state();
-      const bool session_over = machine_.session() > 0 && Terminal(s) && !solver_.joinable();
-      if (session_over) {
-        PublishStatus();
-        PublishHealth();  // the final counts, for the fleet and for replays
-        if (s != SessionState::kDone) return kAgentExitFailed;
-        if (machine_.verdict() == CalibrationOutcome::Verdict::kRejected) return kAgentExitRejected;
-        // Updated, but auto_commit could not write the store: a factory line must not take
-        // it for stored.
-        return machine_.commit_failed() ? kAgentExitNotStored : kAgentExitOk;
-      }
-      if (end_of_log_ && machine_.session() == 0) {
-        Log("the log ended before any session was started");
-        return kAgentExitFailed;
-      }
+      const int code = OnceExitCode();
+      if (code >= 0) return code;
     }
   }
+}
+
+int Agent::OnceExitCode() {
+  const SessionState s = machine_.state();
+  if (machine_.session() > 0 && Terminal(s) && !solve_.pending()) {
+    // The final counts, for the fleet and for replays.
+    PublishStatus();
+    PublishHealth();
+    if (s != SessionState::kDone) return kAgentExitFailed;
+    if (machine_.verdict() == CalibrationOutcome::Verdict::kRejected) return kAgentExitRejected;
+    // Updated, but auto_commit could not write the store: a factory line must not take it for
+    // stored.
+    return machine_.commit_failed() ? kAgentExitNotStored : kAgentExitOk;
+  }
+  if (end_of_log_ && machine_.session() == 0) {
+    Log("the log ended before any session was started");
+    return kAgentExitFailed;
+  }
+  return -1;
 }
 
 }  // namespace calibd

@@ -15,10 +15,6 @@ namespace calibd {
 
 namespace {
 
-/// A sensor counts as alive when its last frame arrived within this; silent longer while a
-/// session collects sets its data-timeout DTC.
-constexpr int64_t kSensorAliveUs = 1000000;
-
 uds::ExtrinsicFigures Figures(const StoredCalibration* c) {
   uds::ExtrinsicFigures e;
   if (c == nullptr) return e;
@@ -49,19 +45,14 @@ WireVerdict VerdictCode(CalibrationOutcome::Verdict verdict) {
   return WireVerdict::kRejected;
 }
 
-/// True when a sensor's last frame (monotonic us, 0: none yet) arrived within kSensorAliveUs.
-bool SensorAlive(int64_t last_us, int64_t now_us) {
-  return last_us > 0 && now_us - last_us <= kSensorAliveUs;
-}
-
 }  // namespace
 
 uds::RoutineConditions Agent::Conditions() const {
   uds::RoutineConditions c;
   const int64_t now = MonotonicUs();
   c.interlock_asserted = diag_.Interlock();
-  c.lidar_alive = SensorAlive(last_lidar_us_, now);
-  c.camera_alive = SensorAlive(last_camera_us_, now);
+  c.lidar_alive = sensors_.Alive(SensorStream::kLidar, now);
+  c.camera_alive = sensors_.Alive(SensorStream::kCamera, now);
   return c;
 }
 
@@ -115,13 +106,14 @@ uds::RoutineSnapshot Agent::CalibrationStatus() const {
       r.status = uds::RoutineStatus::kAborted;
       break;
   }
-  if (s == SessionState::kDone && has_outcome_) {
-    r.verdict = VerdictCode<uds::RoutineVerdict>(outcome_.verdict);
+  const CalibrationOutcome* outcome = solve_.outcome();
+  if (s == SessionState::kDone && outcome != nullptr) {
+    r.verdict = VerdictCode<uds::RoutineVerdict>(outcome->verdict);
     // A failed commit is the news (store write failed) until a commit goes through.
-    r.reason = machine_.commit_failed() ? machine_.reason() : outcome_.reason;
-    if (outcome_.solved) {
-      r.delta_rotation_deg = outcome_.delta_rotation_deg;
-      r.delta_translation_m = outcome_.delta_translation_m;
+    r.reason = machine_.commit_failed() ? machine_.reason() : outcome->reason;
+    if (outcome->solved) {
+      r.delta_rotation_deg = outcome->delta_rotation_deg;
+      r.delta_translation_m = outcome->delta_translation_m;
     }
   }
   return r;
@@ -146,9 +138,7 @@ uds::BackendReply Agent::RestoreReference() {
     if (!other_sensors) diag_.Report(uds::Dtc::kStoreWriteFailed, true);
     return uds::BackendReply::kFailure;
   }
-  diag_.Report(uds::Dtc::kStoreWriteFailed, false);
-  sensor_mismatch_ = false;
-  diag_.Report(uds::Dtc::kCalibrationNotPerformed, false);
+  CalibrationStored();
   Log("restored the reference calibration as version " + std::to_string(store_.current()->version));
   WriteExports();
   return uds::BackendReply::kAccepted;
@@ -207,42 +197,35 @@ uds::QualityFigures Agent::Quality() const {
 }
 
 std::string_view Agent::LidarSerial() const {
-  if (!lidar_serial_.empty() || store_.current() == nullptr) return lidar_serial_;
+  const std::string& seen = sensors_.serial(SensorStream::kLidar);
+  if (!seen.empty() || store_.current() == nullptr) return seen;
   return store_.current()->lidar_serial;
 }
 
 std::string_view Agent::CameraSerial() const {
-  if (!camera_serial_.empty() || store_.current() == nullptr) return camera_serial_;
+  const std::string& seen = sensors_.serial(SensorStream::kCamera);
+  if (!seen.empty() || store_.current() == nullptr) return seen;
   return store_.current()->camera_serial;
 }
 
 uds::CalibrationState Agent::State() const {
   if (store_.current() == nullptr) return uds::CalibrationState::kNotPerformed;
-  if (sensor_mismatch_) return uds::CalibrationState::kRecalibrationRequired;
+  if (sensors_.mismatch()) return uds::CalibrationState::kRecalibrationRequired;
   return uds::CalibrationState::kValid;
 }
 
 void Agent::ReportDtcs(int64_t now_us) {
   if (!config_.can_enabled) return;
-  // Sensor data timeouts are tested while a session collects (the agent needs the data then);
-  // a frame arriving passes the test again.
-  const bool collecting = machine_.state() == SessionState::kCollecting;
-  const int64_t since = machine_.started_us();
-  auto check = [&](int64_t last_us, bool* reported, uds::Dtc dtc, const char* name) {
-    const int64_t reference = std::max(last_us, since);
-    const bool silent = collecting && now_us - reference > kSensorAliveUs;
-    const bool alive = SensorAlive(last_us, now_us);
-    if (silent && !*reported) {
-      diag_.Report(dtc, true);
-      *reported = true;
-      Log(std::string(name) + " data timeout: no frame for more than 1 s while collecting");
-    } else if (alive && *reported) {
-      diag_.Report(dtc, false);
-      *reported = false;
-    }
-  };
-  check(last_lidar_us_, &lidar_timeout_, uds::Dtc::kLidarTimeout, "LiDAR");
-  check(last_camera_us_, &camera_timeout_, uds::Dtc::kCameraTimeout, "camera");
+  // Sensor data timeouts are tested while a session collects (the agent needs the data then).
+  sensors_.CheckTimeouts(machine_.state() == SessionState::kCollecting, machine_.started_us(),
+                         now_us, [this](SensorStream sensor, bool timed_out) {
+                           const bool lidar = sensor == SensorStream::kLidar;
+                           diag_.Report(lidar ? uds::Dtc::kLidarTimeout : uds::Dtc::kCameraTimeout,
+                                        timed_out);
+                           if (timed_out)
+                             Log(std::string(lidar ? "LiDAR" : "camera") +
+                                 " data timeout: no frame for more than 1 s while collecting");
+                         });
 }
 
 DiagnosticsView Agent::DiagnosticsNow() const {
@@ -279,9 +262,9 @@ DiagnosticsView Agent::DiagnosticsNow() const {
   if (machine_.session() > 0)
     f.progress_percent = static_cast<int>(std::lround(
         std::clamp(s == SessionState::kCollecting ? machine_.progress() : 1.0, 0.0, 1.0) * 100.0));
-  if (has_outcome_) {
-    f.last_verdict = VerdictCode<StatusFrame::Verdict>(outcome_.verdict);
-    if (outcome_.solved) f.rotation_delta_deg = outcome_.delta_rotation_deg;
+  if (const CalibrationOutcome* outcome = solve_.outcome()) {
+    f.last_verdict = VerdictCode<StatusFrame::Verdict>(outcome->verdict);
+    if (outcome->solved) f.rotation_delta_deg = outcome->delta_rotation_deg;
   }
   switch (State()) {
     case uds::CalibrationState::kValid:

@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <sstream>
 #include <system_error>
@@ -97,6 +98,43 @@ bool RemoveSessionMarker(const std::string& path, std::string* error) {
     return false;
   }
   return true;
+}
+
+std::string SessionMarkerFile::TakeInterrupted(std::string* error) {
+  SessionMarker marker;
+  std::string why;
+  const MarkerRead read = ReadSessionMarker(path_, &marker, &why);
+  if (read == MarkerRead::kNone) {
+    std::string ignored;
+    RemoveSessionMarker(path_, &ignored);  // a temp file of a write cut short, if any
+    return {};
+  }
+  std::string line;
+  if (read == MarkerRead::kFound) {
+    char started[32] = "an unknown time";
+    const time_t t = static_cast<time_t>(marker.started_unix_s);
+    tm utc{};
+    if (gmtime_r(&t, &utc) != nullptr) std::strftime(started, sizeof(started), "%FT%TZ", &utc);
+    line = "the previous run stopped during session " + std::to_string(marker.session) +
+           " (started by '" + marker.trigger + "' at " + started + ")";
+  } else {
+    line = "the previous run stopped during a session (" + why + ")";
+  }
+  line += " without a result: aborted; the stored calibration is unchanged";
+  RemoveSessionMarker(path_, error);
+  return line;
+}
+
+bool SessionMarkerFile::Begin(const SessionMarker& marker, std::string* error) {
+  if (!WriteSessionMarker(path_, marker, error)) return false;
+  session_ = marker.session;
+  return true;
+}
+
+bool SessionMarkerFile::End(std::string* error) {
+  if (session_ == 0) return true;
+  session_ = 0;
+  return RemoveSessionMarker(path_, error);
 }
 
 }  // namespace calibd

@@ -3,33 +3,36 @@
 /// calibd-agent: the composition root. One poll loop over the LCM file descriptor, a timerfd and
 /// a signalfd runs everything: frames from LCM go to the intake (detection on its two worker
 /// threads), drained observations drive the session machine, the solve runs on its own thread
-/// (so status keeps flowing), and the verdict is applied to the calibration store. Status is
-/// published at status_rate_hz, health at health_rate_hz, a result when a session ends.
+/// (solve_runner.hpp, so status keeps flowing), and the verdict is applied to the calibration
+/// store. Its collaborators: the sensors' liveness and serials (sensor_watch.hpp), the LCM
+/// reports (lcm_reports.hpp: status at status_rate_hz, health at health_rate_hz, a result when a
+/// session ends), CAN and GPIO (diagnostics.hpp, with this class as the UDS server's backend),
+/// the session marker (session_marker.hpp) and systemd's STATUS= (service_status.hpp).
 ///
 /// Calibration state (health_t.calibration_state): `valid` when the store holds a calibration
 /// for the sensors in use, `not_performed` when it holds none, `recalibration_required` when a
 /// sensor_info message reports a serial number other than the stored calibration's (a replaced
 /// sensor) until a calibration for the new sensors is committed.
 
-#include <atomic>
 #include <cstdint>
-#include <memory>
 #include <string>
-#include <thread>
 
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/diagnostics.hpp"
 #include "calibd/agent/frame_intake.hpp"
+#include "calibd/agent/lcm_reports.hpp"
 #include "calibd/agent/rate_limited_log.hpp"
+#include "calibd/agent/sensor_watch.hpp"
+#include "calibd/agent/service_status.hpp"
 #include "calibd/agent/session_machine.hpp"
+#include "calibd/agent/session_marker.hpp"
 #include "calibd/agent/session_recorder.hpp"
+#include "calibd/agent/solve_runner.hpp"
 #include "calibd/calibration_request_t.hpp"
-#include "calibd/calibration_result_t.hpp"
 #include "calibd/core/range_image.hpp"
 #include "calibd/drivers/calibration_store.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
 #include "calibd/drivers/systemd_notify.hpp"
-#include "calibd/health_t.hpp"
 #include "calibd/sensor_info_t.hpp"
 
 namespace calibd {
@@ -120,58 +123,50 @@ class Agent : private uds::UdsBackend {
   void FinishSolve();
   void PublishStatus();
   void PublishHealth();
-  void PublishResult();
-  int8_t CalibrationState() const;
-  /// STATUS= for systemd ("idle", "session 2: collecting 40%", ...) when the state, the session
-  /// or the collection progress (10% steps) changed since the last one: not every tick.
+  /// STATUS= for systemd when it changed (service_status.hpp).
   void NotifyStatus();
+  /// Logs the collection's counts once it ended.
+  void LogCollectionEnd();
   /// Writes the store's current calibration in other stacks' formats into
   /// `<agent.store.directory>/export/` (drivers/calibration_export.hpp), each file atomically,
   /// after every change of the current calibration. A failure is logged, never fatal: the store
   /// holds the calibration, the exports are copies.
   void WriteExports();
+  /// A calibration for the sensors in use was stored: the DTCs it clears.
+  void CalibrationStored();
   void Log(const std::string& line) const;
-  /// At start-up: a session marker left by the previous run (session_marker.hpp) means it
-  /// stopped during a session; logs it, reports DTC 5A0300 and removes the marker.
+  /// At start-up: a session marker left by the previous run means it stopped during a session;
+  /// logs it, reports DTC 5A0300 and removes the marker.
   void CheckInterruptedSession();
   /// Removes the session marker once the session has ended (any outcome) or on a clean stop.
   void EndSessionMarker();
   /// Until the intake's LiDAR detector is ready: logs it once ready; false (the agent stops, as
   /// for a config it cannot run) when it could not be built.
   bool CheckDetectorStartup();
+  /// --once: the exit code once the first session is over, else -1.
+  int OnceExitCode();
 
   AgentConfig config_;
   AgentOptions options_;
-  template <typename Msg>
-  void Publish(std::string_view channel, const Msg& msg);
 
   LcmBus bus_;
-  LcmBus out_bus_;               ///< opened for AgentOptions::publish_url
-  LcmBus* publisher_ = nullptr;  ///< bus_, out_bus_, or null (replay without publish_url)
+  LcmReports reports_;
   /// Signalled by the solve thread and the intake's workers when they have something for the
   /// poll loop (a finished solve, a pair to drain): it reacts at once, not at its next tick.
-  /// Declared before intake_ so that it outlives the intake's workers.
+  /// Declared before intake_ and solve_ so that it outlives their threads.
   WakeEvent wake_;
   FrameIntake intake_;
   SessionMachine machine_;
   CalibrationStore store_;
   RangeImage projection_;
   SessionRecorder recorder_;  ///< the session store (sized once from the config) and figures
+  /// Reads recorder_'s session, projection_ and config_.engine while it solves: none of them
+  /// changes then (a new session cannot start before the solve finished).
+  SolveRunner solve_;
+  SensorWatch sensors_;
 
-  // The solve thread: reads recorder_.session() (not written while solving), writes outcome_.
-  std::thread solver_;
-  std::atomic<bool> solve_done_{false};
-  int solve_session_ = 0;
-  int64_t solve_started_us_ = 0;  ///< when the last solve started (monotonic)
-  CalibrationOutcome outcome_;
-  bool has_outcome_ = false;
-  bool result_published_ = false;
-
-  std::string lidar_serial_, camera_serial_;  ///< from sensor_info
-  bool sensor_mismatch_ = false;
   std::string last_error_;
   int64_t last_status_us_ = 0, last_health_us_ = 0;
-  int64_t rate_camera_frames_ = 0, rate_lidar_frames_ = 0, rate_since_us_ = 0;  ///< health rates
   bool end_of_log_ = false;
   /// The intake's LiDAR detector is built (it builds on its worker after Init): until then the
   /// sensors' frames are not taken as arrived by the session (the intake ignores them).
@@ -185,16 +180,11 @@ class Agent : private uds::UdsBackend {
   std::string vin_;               ///< DID 0xF190, kept in <agent.uds.state_dir>/vin
   std::string software_version_;  ///< DID 0xF195
   bool reset_requested_ = false;  ///< UDS 0x11: Run returns kAgentExitRestart
-  int64_t last_camera_us_ = 0, last_lidar_us_ = 0;       ///< monotonic arrival of the last frames
-  bool camera_timeout_ = false, lidar_timeout_ = false;  ///< DTC states last reported
-  /// `<agent.store.directory>/session_in_progress`; marker_session_ is the session it names
-  /// (0: none written).
-  std::string marker_path_;
-  int marker_session_ = 0;
+  SessionMarkerFile marker_;      ///< `<agent.store.directory>/session_in_progress`
 
   /// Type=notify unit: READY=1, STATUS=, WATCHDOG=1 from the loop's timer, STOPPING=1.
   SystemdNotifier notifier_;
-  int notified_state_ = -1, notified_session_ = -1, notified_percent_ = -1;
+  ServiceStatus service_status_;
 };
 
 }  // namespace calibd

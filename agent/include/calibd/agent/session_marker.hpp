@@ -41,4 +41,25 @@ MarkerRead ReadSessionMarker(const std::string& path, SessionMarker* marker, std
 /// when it exists and cannot be removed.
 bool RemoveSessionMarker(const std::string& path, std::string* error);
 
+/// The agent's marker file: its previous run's at start-up, then one per session.
+class SessionMarkerFile {
+ public:
+  /// The marker of the store in `store_directory`.
+  void Open(const std::string& store_directory) { path_ = SessionMarkerPath(store_directory); }
+  /// At start-up: when the previous run left a marker, the log line that tells of it ("the
+  /// previous run stopped during session 3 (started by ...) without a result: ..."), and the
+  /// marker removed (a removal failure in `error`); empty when there was none.
+  std::string TakeInterrupted(std::string* error);
+  /// A session starts: writes its marker; false with `error` when it could not (the session runs
+  /// anyway, only the report of a later interruption is lost).
+  bool Begin(const SessionMarker& marker, std::string* error);
+  /// The session ended (any outcome) or the agent stops cleanly: removes the marker Begin wrote.
+  /// True when there was none or it is gone.
+  bool End(std::string* error);
+
+ private:
+  std::string path_;
+  int session_ = 0;  ///< the session the written marker names; 0: none written
+};
+
 }  // namespace calibd

@@ -114,6 +114,8 @@ class LcmBus {
   bool is_open() const;
   /// The URL in use (empty URL resolved); empty when not open.
   const std::string& url() const;
+  /// A file:// log is replayed: read at its own pace, and not writable.
+  bool is_replay() const { return url().rfind("file://", 0) == 0; }
   /// Becomes readable when a message is ready for Handle(); -1 when not open. Stays the same
   /// until Close().
   int fileno() const;
