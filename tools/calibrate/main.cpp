@@ -1,39 +1,35 @@
-// calibd-calibrate: calibrates T_camera_lidar offline from a recorded session (LCM log) and a
-// calibration config, and writes a JSON report and optional overlay pictures. See --help.
+// calibd-calibrate: calibrates T_camera_lidar offline from a recorded session (LCM log or a
+// folder of recorded frames) and a calibration config, and writes a JSON report, exports,
+// overlay pictures and an HTML page on request. See --help. main() reads as its steps: options,
+// config, the session read and detected, the solve, then each output asked for.
 
 #include <algorithm>
-#include <chrono>
-#include <cmath>
-#include <cstdlib>
 #include <ctime>
-#include <filesystem>
 #include <iomanip>
 #include <iostream>
-#include <map>
-#include <nlohmann/json.hpp>
-#include <numeric>
-#include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <string>
 
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/core/calibration_engine.hpp"
 #include "calibd/core/stats.hpp"
 #include "calibd/core/stopwatch.hpp"
+#include "calibd/core/text_format.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
-#include "calibd/drivers/config_file.hpp"
-#include "calibd/drivers/intrinsics_file.hpp"
-#include "calibd/drivers/recorded_folder.hpp"
+#include "calibration_run.hpp"
+#include "command_line.hpp"
 #include "html_report.hpp"
 #include "inspect.hpp"
 #include "lidar_model_source.hpp"
 #include "log_session.hpp"
-#include "overlay.hpp"
-#include "quality_json.hpp"
+#include "result_pictures.hpp"
+#include "tool_config.hpp"
 
 namespace {
 
 using namespace calibd;
+using tools::CalibrationRun;
 
 constexpr const char* kHelp =
     R"(calibd-calibrate: LiDAR-camera extrinsic calibration of a recorded session.
@@ -136,22 +132,140 @@ Options:
 Exit codes: 0 verified or updated, 3 rejected (reason in the report), 1 failed, 2 bad option.
 )";
 
-double Sum(const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0); }
+constexpr int kExitSolved = 0, kExitFailed = 1, kExitRejected = 3;  // and kExitBadOption (2)
+const std::string kSoftwareVersion = std::string("calibd ") + CALIBD_VERSION;
 
-// Up to 4 frame pairs spread over the camera-to-board distances of the correspondences.
-std::vector<int> OverlayFrames(const ObservationSet& corr) {
-  std::map<int, double> dist;
-  for (const auto& o : corr.observations) dist[o.frame] = o.T_camera_board.translation().norm();
-  std::vector<std::pair<double, int>> by_distance;
-  for (const auto& [frame, d] : dist) by_distance.emplace_back(d, frame);
-  std::sort(by_distance.begin(), by_distance.end());
-  std::vector<int> frames;
-  for (int i = 0; i < 4 && !by_distance.empty(); ++i) {
-    const size_t k = (by_distance.size() - 1) * static_cast<size_t>(i) / 3;
-    if (std::find(frames.begin(), frames.end(), by_distance[k].second) == frames.end())
-      frames.push_back(by_distance[k].second);
+struct Options {
+  std::string log_path, folder_path, intrinsics_path, config_path;
+  std::string report_path, export_dir, overlay_dir, html_path, truth_path;
+  // Given on the command line: then over the config's engine section.
+  std::optional<std::string> method;
+  std::optional<bool> motion_compensation, board_pose_refinement;
+  tools::LogReadOptions read;
+  bool quiet = false;
+  bool inspect = false;
+  tools::InspectOptions inspect_options;
+};
+
+int Fail(int code, const std::string& message) {
+  std::cerr << "calibd-calibrate: " << message << "\n";
+  return code;
+}
+
+// The command line into `o`: -1 to go on, else the exit code (0 after --help, 2 for a bad option).
+int ParseOptions(int argc, char** argv, Options* o) {
+  // Offline, the time plane extraction costs (tens of ms a frame) buys the boards of cluttered
+  // still poses (recordings from other rigs).
+  o->read.lidar.extract_planes = true;
+  tools::CommandLine line("calibd-calibrate", argc, argv);
+  while (line.Next()) {
+    long n = 0;
+    double ms = 0.0;
+    bool on = false;
+    std::string text;
+    if (line.Is("--help") || line.Is("-h")) {
+      std::cout << tools::HelpWithFramesCsv(kHelp);
+      return 0;
+    } else if (line.Is("--quiet")) {
+      o->quiet = true;
+    } else if (line.Is("--inspect")) {
+      o->inspect = true;
+    } else if (line.Is("--log")) {
+      line.Value(&o->log_path);
+    } else if (line.Is("--folder")) {
+      line.Value(&o->folder_path);
+    } else if (line.Is("--intrinsics")) {
+      line.Value(&o->intrinsics_path);
+    } else if (line.Is("--config")) {
+      line.Value(&o->config_path);
+    } else if (line.Is("--report")) {
+      line.Value(&o->report_path);
+    } else if (line.Is("--overlay")) {
+      line.Value(&o->overlay_dir);
+    } else if (line.Is("--html")) {
+      line.Value(&o->html_path);
+    } else if (line.Is("--export")) {
+      line.Value(&o->export_dir);
+    } else if (line.Is("--debug")) {
+      line.Value(&o->read.debug_dir);
+    } else if (line.Is("--truth")) {
+      line.Value(&o->truth_path);
+    } else if (line.Is("--mounting")) {
+      line.Value(&o->inspect_options.mounting);
+    } else if (line.Is("--write-config")) {
+      line.Value(&o->inspect_options.config_out);
+    } else if (line.Is("--method")) {
+      if (line.Value(&text)) o->method = text;
+    } else if (line.Is("--extract-planes")) {
+      line.OnOff(&o->read.lidar.extract_planes);
+    } else if (line.Is("--motion-compensation")) {
+      if (line.OnOff(&on)) o->motion_compensation = on;
+    } else if (line.Is("--board-pose-refinement")) {
+      if (line.OnOff(&on)) o->board_pose_refinement = on;
+    } else if (line.Is("--max-frames")) {
+      if (line.Integer(1, 100000, &n)) o->read.max_frames = static_cast<int>(n);
+    } else if (line.Is("--pair-tolerance-ms")) {
+      if (line.Number(0.0, 1000.0, &ms))
+        o->read.pair_tolerance_us = static_cast<int64_t>(ms * 1000.0);
+    } else {
+      line.Unknown();
+    }
   }
-  return frames;
+  if (!line.failed() && o->inspect &&
+      (o->folder_path.empty() || !o->log_path.empty() || !o->config_path.empty()))
+    line.Error("--inspect needs --folder DIR and no --log or --config (see --help)");
+  if (!line.failed() && !o->inspect &&
+      (o->log_path.empty() == o->folder_path.empty() || o->config_path.empty()))
+    line.Error("--config and one of --log or --folder are required (see --help)");
+  if (!line.failed() && o->method && *o->method != "direct" && *o->method != "indirect")
+    line.Error("--method must be direct or indirect (got '" + *o->method + "')");
+  return line.failed() ? line.Fail(std::cerr) : -1;
+}
+
+// The log or the folder, read the same way (pairing, detection, counters); `keep` and `kept`
+// as ReadSessionLog's.
+bool ReadPairs(const Options& o, const CalibConfig& config, const tools::LogReadOptions& read,
+               SessionObservations* into, tools::LogReadStats* stats, std::string* error,
+               const std::function<void(int)>& progress = {}, const std::vector<int>& keep = {},
+               std::vector<tools::FramePairData>* kept = nullptr) {
+  return o.folder_path.empty() ? tools::ReadSessionLog(o.log_path, config, read, into, stats, error,
+                                                       progress, keep, kept)
+                               : tools::ReadSessionFolder(o.folder_path, config, read, into, stats,
+                                                          error, progress, keep, kept);
+}
+
+// The LiDAR model (for generic, estimated from the first frames and shown to the user), then
+// every frame pair read and detected into `run`. An exit code on failure, -1 to go on.
+int ReadSession(const Options& o, const CalibConfig& config, CalibrationRun* run) {
+  std::string error;
+  if (!tools::LidarModelForSession({o.log_path, o.folder_path}, config, &run->lidar_model,
+                                   &run->lidar_estimate, &error))
+    return Fail(kExitFailed, error);
+  if (!o.quiet && run->lidar_model.kind == LidarKind::kGeneric)
+    std::cerr << "calibd-calibrate: "
+              << DescribeGenericLidar(run->lidar_model, &run->lidar_estimate) << "\n";
+  if (!o.read.debug_dir.empty() && !CreateDirectories(o.read.debug_dir, &error))
+    return Fail(tools::kExitBadOption, "--debug: " + error);
+  tools::LogReadOptions read = o.read;
+  read.lidar_model = run->lidar_model;
+  run->extract_planes = read.lidar.extract_planes;
+  const auto t_start = SteadyClock::now();
+  auto progress = [&](int pairs) {
+    if (!o.quiet) std::cerr << "calibd-calibrate: " << pairs << " frame pairs detected\n";
+  };
+  if (!ReadPairs(o, config, read, &run->session, &run->stats, &error, progress))
+    return Fail(kExitFailed, error);
+  const tools::LogReadStats& stats = run->stats;
+  if (stats.debug_write_failures > 0)
+    std::cerr << "calibd-calibrate: warning: " << stats.debug_write_failures
+              << " --debug file(s) not written (first: " << stats.first_debug_error << ")\n";
+  if (stats.padded_clouds > 0)
+    std::cerr << "calibd-calibrate: warning: " << stats.padded_clouds
+              << " binary PCD file(s) have bytes after their last point, ignored as PCL ignores "
+                 "them (first: "
+              << stats.first_padded_cloud << ")\n";
+  run->read_s = MsSince(t_start) * 1e-3;
+  return -1;
 }
 
 // A hint when the LiDAR gave no board for more than a fifth of the camera boards taking part in
@@ -181,455 +295,196 @@ std::string LidarMissHint(const SessionObservations& session, const ObservationS
               : "closer or larger boards put more of the LiDAR's scan lines on each");
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  std::string log_path, folder_path, intrinsics_path, config_path, report_path, overlay_dir,
-      truth_path, export_dir;
-  std::string html_path;  // --html
-  std::string method = "direct";
-  bool motion_compensation = true;
-  bool board_pose_refinement = true;
-  // Given on the command line: then over the config's engine section.
-  bool method_given = false, motion_compensation_given = false, board_pose_refinement_given = false;
-  tools::LogReadOptions read_options;
-  // Offline, the time plane extraction costs (tens of ms a frame) buys the boards of cluttered
-  // still poses (recordings from other rigs).
-  read_options.lidar.extract_planes = true;
-  bool quiet = false;
-  bool inspect = false;
-  tools::InspectOptions inspect_options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::string help = kHelp;
-      help.replace(help.find("%CSV%"), 5, kFramesCsvHelp);
-      std::cout << help;
-      return 0;
-    }
-    if (arg == "--quiet") {
-      quiet = true;
-      continue;
-    }
-    if (arg == "--inspect") {
-      inspect = true;
-      continue;
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "calibd-calibrate: option " << arg << " needs a value (see --help)\n";
-      return 2;
-    }
-    const std::string value = argv[++i];
-    char* end = nullptr;
-    if (arg == "--log")
-      log_path = value;
-    else if (arg == "--folder")
-      folder_path = value;
-    else if (arg == "--intrinsics")
-      intrinsics_path = value;
-    else if (arg == "--config")
-      config_path = value;
-    else if (arg == "--report")
-      report_path = value;
-    else if (arg == "--overlay")
-      overlay_dir = value;
-    else if (arg == "--html")
-      html_path = value;
-    else if (arg == "--export")
-      export_dir = value;
-    else if (arg == "--debug")
-      read_options.debug_dir = value;
-    else if (arg == "--truth")
-      truth_path = value;
-    else if (arg == "--mounting")
-      inspect_options.mounting = value;
-    else if (arg == "--write-config")
-      inspect_options.config_out = value;
-    else if (arg == "--method") {
-      method = value;
-      method_given = true;
-    } else if (arg == "--extract-planes") {
-      if (value != "on" && value != "off") {
-        std::cerr << "calibd-calibrate: " << arg << " must be on or off (got '" << value << "')\n";
-        return 2;
-      }
-      read_options.lidar.extract_planes = value == "on";
-    } else if (arg == "--motion-compensation" || arg == "--board-pose-refinement") {
-      if (value != "on" && value != "off") {
-        std::cerr << "calibd-calibrate: " << arg << " must be on or off (got '" << value << "')\n";
-        return 2;
-      }
-      (arg == "--motion-compensation" ? motion_compensation : board_pose_refinement) =
-          value == "on";
-      (arg == "--motion-compensation" ? motion_compensation_given : board_pose_refinement_given) =
-          true;
-    } else if (arg == "--max-frames") {
-      const long n = std::strtol(value.c_str(), &end, 10);
-      if (*end != '\0' || n < 1 || n > 100000) {
-        std::cerr << "calibd-calibrate: --max-frames must be an integer in [1, 100000]\n";
-        return 2;
-      }
-      read_options.max_frames = static_cast<int>(n);
-    } else if (arg == "--pair-tolerance-ms") {
-      const double ms = std::strtod(value.c_str(), &end);
-      if (*end != '\0' || !(ms >= 0.0 && ms <= 1000.0)) {
-        std::cerr << "calibd-calibrate: --pair-tolerance-ms must be a number in [0, 1000]\n";
-        return 2;
-      }
-      read_options.pair_tolerance_us = static_cast<int64_t>(ms * 1000.0);
-    } else {
-      std::cerr << "calibd-calibrate: unknown option '" << arg << "' (see --help)\n";
-      return 2;
-    }
-  }
-  if (inspect) {
-    if (folder_path.empty() || !log_path.empty() || !config_path.empty()) {
-      std::cerr << "calibd-calibrate: --inspect needs --folder DIR and no --log or --config (see "
-                   "--help)\n";
-      return 2;
-    }
-    inspect_options.folder = folder_path;
-    inspect_options.intrinsics_path = intrinsics_path;
-    return tools::RunInspect(inspect_options, std::cout, std::cerr);
-  }
-  if (log_path.empty() == folder_path.empty() || config_path.empty()) {
-    std::cerr << "calibd-calibrate: --config and one of --log or --folder are required (see "
-                 "--help)\n";
-    return 2;
-  }
-  if (method != "direct" && method != "indirect") {
-    std::cerr << "calibd-calibrate: --method must be direct or indirect (got '" << method << "')\n";
-    return 2;
-  }
-
-  std::string error;
-  // --intrinsics first: with them the config's camera section is optional. The config may hold
-  // the agent's sections: `engine:` is read as the agent reads it, `agent:` is the agent's own.
-  CameraIntrinsics intrinsics;
-  if (!intrinsics_path.empty() && !LoadIntrinsicsFile(intrinsics_path, &intrinsics, &error)) {
-    std::cerr << "calibd-calibrate: --intrinsics: " << error << "\n";
-    return 2;
-  }
-  ConfigParseOptions parse_options;
-  parse_options.intrinsics = intrinsics_path.empty() ? nullptr : &intrinsics;
-  parse_options.other_sections = {"engine", "agent"};
-  CalibConfig config;
-  EngineConfig engine;
-  std::string config_text;
-  if (!ReadWholeFile(config_path, &config_text, &error) ||
-      !ParseConfigYaml(config_text, &config, &error, parse_options) ||
-      !ParseEngineConfigYaml(config_text, &engine, &error)) {
-    std::cerr << "calibd-calibrate: " << (config_text.empty() ? "" : config_path + ": ") << error
-              << "\n";
-    return 2;
-  }
-  // The log or the folder, read the same way (pairing, detection, counters).
-  auto read_session = [&](const tools::LogReadOptions& options, SessionObservations* into,
-                          tools::LogReadStats* counters, const std::function<void(int)>& report,
-                          const std::vector<int>& keep, std::vector<tools::FramePairData>* kept) {
-    return folder_path.empty() ? tools::ReadSessionLog(log_path, config, options, into, counters,
-                                                       &error, report, keep, kept)
-                               : tools::ReadSessionFolder(folder_path, config, options, into,
-                                                          counters, &error, report, keep, kept);
-  };
-  // The LiDAR model; for generic, estimated from the first frames and shown to the user.
-  LidarModel lidar_model;
-  LidarResolutionEstimate lidar_estimate;
-  if (!tools::LidarModelForSession({log_path, folder_path}, config, &lidar_model, &lidar_estimate,
-                                   &error)) {
-    std::cerr << "calibd-calibrate: " << error << "\n";
-    return 1;
-  }
-  read_options.lidar_model = lidar_model;
-  if (!quiet && lidar_model.kind == LidarKind::kGeneric)
-    std::cerr << "calibd-calibrate: " << DescribeGenericLidar(lidar_model, &lidar_estimate) << "\n";
-  if (!read_options.debug_dir.empty() && !CreateDirectories(read_options.debug_dir, &error)) {
-    std::cerr << "calibd-calibrate: --debug: " << error << "\n";
-    return 2;
-  }
-  const auto t_start = std::chrono::steady_clock::now();
-  SessionObservations session;
-  tools::LogReadStats stats;
-  auto progress = [&](int pairs) {
-    if (!quiet) std::cerr << "calibd-calibrate: " << pairs << " frame pairs detected\n";
-  };
-  if (!read_session(read_options, &session, &stats, progress, {}, nullptr)) {
-    std::cerr << "calibd-calibrate: " << error << "\n";
-    return 1;
-  }
-  if (stats.debug_write_failures > 0)
-    std::cerr << "calibd-calibrate: warning: " << stats.debug_write_failures
-              << " --debug file(s) not written (first: " << stats.first_debug_error << ")\n";
-  if (stats.padded_clouds > 0)
-    std::cerr << "calibd-calibrate: warning: " << stats.padded_clouds
-              << " binary PCD file(s) have bytes after their last point, ignored as PCL ignores "
-                 "them (first: "
-              << stats.first_padded_cloud << ")\n";
-  const double read_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-
-  const RangeImage projection = SessionProjection(lidar_model);
-  // The command line's choices over the config's engine section.
-  if (method_given)
-    engine.method =
-        method == "indirect" ? EngineConfig::Method::kIndirect : EngineConfig::Method::kDirect;
-  if (motion_compensation_given) engine.motion.enabled = motion_compensation;
+// The engine on the session, with the command line's choices over the config's engine section;
+// the causes and hints a user can act on.
+void Solve(const Options& o, const CalibConfig& config, EngineConfig* engine, CalibrationRun* run) {
+  if (o.method)
+    engine->method =
+        *o.method == "indirect" ? EngineConfig::Method::kIndirect : EngineConfig::Method::kDirect;
+  if (o.motion_compensation) engine->motion.enabled = *o.motion_compensation;
   // Pairs by name stem carry made-up times: no velocity can be fitted to them, whatever the
   // window.
-  if (stats.pseudo_times) engine.motion.enabled = false;
-  if (board_pose_refinement_given) engine.direct.refine_board_poses = board_pose_refinement;
-  method = engine.method == EngineConfig::Method::kIndirect ? "indirect" : "direct";
-  ObservationSet corr;
-  std::vector<double> reprojection_px;  // per correspondence, for --html
-  CalibrationOutcome out = Calibrate(config, session, projection, engine, &corr, &reprojection_px);
+  if (run->stats.pseudo_times) engine->motion.enabled = false;
+  if (o.board_pose_refinement) engine->direct.refine_board_poses = *o.board_pose_refinement;
+  run->method = engine->method == EngineConfig::Method::kIndirect ? "indirect" : "direct";
+  CalibrationOutcome& out = run->outcome;
+  out = Calibrate(config, run->session, SessionProjection(run->lidar_model), *engine,
+                  &run->correspondences, &run->reprojection_px);
   // Without a single frame pair the input is the cause, not the boards: say what it lacked.
   bool lidar_cause = false;
   const std::string no_pairs =
-      tools::NoPairsCause(stats, config, !folder_path.empty(), &lidar_cause);
+      tools::NoPairsCause(run->stats, config, !o.folder_path.empty(), &lidar_cause);
   if (!no_pairs.empty() && !out.solved) {
     out.reason = lidar_cause ? Reason::kNoLidarBoards : Reason::kNoCameraBoards;
     out.detail = no_pairs;
   }
-  const auto& q = out.quality;
-  const std::string lidar_hint = LidarMissHint(session, corr, engine.max_solve_frames, lidar_model);
-  const std::string motion_hint =
-      out.motion.FramesBeyondWindow()
-          ? "the frame pairs lie " + FixedDecimal(out.motion.frame_interval_s, 2) +
-                " s apart, beyond the +-" + FixedDecimal(out.motion.window_s, 2) +
-                " s in which board velocities are fitted, so no board's motion was measured or "
-                "compensated: if the boards moved against the car (driving, boards carried), set "
-                "engine.motion_window_s to " +
-                FixedDecimal(std::min(1.5 * out.motion.frame_interval_s, kMaxMotionWindowS), 2) +
-                " in the config"
-          : "";
-  if (!motion_hint.empty() && !quiet)
-    std::cerr << "calibd-calibrate: note: " << motion_hint << "\n";
+  run->lidar_hint =
+      LidarMissHint(run->session, run->correspondences, engine->max_solve_frames, run->lidar_model);
+  if (out.motion.FramesBeyondWindow())
+    run->motion_hint =
+        "the frame pairs lie " + FixedDecimal(out.motion.frame_interval_s, 2) +
+        " s apart, beyond the +-" + FixedDecimal(out.motion.window_s, 2) +
+        " s in which board velocities are fitted, so no board's motion was measured or "
+        "compensated: if the boards moved against the car (driving, boards carried), set "
+        "engine.motion_window_s to " +
+        FixedDecimal(std::min(1.5 * out.motion.frame_interval_s, kMaxMotionWindowS), 2) +
+        " in the config";
+  if (!run->motion_hint.empty() && !o.quiet)
+    std::cerr << "calibd-calibrate: note: " << run->motion_hint << "\n";
+}
 
-  nlohmann::json report;
-  report["verdict"] = VerdictName(out.verdict);
-  report["reason"] = std::string(NameOf(out.reason));
-  report["detail"] = out.detail;
-  if (!lidar_hint.empty()) report["hint"] = lidar_hint;
-  if (!motion_hint.empty()) report["motion_compensation_hint"] = motion_hint;
-  report["method"] = method;
-  report["extract_planes"] = read_options.lidar.extract_planes;
-  report["solved"] = out.solved;  // false: T_camera_lidar is only the prior or grid candidate
-  report["camera_frame"] = config.camera_frame;
-  report["lidar_frame"] = config.lidar_frame;
-  report["software_version"] = std::string("calibd ") + CALIBD_VERSION;
-  report["T_camera_lidar"] = TransformJson(out.T_camera_lidar);
-  report["T_lidar_camera"] = TransformJson(out.T_camera_lidar.inverse());
-  report["prior_T_camera_lidar"] = TransformJson(out.prior_T_camera_lidar);
-  report["delta_vs_prior"] = {{"rotation_deg", out.delta_rotation_deg},
-                              {"translation_m", out.delta_translation_m}};
-  report["quality"] = QualityJson(q);
-  report["grid_search"] = {{"perturbation_rpy_deg",
-                            {out.grid.perturbation_rpy_deg.x(), out.grid.perturbation_rpy_deg.y(),
-                             out.grid.perturbation_rpy_deg.z()}},
-                           {"best_count", out.grid.best_count},
-                           {"prior_count", out.grid.prior_count},
-                           {"total_points", out.grid.total_points},
-                           {"candidates", out.grid.candidates}};
-  report["motion_compensation"] = {{"compensated_boards", out.motion.compensated},
-                                   {"uncompensated_boards", out.motion.uncompensated},
-                                   {"dropped_unmeasured_boards", out.motion.dropped},
-                                   {"median_shift_m", out.motion.median_shift_m},
-                                   {"window_s", out.motion.window_s},
-                                   {"frame_interval_s", out.motion.frame_interval_s},
-                                   {"max_shift_m", out.motion.max_shift_m}};
-  report["lidar_model"] = {
-      {"name", lidar_model.name},
-      {"azimuth_resolution_deg", lidar_model.azimuth_resolution_deg},
-      {"elevation_resolution_deg", lidar_model.elevation_resolution_deg},
-      {"azimuth_fov_deg", {lidar_model.azimuth_min_deg, lidar_model.azimuth_max_deg}},
-      {"elevation_fov_deg", {lidar_model.elevation_min_deg, lidar_model.elevation_max_deg}},
-      {"pattern", lidar_model.non_repetitive ? "irregular" : "lines"}};
-  if (lidar_model.non_repetitive)
-    report["lidar_model"]["points_per_frame"] = lidar_model.pattern_points_per_frame;
-  if (lidar_model.kind == LidarKind::kGeneric)
-    report["lidar_model"]["estimated_from"] = {{"frames", lidar_estimate.frames_used},
-                                               {"points", lidar_estimate.points_used},
-                                               {"ok", lidar_estimate.ok},
-                                               {"error", lidar_estimate.error},
-                                               {"warning", lidar_estimate.warning}};
-  // LiDAR clusters the engine set aside: standing still while the boards moved (furniture), or
-  // paired with a camera board they did not lie on at the solution.
-  report["lidar_clusters_dropped"] = {{"static_scenery", out.static_scenery_clusters},
-                                      {"not_on_their_board", out.dropped_correspondences}};
-  report["board_pose_refinement"] = {{"refined_boards", out.refined_boards},
-                                     {"mean_rotation_change_deg", out.board_rotation_change_deg},
-                                     {"mean_translation_change_m", out.board_translation_change_m}};
-  report["frames"] = {{"camera", stats.camera_frames},
-                      {"lidar", stats.lidar_frames},
-                      {"pairs", stats.pairs},
-                      {"pairs_out_of_order", out.frames_out_of_order},
-                      {"pairs_repeated", out.duplicate_frames},
-                      {"unpaired_camera", stats.unpaired_camera},
-                      {"unpaired_lidar", stats.unpaired_lidar},
-                      {"bad_messages", stats.bad_messages},
-                      {"first_bad_message", stats.first_bad_message},
-                      {"nan_points_dropped", stats.nan_points_dropped},
-                      {"unmatched_clouds", stats.unmatched_clouds},
-                      {"padded_clouds", stats.padded_clouds},
-                      {"unmatched_images", stats.unmatched_images},
-                      {"over_capacity", stats.frames_over_capacity},
-                      {"camera_boards", session.camera.size()},
-                      {"lidar_boards", session.lidar.size()},
-                      {"correspondences", corr.observations.size()}};
-  report["timing_ms"] = {{"read_and_detect_total", read_s * 1000.0},
-                         {"camera_detection_total", Sum(stats.camera_ms)},
-                         {"camera_detection_median", Median(stats.camera_ms)},
-                         {"lidar_detection_total", Sum(stats.lidar_ms)},
-                         {"lidar_detection_median", Median(stats.lidar_ms)},
-                         {"grid_search", out.grid.search_ms},
-                         {"optimisation", out.optimise_ms},
-                         {"quality", out.quality_ms}};
-  double truth_rot = -1.0, truth_trans = -1.0;
-  if (!truth_path.empty()) {
-    std::string text;
-    if (!ReadWholeFile(truth_path, &text, &error)) {
-      std::cerr << "calibd-calibrate: " << error << "\n";
-      return 1;
-    }
-    try {
-      const auto truth = nlohmann::json::parse(text);
-      Pose T = Pose::Identity();
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c)
-          T.matrix()(r, c) = truth.at("T_camera_lidar").at(r).at(c).get<double>();
-      truth_rot = RotationAngle(out.T_camera_lidar.linear(), T.linear()) * kRad2Deg;
-      truth_trans = (out.T_camera_lidar.translation() - T.translation()).norm();
-      report["error_vs_truth"] = {{"rotation_deg", truth_rot}, {"translation_m", truth_trans}};
-    } catch (const std::exception& e) {
-      std::cerr << "calibd-calibrate: truth file '" << truth_path << "': " << e.what() << "\n";
-      return 1;
-    }
+// --truth: the simulator's truth JSON, for the error against it (evaluation only).
+bool CompareWithTruth(const std::string& truth_path, CalibrationRun* run, std::string* error) {
+  std::string text;
+  if (!ReadWholeFile(truth_path, &text, error)) return false;
+  try {
+    const auto truth = nlohmann::json::parse(text);
+    Pose T = Pose::Identity();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        T.matrix()(r, c) = truth.at("T_camera_lidar").at(r).at(c).get<double>();
+    const Pose& result = run->outcome.T_camera_lidar;
+    run->truth_rotation_deg = RotationAngle(result.linear(), T.linear()) * kRad2Deg;
+    run->truth_translation_m = (result.translation() - T.translation()).norm();
+    return true;
+  } catch (const std::exception& e) {
+    *error = "truth file '" + truth_path + "': " + e.what();
+    return false;
   }
-  if (!report_path.empty() && !WriteFileAtomic(report_path, report.dump(2) + "\n", &error)) {
-    std::cerr << "calibd-calibrate: " << error << "\n";
-    return 1;
-  }
-  // A rejected result is no calibration to hand on: other stacks would load it without a verdict.
-  if (!export_dir.empty() && out.verdict != CalibrationOutcome::Verdict::kRejected) {
-    CalibrationExport e;
-    e.T_camera_lidar = out.T_camera_lidar;
-    e.camera_frame = config.camera_frame;
-    e.lidar_frame = config.lidar_frame;
-    e.software_version = std::string("calibd ") + CALIBD_VERSION;
-    e.calibrated_unix_s = static_cast<int64_t>(std::time(nullptr));
-    if (!WriteCalibrationExports(export_dir, e, &error)) {
-      std::cerr << "calibd-calibrate: " << error << "\n";
-      return 1;
-    }
+}
+
+// --export: the result in other stacks' formats. A rejected result is no calibration to hand on:
+// other stacks would load it without a verdict.
+bool WriteExports(const std::string& dir, const CalibrationRun& run, const CalibConfig& config,
+                  std::string* error) {
+  if (run.outcome.verdict == CalibrationOutcome::Verdict::kRejected) return true;
+  CalibrationExport e;
+  e.T_camera_lidar = run.outcome.T_camera_lidar;
+  e.camera_frame = config.camera_frame;
+  e.lidar_frame = config.lidar_frame;
+  e.software_version = kSoftwareVersion;
+  e.calibrated_unix_s = static_cast<int64_t>(std::time(nullptr));
+  return WriteCalibrationExports(dir, e, error);
+}
+
+// --html: the page, with the pictures already drawn into `html.images`.
+bool WriteHtml(const Options& o, const CalibrationRun& run, const CalibConfig& config,
+               const EngineConfig& engine, tools::HtmlReportInput html, std::string* error) {
+  const auto t_html = SteadyClock::now();
+  html.outcome = run.outcome;
+  html.gates = engine.verdict;
+  html.camera_frame = config.camera_frame;
+  html.lidar_frame = config.lidar_frame;
+  html.board_names = tools::BoardNames(config.boards);
+  html.reprojection =
+      tools::ReprojectionPerCorrespondence(run.correspondences, run.reprojection_px);
+  html.truth_rotation_deg = run.truth_rotation_deg;
+  html.truth_translation_m = run.truth_translation_m;
+  tools::ReportProvenance& p = html.provenance;
+  p.software_version = kSoftwareVersion;
+  p.input_path = o.folder_path.empty() ? o.log_path : o.folder_path + " (folder)";
+  p.config_path = o.config_path;
+  std::string config_bytes;
+  if (ReadWholeFile(o.config_path, &config_bytes, error))
+    p.config_sha256 = tools::Sha256Hex(config_bytes);
+  p.method = run.method;
+  p.generated_unix_s = static_cast<int64_t>(std::time(nullptr));
+  const tools::LogReadStats& stats = run.stats;
+  p.camera_frames = stats.camera_frames;
+  p.lidar_frames = stats.lidar_frames;
+  p.pairs = stats.pairs;
+  p.unpaired_camera = stats.unpaired_camera;
+  p.unpaired_lidar = stats.unpaired_lidar;
+  p.bad_messages = stats.bad_messages;
+  p.camera_boards = static_cast<int>(run.session.camera.size());
+  p.lidar_boards = static_cast<int>(run.session.lidar.size());
+  if (!tools::WriteHtmlReport(o.html_path, html, error)) return false;
+  if (!o.quiet)
+    std::cerr << "calibd-calibrate: HTML report " << o.html_path << " in " << MsSince(t_html)
+              << " ms (pictures rendered before)\n";
+  return true;
+}
+
+// The console summary: verdict, result, change, hint, quality and time.
+void PrintSummary(const CalibrationRun& run) {
+  const CalibrationOutcome& out = run.outcome;
+  const QualityFigures& q = out.quality;
+  const tools::LogReadStats& stats = run.stats;
+  const Eigen::Vector3d xyz = out.T_camera_lidar.translation();
+  std::cout << std::fixed << std::setprecision(4) << "verdict: " << VerdictName(out.verdict)
+            << (out.reason == Reason::kNone ? "" : " (" + std::string(NameOf(out.reason)) + ")")
+            << ": " << out.detail << "\n"
+            << "T_camera_lidar xyz [m]: " << xyz.transpose() << "\n"
+            << "change vs prior: " << out.delta_rotation_deg << " deg, " << out.delta_translation_m
+            << " m\n";
+  if (!run.lidar_hint.empty()) std::cout << "hint: " << run.lidar_hint << "\n";
+  if (run.truth_rotation_deg >= 0.0)
+    std::cout << "error vs truth: " << run.truth_rotation_deg << " deg, " << run.truth_translation_m
+              << " m\n";
+  std::cout << std::setprecision(2) << "quality: reprojection " << q.reprojection_mean_px
+            << " px mean (p95 " << q.reprojection_p95_px << "), residual "
+            << q.residual_rms_m * 100.0 << " cm RMS, " << q.frames_used << " frames, "
+            << q.boards_used << " boards, " << q.min_distance_m << "-" << q.max_distance_m << " m\n"
+            << std::setprecision(1) << "time: detection " << run.read_s << " s for " << stats.pairs
+            << " pairs (camera median " << Median(stats.camera_ms) << " ms, LiDAR median "
+            << Median(stats.lidar_ms) << " ms), grid search " << out.grid.search_ms
+            << " ms, optimisation " << out.optimise_ms << " ms\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  if (const int code = ParseOptions(argc, argv, &o); code >= 0) return code;
+  if (o.inspect) {
+    o.inspect_options.folder = o.folder_path;
+    o.inspect_options.intrinsics_path = o.intrinsics_path;
+    return tools::RunInspect(o.inspect_options, std::cout, std::cerr);
   }
 
-  tools::HtmlReportInput html;  // --html: filled with the pictures here, the rest below
-  if ((!overlay_dir.empty() || !html_path.empty()) && !corr.observations.empty()) {
-    if (!overlay_dir.empty()) std::filesystem::create_directories(overlay_dir);
-    const std::vector<int> frames = OverlayFrames(corr);
-    std::vector<tools::FramePairData> kept;
-    SessionObservations unused;
-    tools::LogReadStats pass_stats;
-    tools::LogReadOptions pictures_only = read_options;
-    pictures_only.detect = false;  // the pairs were detected above; only their data is needed
-    if (!read_session(pictures_only, &unused, &pass_stats, {}, frames, &kept)) {
-      std::cerr << "calibd-calibrate: " << error << "\n";
-      return 1;
-    }
-    const CameraModel camera(config.camera);
-    for (const auto& f : kept) {
-      cv::Mat bgr;
-      const ImageView view{f.image.data, f.image.cols, f.image.rows,
-                           static_cast<int>(f.image.step[0])};
-      viz::DrawLidarOverlay(
-          view, PointCloudView{f.x.data(), f.y.data(), f.z.data(), nullptr, f.x.size(), nullptr},
-          out.T_camera_lidar, camera, 0.5, &bgr);
-      std::vector<Eigen::Vector2d> detected, fitted;
-      for (const auto& o : corr.observations) {
-        if (o.frame != f.pair_index) continue;
-        detected.insert(detected.end(), o.corners_px.begin(), o.corners_px.end());
-        std::array<Eigen::Vector2d, 4> px;
-        if (!FittedTagCornersPx(camera, config.boards, corr, o, out.T_camera_lidar, engine.direct,
-                                &px))
-          continue;
-        for (const auto& p : px)
-          if (p.allFinite()) fitted.push_back(p);
-      }
-      viz::DrawMarkers(detected, 0.5, cv::Scalar(0, 255, 0), &bgr);
-      viz::DrawMarkers(fitted, 0.5, cv::Scalar(0, 0, 255), &bgr);
-      if (!html_path.empty()) {
-        tools::ReportImage image;
-        image.caption = "frame pair " + std::to_string(f.pair_index) +
-                        ": LiDAR points through the result, detected tag corners in green, "
-                        "LiDAR-fitted corners in red";
-        cv::imencode(".png", bgr, image.png);
-        html.images.push_back(std::move(image));
-      }
-      if (overlay_dir.empty()) continue;
-      const std::string path = overlay_dir + "/pair_" + std::to_string(f.pair_index) + ".png";
-      if (!cv::imwrite(path, bgr)) {
-        std::cerr << "calibd-calibrate: cannot write '" << path << "'\n";
-        return 1;
-      }
-    }
-  }
+  // The config may hold the agent's sections: `engine:` is read as the agent reads it, `agent:`
+  // is the agent's own.
+  std::string error, config_text;
+  CalibConfig config;
+  EngineConfig engine;
+  if (!tools::LoadToolConfig(o.config_path, o.intrinsics_path, {"engine", "agent"}, &config,
+                             &config_text, &error))
+    return Fail(tools::kExitBadOption, error);
+  if (!ParseEngineConfigYaml(config_text, &engine, &error))
+    return Fail(tools::kExitBadOption, o.config_path + ": " + error);
 
-  if (!html_path.empty()) {
-    const auto t_html = std::chrono::steady_clock::now();
-    html.outcome = out;
-    html.gates = engine.verdict;
-    html.camera_frame = config.camera_frame;
-    html.lidar_frame = config.lidar_frame;
-    html.board_names = tools::BoardNames(config.boards);
-    html.reprojection = tools::ReprojectionPerCorrespondence(corr, reprojection_px);
-    html.truth_rotation_deg = truth_rot;
-    html.truth_translation_m = truth_trans;
-    tools::ReportProvenance& p = html.provenance;
-    p.software_version = std::string("calibd ") + CALIBD_VERSION;
-    p.input_path = folder_path.empty() ? log_path : folder_path + " (folder)";
-    p.config_path = config_path;
-    std::string config_bytes;
-    if (ReadWholeFile(config_path, &config_bytes, &error))
-      p.config_sha256 = tools::Sha256Hex(config_bytes);
-    p.method = method;
-    p.generated_unix_s = static_cast<int64_t>(std::time(nullptr));
-    p.camera_frames = stats.camera_frames;
-    p.lidar_frames = stats.lidar_frames;
-    p.pairs = stats.pairs;
-    p.unpaired_camera = stats.unpaired_camera;
-    p.unpaired_lidar = stats.unpaired_lidar;
-    p.bad_messages = stats.bad_messages;
-    p.camera_boards = static_cast<int>(session.camera.size());
-    p.lidar_boards = static_cast<int>(session.lidar.size());
-    if (!tools::WriteHtmlReport(html_path, html, &error)) {
-      std::cerr << "calibd-calibrate: " << error << "\n";
-      return 1;
-    }
-    if (!quiet)
-      std::cerr << "calibd-calibrate: HTML report " << html_path << " in " << MsSince(t_html)
-                << " ms (pictures rendered before)\n";
-  }
+  CalibrationRun run;
+  if (const int code = ReadSession(o, config, &run); code >= 0) return code;
+  Solve(o, config, &engine, &run);
+  if (!o.truth_path.empty() && !CompareWithTruth(o.truth_path, &run, &error))
+    return Fail(kExitFailed, error);
 
-  if (!quiet) {
-    const Eigen::Vector3d xyz = out.T_camera_lidar.translation();
-    std::cout << std::fixed << std::setprecision(4) << "verdict: " << VerdictName(out.verdict)
-              << (out.reason == Reason::kNone ? "" : " (" + std::string(NameOf(out.reason)) + ")")
-              << ": " << out.detail << "\n"
-              << "T_camera_lidar xyz [m]: " << xyz.transpose() << "\n"
-              << "change vs prior: " << out.delta_rotation_deg << " deg, "
-              << out.delta_translation_m << " m\n";
-    if (!lidar_hint.empty()) std::cout << "hint: " << lidar_hint << "\n";
-    if (truth_rot >= 0.0)
-      std::cout << "error vs truth: " << truth_rot << " deg, " << truth_trans << " m\n";
-    std::cout << std::setprecision(2) << "quality: reprojection " << q.reprojection_mean_px
-              << " px mean (p95 " << q.reprojection_p95_px << "), residual "
-              << q.residual_rms_m * 100.0 << " cm RMS, " << q.frames_used << " frames, "
-              << q.boards_used << " boards, " << q.min_distance_m << "-" << q.max_distance_m
-              << " m\n"
-              << std::setprecision(1) << "time: detection " << read_s << " s for " << stats.pairs
-              << " pairs (camera median " << Median(stats.camera_ms) << " ms, LiDAR median "
-              << Median(stats.lidar_ms) << " ms), grid search " << out.grid.search_ms
-              << " ms, optimisation " << out.optimise_ms << " ms\n";
+  if (!o.report_path.empty() &&
+      !WriteFileAtomic(o.report_path,
+                       tools::ReportJson(run, config, kSoftwareVersion).dump(2) + "\n", &error))
+    return Fail(kExitFailed, error);
+  if (!o.export_dir.empty() && !WriteExports(o.export_dir, run, config, &error))
+    return Fail(kExitFailed, error);
+  tools::HtmlReportInput html;
+  if (!o.overlay_dir.empty() || !o.html_path.empty()) {
+    // The pictures' pairs read again: only their data (they were detected above).
+    tools::LogReadOptions pictures_only = o.read;
+    pictures_only.lidar_model = run.lidar_model;
+    pictures_only.detect = false;
+    auto read_pairs = [&](const std::vector<int>& pairs, std::vector<tools::FramePairData>* kept,
+                          std::string* read_error) {
+      SessionObservations unused;
+      tools::LogReadStats unused_stats;
+      return ReadPairs(o, config, pictures_only, &unused, &unused_stats, read_error, {}, pairs,
+                       kept);
+    };
+    if (!tools::DrawResultPictures(run, config, engine, read_pairs, o.overlay_dir,
+                                   o.html_path.empty() ? nullptr : &html.images, &error))
+      return Fail(kExitFailed, error);
   }
-  return out.verdict == CalibrationOutcome::Verdict::kRejected ? 3 : 0;
+  if (!o.html_path.empty() && !WriteHtml(o, run, config, engine, std::move(html), &error))
+    return Fail(kExitFailed, error);
+  if (!o.quiet) PrintSummary(run);
+  return run.outcome.verdict == CalibrationOutcome::Verdict::kRejected ? kExitRejected
+                                                                       : kExitSolved;
 }

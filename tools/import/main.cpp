@@ -11,10 +11,11 @@
 #include "calibd/channels.hpp"
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/drivers/config_file.hpp"
-#include "calibd/drivers/intrinsics_file.hpp"
 #include "calibd/drivers/lcm_log.hpp"
 #include "calibd/drivers/recorded_folder.hpp"
 #include "calibd/lidar_frame_t.hpp"
+#include "command_line.hpp"
+#include "tool_config.hpp"
 
 namespace {
 
@@ -44,7 +45,8 @@ Options:
                        (organized clouds) are dropped and counted
   --config FILE        calibration config: the camera and LiDAR ids, the LiDAR model (its sweep
                        time) and the camera's image size (required)
-  --intrinsics FILE    camera intrinsics replacing the config's (OpenCV FileStorage YAML, ROS
+  --intrinsics FILE    camera intrinsics replacing the config's, whose camera section may then be
+                       left out or hold only id and frame_id (OpenCV FileStorage YAML, ROS
                        camera_info YAML or JSON with K and D; see calibd-calibrate --help)
   --out FILE           the LCM log to write (required; overwritten)
   --config-out FILE    also write the config with the --intrinsics in it, for the agent and
@@ -72,44 +74,41 @@ int Fail(int code, const std::string& message) {
 int main(int argc, char** argv) {
   std::string folder_path, config_path, intrinsics_path, out_path, config_out_path;
   bool quiet = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::string help = kHelp;
-      help.replace(help.find("%CSV%"), 5, kFramesCsvHelp);
-      std::cout << help;
+  tools::CommandLine line("calibd-import", argc, argv);
+  while (line.Next()) {
+    if (line.Is("--help") || line.Is("-h")) {
+      std::cout << tools::HelpWithFramesCsv(kHelp);
       return 0;
-    }
-    if (arg == "--quiet") {
+    } else if (line.Is("--quiet")) {
       quiet = true;
-      continue;
+    } else if (line.Is("--folder")) {
+      line.Value(&folder_path);
+    } else if (line.Is("--config")) {
+      line.Value(&config_path);
+    } else if (line.Is("--intrinsics")) {
+      line.Value(&intrinsics_path);
+    } else if (line.Is("--out")) {
+      line.Value(&out_path);
+    } else if (line.Is("--config-out")) {
+      line.Value(&config_out_path);
+    } else {
+      line.Unknown();
     }
-    if (i + 1 >= argc) return Fail(2, "option " + arg + " needs a value (see --help)");
-    const std::string value = argv[++i];
-    if (arg == "--folder")
-      folder_path = value;
-    else if (arg == "--config")
-      config_path = value;
-    else if (arg == "--intrinsics")
-      intrinsics_path = value;
-    else if (arg == "--out")
-      out_path = value;
-    else if (arg == "--config-out")
-      config_out_path = value;
-    else
-      return Fail(2, "unknown option '" + arg + "' (see --help)");
   }
-  if (folder_path.empty() || config_path.empty() || out_path.empty())
-    return Fail(2, "--folder, --config and --out are required (see --help)");
+  if (!line.failed() && (folder_path.empty() || config_path.empty() || out_path.empty()))
+    line.Error("--folder, --config and --out are required (see --help)");
+  if (line.failed()) return line.Fail(std::cerr);
 
-  std::string error;
+  // As calibd-calibrate reads it: --intrinsics replace the config's camera section, and the
+  // agent's sections are allowed (the same file serves all three).
+  std::string error, config_text;
   CalibConfig config;
-  if (!LoadConfigFile(config_path, &config, &error)) return Fail(2, error);
-  if (!intrinsics_path.empty() && !LoadIntrinsicsFile(intrinsics_path, &config.camera, &error))
-    return Fail(2, "--intrinsics: " + error);
-  if (!config.IsValid(&error)) return Fail(2, "config with --intrinsics: " + error);
+  if (!tools::LoadToolConfig(config_path, intrinsics_path, {"engine", "agent"}, &config,
+                             &config_text, &error))
+    return Fail(tools::kExitBadOption, error);
   LidarKind kind;
-  if (!LidarKindFromName(config.lidar_model, &kind, &error)) return Fail(2, error);
+  if (!LidarKindFromName(config.lidar_model, &kind, &error))
+    return Fail(tools::kExitBadOption, error);
   RecordedFolderOptions folder_options;
   folder_options.sweep_us =
       static_cast<int64_t>(std::llround(1e6 / MakeLidarModel(kind).frame_rate_hz));
