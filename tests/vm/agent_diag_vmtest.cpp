@@ -145,6 +145,15 @@ class Child {
     ::kill(pid_, SIGTERM);
     for (int waited = 0; waited < grace_ms && running(); waited += 20) SleepMs(20);
     if (running()) {
+      // Stuck: where each of its threads is, for the failure's report (gdb from the host's root
+      // filesystem, which the guest runs on), then killed.
+      std::printf("process %d did not stop on SIGTERM within %d ms; its threads:\n",
+                  static_cast<int>(pid_), grace_ms);
+      std::fflush(stdout);
+      const std::string gdb = "command -v gdb >/dev/null && timeout 120 gdb -p " +
+                              std::to_string(pid_) +
+                              " -batch -nx -ex 'thread apply all bt' 2>&1 | grep -E '^(Thread|#)'";
+      if (std::system(gdb.c_str()) != 0) std::printf("(no backtrace: gdb missing or failed)\n");
       ::kill(pid_, SIGKILL);
       int status = 0;
       ::waitpid(pid_, &status, 0);
