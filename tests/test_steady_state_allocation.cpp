@@ -88,6 +88,7 @@
 #include "calibd/agent/session_recorder.hpp"
 #include "calibd/channels.hpp"
 #include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
 #include "lcm_output.hpp"
 #include "session.hpp"
@@ -621,8 +622,7 @@ TEST_P(SteadyStateAllocationTest, PerFramePathAllocatesNothing) {
     Harness harness;
     ASSERT_EQ(handled, 2) << "frame " << k;
   }
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double seconds = SecondsSince(t0);
 
   // The whole drive went through: no pair dropped or refused, boards recorded, the store thinned.
   const IntakeCounters& c = path->intake().counters();

@@ -357,7 +357,7 @@ void Agent::WriteExports() {
   e.T_camera_lidar = current->T_camera_lidar;
   e.camera_frame = config_.calib.camera_frame;
   e.lidar_frame = config_.calib.lidar_frame;
-  e.software_version = config_.SoftwareVersion();
+  e.software_version = software_version_;
   e.calibrated_unix_s = current->created_unix_s;
   std::string error;
   if (!WriteCalibrationExports(config_.store.directory + "/export", e, &error))

@@ -13,6 +13,7 @@
 
 #include "calibd/core/grid_search.hpp"
 #include "calibd/core/stats.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "session_detector.hpp"
 
 namespace calibd::bench {
@@ -81,12 +82,9 @@ void ParallelTasks(int count, int threads, const std::function<void(int)>& task,
       const int n = ++done;
       if (progress && (n % every == 0 || n == count)) {
         std::lock_guard<std::mutex> lock(progress_mutex);
-        *progress
-            << label << ": " << n << "/" << count << " " << unit << ", "
-            << std::lround(
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
-            << " s\n"
-            << std::flush;
+        *progress << label << ": " << n << "/" << count << " " << unit << ", "
+                  << std::lround(SecondsSince(t0)) << " s\n"
+                  << std::flush;
       }
     }
   };
@@ -138,7 +136,7 @@ bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::
                               frame.camera_cpu_ms, frame.camera.full_frame_search});
     if (keep_going && !keep_going(drive->observations, frame.truth)) break;
   }
-  drive->detect_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  drive->detect_s = SecondsSince(t0);
   return true;
 }
 

@@ -10,6 +10,7 @@
 #include "calibd/core/lidar_model.hpp"
 #include "calibd/core/lidar_resolution.hpp"
 #include "calibd/core/session_observations.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 
@@ -300,9 +301,7 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
     if (progress)
       *progress << "calibd-bench recordings: " << s.name << " (" << s.what
                 << "): " << drive.observations.camera.size() << " camera boards of "
-                << drive.camera_boards_in_view << " in view, "
-                << std::lround(
-                       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
+                << drive.camera_boards_in_view << " in view, " << std::lround(SecondsSince(t0))
                 << " s; " << run.static_scenery_clusters
                 << " LiDAR clusters dropped as static scenery; "
                 << (model_note.empty() ? "" : model_note + "; ")

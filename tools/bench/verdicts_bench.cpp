@@ -17,6 +17,7 @@
 #include "calibd/core/geometry.hpp"
 #include "calibd/core/grid_search.hpp"
 #include "calibd/core/lidar_model.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "quality_json.hpp"
@@ -463,7 +464,7 @@ bool RunSession(const Session& s, SessionResult* out) {
     out->run.detail = "collection: " + machine.detail();
     out->run.frames = drive.observations.num_frames;
     out->detect_seconds = drive.detect_s;
-    out->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    out->seconds = SecondsSince(t0);
     return true;
   }
   out->collection_end = CollectionEndName(machine.collection_end());
@@ -472,7 +473,7 @@ bool RunSession(const Session& s, SessionResult* out) {
   engine.direct.threads = 1;
   out->detect_seconds = drive.detect_s;
   out->run = RunEngine(drive.config, drive.observations, projection, engine, drive.T_camera_lidar);
-  out->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out->seconds = SecondsSince(t0);
   return true;
 }
 
@@ -606,8 +607,7 @@ bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ost
       << " sessions short of the agent's minimum (not judged); false rejects: " << all.false_rejects
       << " of " << clean << " clean sessions the agent would solve ("
       << Num(clean > 0 ? 100.0 * all.false_rejects / clean : 0.0, 1) << " %, target <= 5 %); "
-      << Num(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 60.0, 1)
-      << " min.\n";
+      << Num(SecondsSince(t0) / 60.0, 1) << " min.\n";
   doc["false_accepts"] = all.false_accepts;
   doc["false_rejects"] = all.false_rejects;
   doc["short_of_the_agents_minimum"] = all.collecting;

@@ -26,7 +26,7 @@ nlohmann::json ReportJson(const CalibrationRun& run, const CalibConfig& config,
   if (!run.lidar_hint.empty()) report["hint"] = run.lidar_hint;
   if (!run.motion_hint.empty()) report["motion_compensation_hint"] = run.motion_hint;
   report["method"] = run.method;
-  report["extract_planes"] = run.extract_planes;
+  report["extract_planes"] = run.read.lidar.extract_planes;
   report["solved"] = out.solved;  // false: T_camera_lidar is only the prior or grid candidate
   report["camera_frame"] = config.camera_frame;
   report["lidar_frame"] = config.lidar_frame;

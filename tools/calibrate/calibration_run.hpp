@@ -20,7 +20,7 @@ struct CalibrationRun {
   LogReadStats stats;                      ///< the reading's counters
   double read_s = 0.0;                     ///< reading and detection, wall time
   std::string method;                      ///< "direct" or "indirect", as solved
-  bool extract_planes = false;             ///< LiDAR plane extraction was on
+  LogReadOptions read;                     ///< how the pairs were read (the model above in it)
   CalibrationOutcome outcome;
   ObservationSet correspondences;       ///< of the final solve
   std::vector<double> reprojection_px;  ///< per correspondence

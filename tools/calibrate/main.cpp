@@ -246,14 +246,13 @@ int ReadSession(const Options& o, const CalibConfig& config, CalibrationRun* run
               << DescribeGenericLidar(run->lidar_model, &run->lidar_estimate) << "\n";
   if (!o.read.debug_dir.empty() && !CreateDirectories(o.read.debug_dir, &error))
     return Fail(tools::kExitBadOption, "--debug: " + error);
-  tools::LogReadOptions read = o.read;
-  read.lidar_model = run->lidar_model;
-  run->extract_planes = read.lidar.extract_planes;
+  run->read = o.read;
+  run->read.lidar_model = run->lidar_model;
   const auto t_start = SteadyClock::now();
   auto progress = [&](int pairs) {
     if (!o.quiet) std::cerr << "calibd-calibrate: " << pairs << " frame pairs detected\n";
   };
-  if (!ReadPairs(o, config, read, &run->session, &run->stats, &error, progress))
+  if (!ReadPairs(o, config, run->read, &run->session, &run->stats, &error, progress))
     return Fail(kExitFailed, error);
   const tools::LogReadStats& stats = run->stats;
   if (stats.debug_write_failures > 0)
@@ -264,7 +263,7 @@ int ReadSession(const Options& o, const CalibConfig& config, CalibrationRun* run
               << " binary PCD file(s) have bytes after their last point, ignored as PCL ignores "
                  "them (first: "
               << stats.first_padded_cloud << ")\n";
-  run->read_s = MsSince(t_start) * 1e-3;
+  run->read_s = SecondsSince(t_start);
   return -1;
 }
 
@@ -468,8 +467,7 @@ int main(int argc, char** argv) {
   tools::HtmlReportInput html;
   if (!o.overlay_dir.empty() || !o.html_path.empty()) {
     // The pictures' pairs read again: only their data (they were detected above).
-    tools::LogReadOptions pictures_only = o.read;
-    pictures_only.lidar_model = run.lidar_model;
+    tools::LogReadOptions pictures_only = run.read;
     pictures_only.detect = false;
     auto read_pairs = [&](const std::vector<int>& pairs, std::vector<tools::FramePairData>* kept,
                           std::string* read_error) {

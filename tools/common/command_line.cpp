@@ -1,7 +1,8 @@
 #include "command_line.hpp"
 
-#include <cmath>
 #include <cstdlib>
+
+#include "calibd/drivers/config_file.hpp"
 
 namespace calibd::tools {
 
@@ -51,15 +52,8 @@ bool CommandLine::Number(double lo, double hi, double* value) {
   char* end = nullptr;
   const double x = std::strtod(text.c_str(), &end);
   if (text.empty() || *end != '\0' || !(x >= lo && x <= hi)) {
-    // %g-like bounds: "[0, 1000]", not "[0.000000, 1000.000000]".
-    auto bound = [](double b) {
-      std::string s = std::to_string(b);
-      s.erase(s.find_last_not_of('0') + 1);
-      if (!s.empty() && s.back() == '.') s.pop_back();
-      return s;
-    };
-    error_ =
-        arg_ + " must be a number in [" + bound(lo) + ", " + bound(hi) + "] (got '" + text + "')";
+    error_ = arg_ + " must be a number in [" + ShortestDecimal(lo) + ", " + ShortestDecimal(hi) +
+             "] (got '" + text + "')";
     return false;
   }
   *value = x;

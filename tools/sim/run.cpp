@@ -10,6 +10,7 @@
 #include <ostream>
 
 #include "calibd/channels.hpp"
+#include "calibd/core/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "calibd/drivers/lcm_log.hpp"
@@ -162,8 +163,7 @@ bool RunSimulation(const SessionOptions& options, const SimOutputs& outputs, Sim
       }
     }
     if (progress && (k + 1) % 10 == 0) {
-      const double el =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const double el = SecondsSince(t0);
       *progress << "calibd-sim: frame " << (k + 1) << "/" << n << "  (" << std::fixed
                 << std::setprecision(1) << el << " s, eta " << el / (k + 1) * (n - k - 1) << " s)\n"
                 << std::flush;

@@ -143,7 +143,8 @@ class Agent : private uds::UdsBackend {
   /// Until the intake's LiDAR detector is ready: logs it once ready; false (the agent stops, as
   /// for a config it cannot run) when it could not be built.
   bool CheckDetectorStartup();
-  /// --once: the exit code once the first session is over, else -1.
+  /// --once: the exit code once the first session is over (publishing the final status and
+  /// health first), else -1.
   int OnceExitCode();
 
   AgentConfig config_;

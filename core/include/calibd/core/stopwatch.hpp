@@ -17,4 +17,9 @@ inline double MsBetween(SteadyClock::time_point a, SteadyClock::time_point b) {
 /// Milliseconds from `t0` to now.
 inline double MsSince(SteadyClock::time_point t0) { return MsBetween(t0, SteadyClock::now()); }
 
+/// Seconds from `t0` to now (whole runs: a drive's detection, a campaign's sessions).
+inline double SecondsSince(SteadyClock::time_point t0) {
+  return std::chrono::duration<double>(SteadyClock::now() - t0).count();
+}
+
 }  // namespace calibd
