@@ -78,7 +78,7 @@ fuzz: fuzz-build
 	  'bash tests/fuzz/run_fuzz.sh {} tests/fuzz/corpus/$$(basename {} | sed s/^fuzz_//) \
 	   $(FUZZ_DIR)/long/$$(basename {}) $(FUZZ_SECONDS) || true'
 
-# Regenerates docs/sim_frame.png (docs/offline-tools.md): the default workshop seen from 8 m, LiDAR points projected.
+# Regenerates docs/sim_frame.png (docs/simulator.md): the default workshop seen from 8 m, LiDAR points projected.
 docs-picture: build
 	@mkdir -p docs /tmp/calibd-docs
 	@$(BUILD)/tools/sim/calibd-sim --quiet --seed 1 --trajectory static --static-distance 8 --frames 1 \

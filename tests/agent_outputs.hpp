@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
 #include "calibd/drivers/agent_outputs.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 

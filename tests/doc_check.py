@@ -21,11 +21,11 @@
    - candump IFACE,ID:MASK: the id must be the status frame's in deploy/calibd.dbc.
    - a command reading a recorded `--folder DIR` that does not exist here: it must exit with 1
      naming DIR (its options, config and intrinsics were accepted; a bad one exits with 2).
-2. Checks that the operator guide's troubleshooting tables name every reason code and DTC the
-   sources define (read from the headers, so a new code without documentation fails), and that
-   the integration guide names every LCM channel, type and field, DID, routine, DBC signal,
-   LiDAR model and config key (deploy/config/calibd.yaml's and every key the config loader
-   accepts).
+2. Checks that the operator guide's troubleshooting tables (docs/troubleshooting.md) name every
+   reason code and DTC the sources define (read from the headers, so a new code without
+   documentation fails), and that the integration guide with its references (GUIDE_REFERENCES)
+   names every LCM channel, type and field, DID, routine, DBC signal, LiDAR model and config key
+   (deploy/config/calibd.yaml's and every key the config loader accepts).
 3. Checks every relative link and image of README.md and docs/*.md: the file exists, and a
    #anchor names a heading of the document it points to.
 
@@ -44,6 +44,12 @@ import tempfile
 import time
 
 GUIDES = ["docs/operator-guide.md", "docs/integration-guide.md"]
+# The reference documents split out of each guide: the coverage checks (2.) read them with it.
+GUIDE_REFERENCES = {
+    "docs/operator-guide.md": ["docs/troubleshooting.md"],
+    "docs/integration-guide.md": ["docs/lcm-interface.md", "docs/configuration.md",
+                                  "docs/can-diagnostics.md"],
+}
 # Paths the guides may name that must not be touched on the build machine: moved under the
 # temporary directory.
 MOVED_PREFIXES = ["/etc/calibd", "/var/lib/calibd", "/tmp/calibd-desk"]
@@ -376,11 +382,11 @@ def read(source, path):
 def reasons(source):
     """(code, name) of every reason of core reason.hpp's one table, e.g. (0x0B,
     'high_reprojection_error'), but `other`."""
-    header = read(source, "core/include/calibd/core/reason.hpp")
+    header = read(source, "core/include/calibd/core/verdict/reason.hpp")
     values = dict(re.findall(r"(k\w+) = 0x([0-9A-Fa-f]+)", header))
     pairs = re.findall(r'\{Reason::(k\w+), "([a-z_]+)"\}', header)
     if not pairs:
-        raise SystemExit("doc_check: no reason names found in core/include/calibd/core/reason.hpp")
+        raise SystemExit("doc_check: no reason names found in core/include/calibd/core/verdict/reason.hpp")
     return [(int(values[k], 16), name) for k, name in pairs if name != "other"]
 
 
@@ -435,11 +441,11 @@ def config_keys(source):
 
 def lidar_models(source):
     """The LiDAR model names the config accepts (the kLidarNames table LidarKindFromName reads)."""
-    text = read(source, "core/src/lidar_model.cpp")
+    text = read(source, "core/src/lidar/lidar_model.cpp")
     body = text.split("kLidarNames[] = {")[1].split("};")[0]
     names = re.findall(r'\{"([\w-]+)", LidarKind::', body)
     if not names:
-        raise SystemExit("doc_check: no LiDAR model names found in core/src/lidar_model.cpp")
+        raise SystemExit("doc_check: no LiDAR model names found in core/src/lidar/lidar_model.cpp")
     return names
 
 
@@ -574,7 +580,7 @@ def main():
     failures = []
     start = time.monotonic()
     try:
-        texts = {g: read(source, g) for g in GUIDES}
+        texts = {g: "\n".join(read(source, d) for d in [g] + GUIDE_REFERENCES[g]) for g in GUIDES}
         failures += check_coverage(source, texts[GUIDES[0]], texts[GUIDES[1]])
         failures += check_links(source)
     except (Failure, OSError, IndexError) as e:

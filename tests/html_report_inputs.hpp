@@ -7,7 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
 #include "html_report.hpp"
 
 namespace calibd::testing {

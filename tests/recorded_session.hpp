@@ -5,11 +5,11 @@
 #include <memory>
 #include <opencv2/core.hpp>
 
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/camera_detector.hpp"
-#include "calibd/core/lidar_detector.hpp"
-#include "calibd/core/range_image.hpp"
-#include "calibd/core/session_observations.hpp"
+#include "calibd/core/camera/camera_detector.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/lidar_detector.hpp"
+#include "calibd/core/lidar/range_image.hpp"
+#include "calibd/core/session/session_observations.hpp"
 #include "session.hpp"
 
 namespace calibd::testing {

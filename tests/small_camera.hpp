@@ -2,7 +2,7 @@
 // A quarter-size camera (960x480, same 60 deg field of view as the default 3840x1920) that keeps
 // simulator tests quick; the rendering path is the same as at full size.
 
-#include "calibd/core/camera_model.hpp"
+#include "calibd/core/camera/camera_model.hpp"
 
 namespace calibd::testing {
 

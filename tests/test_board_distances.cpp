@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "calibd/core/board_distances.hpp"
+#include "calibd/core/session/board_distances.hpp"
 
 namespace calibd {
 namespace {

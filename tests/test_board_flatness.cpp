@@ -1,6 +1,6 @@
 // Board bends measured from synthetic LiDAR points on flat and bent boards.
 
-#include "calibd/core/board_flatness.hpp"
+#include "calibd/core/verdict/board_flatness.hpp"
 
 #include <gtest/gtest.h>
 

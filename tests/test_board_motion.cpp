@@ -8,7 +8,7 @@
 #include <cmath>
 #include <vector>
 
-#include "calibd/core/board_motion.hpp"
+#include "calibd/core/session/board_motion.hpp"
 
 namespace calibd {
 namespace {

@@ -2,7 +2,7 @@
 // against the LiDAR's (board_swap_check.hpp): rows made up of board observations whose camera
 // distance is the LiDAR's times a ratio per board.
 
-#include "calibd/core/board_swap_check.hpp"
+#include "calibd/core/verdict/board_swap_check.hpp"
 
 #include <gtest/gtest.h>
 

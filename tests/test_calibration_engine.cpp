@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
 #include "recorded_session.hpp"
 #include "small_camera.hpp"
 

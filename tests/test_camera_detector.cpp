@@ -14,12 +14,12 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/board.hpp"
-#include "calibd/core/camera_detector.hpp"
-#include "calibd/core/camera_model.hpp"
-#include "calibd/core/camera_pnp.hpp"
-#include "calibd/core/geometry.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/camera/camera_detector.hpp"
+#include "calibd/core/camera/camera_model.hpp"
+#include "calibd/core/camera/camera_pnp.hpp"
+#include "calibd/core/common/board.hpp"
+#include "calibd/core/common/geometry.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 #include "session.hpp"
 
 namespace calibd {

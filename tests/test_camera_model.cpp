@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/camera_model.hpp"
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/camera/camera_model.hpp"
+#include "calibd/core/common/geometry.hpp"
 
 namespace calibd {
 namespace {

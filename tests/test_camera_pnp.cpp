@@ -11,10 +11,10 @@
 #include <opencv2/core.hpp>
 #include <random>
 
-#include "calibd/core/board.hpp"
-#include "calibd/core/camera_model.hpp"
-#include "calibd/core/camera_pnp.hpp"
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/camera/camera_model.hpp"
+#include "calibd/core/camera/camera_pnp.hpp"
+#include "calibd/core/common/board.hpp"
+#include "calibd/core/common/geometry.hpp"
 
 namespace calibd {
 namespace {

@@ -19,10 +19,10 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/board.hpp"
-#include "calibd/core/camera_model.hpp"
-#include "calibd/core/geometry.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/camera/camera_model.hpp"
+#include "calibd/core/common/board.hpp"
+#include "calibd/core/common/geometry.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 #include "camera_render.hpp"
 #include "scene.hpp"
 #include "tag_detector.hpp"

@@ -4,7 +4,7 @@
 
 #include <fstream>
 
-#include "calibd/core/lidar_resolution.hpp"
+#include "calibd/core/lidar/lidar_resolution.hpp"
 #include "temp_dir.hpp"
 
 namespace calibd {

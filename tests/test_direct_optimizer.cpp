@@ -10,14 +10,14 @@
 #include <cmath>
 #include <random>
 
-#include "calibd/core/board_box_joint_cost.hpp"
-#include "calibd/core/box_cost.hpp"
-#include "calibd/core/camera_pnp.hpp"
-#include "calibd/core/compressed_box_cost.hpp"
-#include "calibd/core/corner_reprojection_cost.hpp"
-#include "calibd/core/direct_optimizer.hpp"
-#include "calibd/core/indirect_optimizer.hpp"
-#include "calibd/core/pose_manifold.hpp"
+#include "calibd/core/camera/camera_pnp.hpp"
+#include "calibd/core/solve/board_box_joint_cost.hpp"
+#include "calibd/core/solve/box_cost.hpp"
+#include "calibd/core/solve/compressed_box_cost.hpp"
+#include "calibd/core/solve/corner_reprojection_cost.hpp"
+#include "calibd/core/solve/direct_optimizer.hpp"
+#include "calibd/core/solve/indirect_optimizer.hpp"
+#include "calibd/core/solve/pose_manifold.hpp"
 
 namespace calibd {
 namespace {

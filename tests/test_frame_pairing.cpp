@@ -1,7 +1,7 @@
 // FramePairer: the pairing window and its edges, displaced camera frames, sweeps without a camera
 // frame, out-of-order and duplicated times, and the counters.
 
-#include "calibd/core/frame_pairing.hpp"
+#include "calibd/core/session/frame_pairing.hpp"
 
 #include <gtest/gtest.h>
 

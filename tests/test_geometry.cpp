@@ -1,7 +1,7 @@
 // core/geometry.hpp: roll/pitch/yaw round trips, at the gimbal lock too (pitch = +-90 deg, where
 // a forward camera's T_camera_lidar sits).
 
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
 
 #include <gtest/gtest.h>
 

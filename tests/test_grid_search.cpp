@@ -9,11 +9,11 @@
 #include <random>
 #include <set>
 
-#include "calibd/core/camera_detector.hpp"
-#include "calibd/core/direct_optimizer.hpp"
-#include "calibd/core/grid_search.hpp"
-#include "calibd/core/lidar_detector.hpp"
-#include "calibd/core/session_observations.hpp"
+#include "calibd/core/camera/camera_detector.hpp"
+#include "calibd/core/lidar/lidar_detector.hpp"
+#include "calibd/core/session/session_observations.hpp"
+#include "calibd/core/solve/direct_optimizer.hpp"
+#include "calibd/core/solve/grid_search.hpp"
 #include "recorded_session.hpp"
 
 namespace calibd {

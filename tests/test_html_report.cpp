@@ -8,7 +8,7 @@
 #include <chrono>
 #include <string>
 
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "html_report.hpp"
 #include "html_report_inputs.hpp"

@@ -2,7 +2,7 @@
 // simulator's truth, candidates for the hard negatives, empty and broken inputs, bad configs and
 // fixed memory.
 
-#include "calibd/core/lidar_detector.hpp"
+#include "calibd/core/lidar/lidar_detector.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/board_references.hpp"
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
+#include "calibd/core/lidar/board_references.hpp"
 #include "lidar_sim.hpp"
 #include "scene.hpp"
 #include "session.hpp"

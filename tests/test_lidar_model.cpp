@@ -1,4 +1,4 @@
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 
 #include <gtest/gtest.h>
 

@@ -2,8 +2,8 @@
 // simulated OT128, M1 and Falcon sweeps of the default workshop, with the simulator's noise, must
 // give back the resolutions and fields of view of their built-in models; garbage gives an error.
 
-#include "calibd/core/lidar_resolution.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/lidar/lidar_resolution.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/range_image.hpp"
+#include "calibd/core/lidar/range_image.hpp"
 #include "session.hpp"
 #include "small_camera.hpp"
 

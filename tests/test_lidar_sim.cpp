@@ -6,7 +6,7 @@
 #include <cmath>
 #include <iostream>
 
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 
 namespace calibd::sim {
 namespace {

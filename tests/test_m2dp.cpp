@@ -1,7 +1,7 @@
 // M2DP (He et al. 2016) with PCA alignment (paper §III-C-2): the power iteration against Eigen's
 // SVD, invariance under rigid motions, and the Perron-Frobenius sign rule.
 
-#include "calibd/core/m2dp.hpp"
+#include "calibd/core/lidar/m2dp.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <random>
 #include <vector>
 
-#include "calibd/core/cluster_pca.hpp"
+#include "calibd/core/lidar/cluster_pca.hpp"
 
 namespace calibd {
 namespace {

@@ -3,14 +3,14 @@
 // noise; the shift is found within its sigma, a correct configuration shows none, and for tags all
 // facing the camera the sigma owns up to what the fit cannot tell.
 
-#include "calibd/core/principal_point_check.hpp"
+#include "calibd/core/verdict/principal_point_check.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
 
 namespace calibd {
 namespace {

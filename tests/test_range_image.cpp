@@ -1,8 +1,8 @@
 // RangeImage (paper §III-C-1): ring and ringless cells, nearest point kept and nearby ones
 // chained, invalid points.
 
-#include "calibd/core/geometry.hpp"
-#include "calibd/core/range_image.hpp"
+#include "calibd/core/common/geometry.hpp"
+#include "calibd/core/lidar/range_image.hpp"
 
 #include <gtest/gtest.h>
 

@@ -8,8 +8,8 @@
 #include <random>
 #include <vector>
 
-#include "calibd/core/board_distances.hpp"
-#include "calibd/core/range_offset.hpp"
+#include "calibd/core/session/board_distances.hpp"
+#include "calibd/core/verdict/range_offset.hpp"
 
 namespace calibd {
 namespace {

@@ -7,7 +7,7 @@
 #include <set>
 #include <sstream>
 
-#include "calibd/core/reason.hpp"
+#include "calibd/core/verdict/reason.hpp"
 
 namespace calibd {
 namespace {

@@ -1,14 +1,14 @@
 // A ring LiDAR's lasers against its table's elevations, from synthetic boards.
 
-#include "calibd/core/ring_elevations.hpp"
+#include "calibd/core/verdict/ring_elevations.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 
 namespace calibd {
 namespace {

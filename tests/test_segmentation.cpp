@@ -1,7 +1,7 @@
 // Ground removal and range-image segmentation (Bogoslavskyi & Stachniss 2016) on simulated
 // workshop sweeps: each board comes out as one cluster, apart from its stand and the wall.
 
-#include "calibd/core/segmentation.hpp"
+#include "calibd/core/lidar/segmentation.hpp"
 
 #include <gtest/gtest.h>
 

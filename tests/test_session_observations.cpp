@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "calibd/core/session_observations.hpp"
+#include "calibd/core/session/session_observations.hpp"
 
 namespace calibd {
 namespace {

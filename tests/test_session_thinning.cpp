@@ -2,7 +2,7 @@
 // it runs short of room, the kept frames spread over the whole session, each with its own
 // boards, clusters and points, in a store that never grows.
 
-#include "calibd/core/session_thinning.hpp"
+#include "calibd/core/session/session_thinning.hpp"
 
 #include <gtest/gtest.h>
 

@@ -9,7 +9,7 @@
 
 #include <string>
 
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 
 namespace calibd {
 namespace {

@@ -2,16 +2,16 @@
 // camera's boards move are dropped; boards that move, boards that stand still and everything of
 // a moving vehicle are kept.
 
-#include "calibd/core/static_scenery.hpp"
+#include "calibd/core/session/static_scenery.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
 #include <vector>
 
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/geometry.hpp"
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/common/geometry.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 
 namespace calibd {
 namespace {

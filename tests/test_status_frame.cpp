@@ -3,7 +3,7 @@
 // the layout against deploy/calibd.dbc as decoded by python3-canmatrix, a decoder we did not
 // write.
 
-#include "calibd/core/status_frame.hpp"
+#include "calibd/core/common/status_frame.hpp"
 
 #include <gtest/gtest.h>
 

@@ -23,8 +23,8 @@
 //                                              zarray_sort)
 //      liblcm, OpenCV, glib, calibd's code: none
 //    AprilTag allocates on every apriltag_detector_detect and frees it all before returning
-//    (libapriltag 3.3 has no workspace API; see core/src/camera_detector.cpp): the decimated and
-//    thresholded images, the union-find table, the cluster hash tables and quad lists (zarray,
+//    (libapriltag 3.3 has no workspace API; see core/src/camera/camera_detector.cpp): the decimated
+//    and thresholded images, the union-find table, the cluster hash tables and quad lists (zarray,
 //    grown by realloc), the results. LCM's memq:// allocates its queue entry on the publishing
 //    side (the harness: not counted); Handle only frees it. The counts do not depend on the LiDAR
 //    model (the LiDAR path calls no C library that allocates). Required: at most
@@ -87,8 +87,8 @@
 #include "calibd/agent/session_machine.hpp"
 #include "calibd/agent/session_recorder.hpp"
 #include "calibd/channels.hpp"
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
 #include "lcm_output.hpp"
 #include "session.hpp"

@@ -1,4 +1,4 @@
-#include "calibd/core/stream_gaps.hpp"
+#include "calibd/core/session/stream_gaps.hpp"
 
 #include <gtest/gtest.h>
 

@@ -5,7 +5,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "calibd/core/target_survey.hpp"
+#include "calibd/core/camera/target_survey.hpp"
 
 namespace calibd {
 namespace {

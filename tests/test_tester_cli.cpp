@@ -219,6 +219,9 @@ TEST(TesterArgs, ErrorsSayWhatIsWrong) {
             std::string::npos);
   EXPECT_NE(ParseError({"calibrate", "--max-duration", "ten"}).find("got 'ten'"),
             std::string::npos);
+  EXPECT_EQ(ParseError({"--p2-ms", "x", "dtc"}),
+            "--p2-ms must be an integer in [1, 600000] ms (got 'x')");
+  EXPECT_EQ(ParseError({"--p2-ms=5", "dtc"}), "unknown option '--p2-ms=5' (see --help)");
   EXPECT_EQ(ParseError({"dtc", "--static"}),
             "--static, --max-duration and --no-wait go with calibrate or verify");
   EXPECT_EQ(ParseError({"read", "--clear", "F190"}), "--clear goes with dtc");

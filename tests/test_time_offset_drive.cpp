@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 
 #include "calib_experiments.hpp"
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 #include "session.hpp"
 
 namespace calibd::bench {

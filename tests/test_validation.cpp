@@ -6,11 +6,11 @@
 #include <limits>
 #include <string>
 
-#include "calibd/core/board_motion.hpp"
-#include "calibd/core/camera_model.hpp"
-#include "calibd/core/direct_optimizer.hpp"
-#include "calibd/core/lidar_detector.hpp"
-#include "calibd/core/validation.hpp"
+#include "calibd/core/camera/camera_model.hpp"
+#include "calibd/core/common/validation.hpp"
+#include "calibd/core/lidar/lidar_detector.hpp"
+#include "calibd/core/session/board_motion.hpp"
+#include "calibd/core/solve/direct_optimizer.hpp"
 
 namespace calibd {
 namespace {

@@ -1,7 +1,7 @@
 // WakeEvent on a real eventfd: a signal from another thread wakes poll(2) at once, Clear()
 // consumes every signal so far, and nothing is readable before a signal.
 
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 #include "calibd/drivers/wake_event.hpp"
 
 #include <gtest/gtest.h>

@@ -15,8 +15,8 @@
 #include <iostream>
 
 #include "calibd/channels.hpp"
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
 #include "clock.hpp"

@@ -3,10 +3,10 @@
 #include <chrono>
 
 #include "calibd/agent/thread_nice.hpp"
-#include "calibd/core/lidar_model.hpp"
-#include "calibd/core/lidar_resolution.hpp"
-#include "calibd/core/stopwatch.hpp"
-#include "calibd/core/validation.hpp"
+#include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/common/validation.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_resolution.hpp"
 
 namespace calibd {
 

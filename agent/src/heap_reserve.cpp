@@ -10,7 +10,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 
 namespace calibd {
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "calibd/channels.hpp"
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
 #include "calibd/drivers/can_link.hpp"
 #include "clock.hpp"
 

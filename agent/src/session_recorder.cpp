@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
 
 namespace calibd {
 

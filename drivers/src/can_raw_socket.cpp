@@ -13,7 +13,7 @@
 #include <cstring>
 #include <ctime>
 
-#include "calibd/core/validation.hpp"
+#include "calibd/core/common/validation.hpp"
 
 namespace calibd {
 

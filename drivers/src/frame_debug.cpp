@@ -6,7 +6,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "calibd/core/segmentation.hpp"
+#include "calibd/core/lidar/segmentation.hpp"
 
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/png_writer.hpp"

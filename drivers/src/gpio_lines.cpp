@@ -11,7 +11,7 @@
 #include <limits>
 #include <utility>
 
-#include "calibd/core/validation.hpp"
+#include "calibd/core/common/validation.hpp"
 
 namespace calibd {
 

@@ -10,7 +10,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "calibd/core/validation.hpp"
+#include "calibd/core/common/validation.hpp"
 
 namespace calibd {
 namespace {

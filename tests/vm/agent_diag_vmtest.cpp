@@ -54,8 +54,8 @@
 
 #include "calibd/agent/uds/dtc_store.hpp"
 #include "calibd/agent/uds/security_access.hpp"
-#include "calibd/core/geometry.hpp"
-#include "calibd/core/status_frame.hpp"
+#include "calibd/core/common/geometry.hpp"
+#include "calibd/core/common/status_frame.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_store.hpp"
 #include "calibd/drivers/can_raw_socket.hpp"

@@ -11,7 +11,7 @@
 #include <cstring>
 #include <filesystem>
 
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "notify_socket.hpp"
 #include "private_network.hpp"

@@ -10,8 +10,8 @@
 #include "calib_experiments.hpp"
 #include "calib_json.hpp"
 #include "calib_tables.hpp"
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "session_detector.hpp"
 

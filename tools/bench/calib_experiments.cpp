@@ -11,9 +11,9 @@
 #include <random>
 #include <thread>
 
-#include "calibd/core/grid_search.hpp"
-#include "calibd/core/stats.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stats.hpp"
+#include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/solve/grid_search.hpp"
 #include "session_detector.hpp"
 
 namespace calibd::bench {

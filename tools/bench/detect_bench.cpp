@@ -5,9 +5,9 @@
 #include <nlohmann/json.hpp>
 #include <ostream>
 
-#include "calibd/core/camera_detector.hpp"
-#include "calibd/core/lidar_detector.hpp"
-#include "calibd/core/stats.hpp"
+#include "calibd/core/camera/camera_detector.hpp"
+#include "calibd/core/common/stats.hpp"
+#include "calibd/core/lidar/lidar_detector.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "session_detector.hpp"
 

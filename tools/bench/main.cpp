@@ -1,20 +1,10 @@
 // calibd-bench: evaluation and speed benchmarks that print tables (and JSON with --json).
 
-#include <cstdlib>
 #include <iostream>
-#include <sstream>
 #include <string>
 
-#include "agent_memory_bench.hpp"
-#include "calib_bench.hpp"
-#include "calibd/core/lidar_model.hpp"
-#include "detect_bench.hpp"
-#include "pipeline_bench.hpp"
-#include "recordings_bench.hpp"
-#include "resolution_bench.hpp"
-#include "soak_bench.hpp"
-#include "time_offset_bench.hpp"
-#include "verdicts_bench.hpp"
+#include "bench_command_line.hpp"
+#include "command_line.hpp"
 
 namespace {
 
@@ -190,261 +180,38 @@ time-offset the camera's time offset against the LiDAR, estimated by the engine 
 Exit codes: 0 done, 1 failed, 2 bad option.
 )";
 
-// Says which option or value was refused; the exit code for it.
-int BadOption(const std::string& option, const std::string& value) {
-  std::cerr << "calibd-bench: bad option or value '" << option << " " << value
-            << "' (see --help)\n";
-  return 2;
-}
-
-// A model the simulator has a scan pattern for.
-bool IsSimulatedLidar(const std::string& name) {
-  calibd::LidarKind kind;
-  return calibd::LidarKindFromName(name, &kind, nullptr) && kind != calibd::LidarKind::kGeneric;
-}
-
-bool ParseInt(const std::string& s, long long lo, long long hi, long long* v) {
-  char* end = nullptr;
-  const long long x = std::strtoll(s.c_str(), &end, 10);
-  if (s.empty() || *end != '\0' || x < lo || x > hi) return false;
-  *v = x;
-  return true;
-}
-
-bool ParseDouble(const std::string& s, double lo, double hi, double* v) {
-  char* end = nullptr;
-  const double x = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end != '\0' || !(x >= lo && x <= hi)) return false;
-  *v = x;
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
     std::cout << kHelp;
-    return argc < 2 ? 2 : 0;
+    return argc < 2 ? calibd::tools::kExitBadOption : 0;
   }
-  const std::string command = argv[1];
-  if (command == "resolution") return calibd::bench::RunResolutionBench(argc - 2, argv + 2);
-  const bool calib = command == "calib";
-  const bool memory = command == "agent-memory";
-  const bool pipeline = command == "pipeline";
-  const bool soak = command == "soak";
-  const bool recordings = command == "recordings";
-  const bool verdicts = command == "verdicts";
-  const bool time_offset = command == "time-offset";
-  if (command != "detect" && !calib && !memory && !pipeline && !soak && !recordings && !verdicts &&
-      !time_offset) {
-    std::cerr << "calibd-bench: unknown command '" << command << "' (see --help)\n";
-    return 2;
-  }
-  calibd::bench::DetectBenchOptions d;
-  calibd::bench::CalibBenchOptions c;
-  calibd::bench::AgentMemoryBenchOptions m;
-  m.agent_path = CALIBD_AGENT_EXE;
-  calibd::bench::PipelineBenchOptions p;
-  p.agent_path = CALIBD_AGENT_EXE;
-  calibd::bench::SoakBenchOptions k;
-  calibd::bench::RecordingsBenchOptions r;
-  calibd::bench::VerdictsBenchOptions v;
-  calibd::bench::TimeOffsetBenchOptions t;
-  k.agent_path = CALIBD_AGENT_EXE;
-  k.sim_path = CALIBD_SIM_EXE;
-  for (int i = 2; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kHelp;
-      return 0;
-    }
-    if (verdicts && arg == "--quick") {
-      v.quick = true;
-      continue;
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "calibd-bench: option " << arg << " needs a value (see --help)\n";
-      return 2;
-    }
-    const std::string value = argv[++i];
-    long long n = 0;
-    double x = 0;
-    if (verdicts) {
-      if (arg == "--sessions" && ParseInt(value, 1, 1000000, &n)) {
-        v.sessions = static_cast<int>(n);
-      } else if (arg == "--seed" && ParseInt(value, 0, 1LL << 53, &n)) {
-        v.seed = static_cast<unsigned long long>(n);
-      } else if (arg == "--threads" && ParseInt(value, 1, 64, &n)) {
-        v.threads = static_cast<int>(n);
-      } else if (arg == "--only") {
-        std::stringstream ss(value);
-        std::string item;
-        while (std::getline(ss, item, ',')) {
-          if (!ParseInt(item, 0, 1000000, &n)) return BadOption(arg, value);
-          v.only.push_back(static_cast<int>(n));
-        }
-      } else if (arg == "--json") {
-        v.json_path = value;
-      } else {
-        return BadOption(arg, value);
-      }
-      continue;
-    }
-    if (time_offset) {
-      if (arg == "--lidar") {
-        t.lidars.clear();
-        std::stringstream ss(value);
-        std::string item;
-        while (std::getline(ss, item, ',')) {
-          if (!IsSimulatedLidar(item)) return BadOption(arg, value);
-          t.lidars.push_back(item);
-        }
-      } else if (arg == "--seed" && ParseInt(value, 0, 1LL << 53, &n)) {
-        t.seed = static_cast<unsigned long long>(n);
-      } else if (arg == "--threads" && ParseInt(value, 1, 64, &n)) {
-        t.threads = static_cast<int>(n);
-      } else if (arg == "--json") {
-        t.json_path = value;
-      } else {
-        return BadOption(arg, value);
-      }
-      continue;
-    }
-    if (recordings) {
-      if (arg == "--scenario") {
-        std::stringstream ss(value);
-        std::string item;
-        while (std::getline(ss, item, ',')) r.scenarios.push_back(item);
-      } else if (arg == "--seed" && ParseInt(value, 0, 1LL << 53, &n)) {
-        r.seed = static_cast<unsigned long long>(n);
-      } else if (arg == "--trials" && ParseInt(value, 0, 100000, &n)) {
-        r.grid_trials = static_cast<int>(n);
-      } else if (arg == "--extract-planes" && (value == "on" || value == "off")) {
-        r.extract_planes = value == "on";
-      } else if (arg == "--json") {
-        r.json_path = value;
-      } else {
-        return BadOption(arg, value);
-      }
-      continue;
-    }
-    if (soak) {
-      if (arg == "--minutes" && ParseDouble(value, 0.01, 10000, &x)) {
-        k.minutes = x;
-      } else if (arg == "--drive") {
-        k.drive_log = value;
-      } else if (arg == "--calib-yaml") {
-        k.calib_yaml = value;
-      } else if (arg == "--agent") {
-        k.agent_path = value;
-      } else if (arg == "--sim") {
-        k.sim_path = value;
-      } else if (arg == "--interface") {
-        k.interface = value;
-      } else if (arg == "--lcm-url") {
-        k.lcm_url = value;
-      } else if (arg == "--speed" && ParseDouble(value, 0.01, 100, &x)) {
-        k.speed = x;
-      } else if (arg == "--min-frames" && ParseInt(value, 1, 100000, &n)) {
-        k.min_frames = static_cast<int>(n);
-      } else if (arg == "--min-distance-bins" && ParseInt(value, 0, 4, &n)) {
-        k.min_distance_bins = static_cast<int>(n);
-      } else if (arg == "--p2-ms" && ParseInt(value, 1, 60000, &n)) {
-        k.p2_ms = static_cast<int>(n);
-      } else if (arg == "--max-rss-growth-mb" && ParseDouble(value, 0, 100000, &x)) {
-        k.max_rss_growth_mb = x;
-      } else if (arg == "--work-dir") {
-        k.work_dir = value;
-      } else if (arg == "--json") {
-        k.json_path = value;
-      } else {
-        return BadOption(arg, value);
-      }
-      continue;
-    }
-    if (memory) {
-      if (arg == "--agent") {
-        m.agent_path = value;
-      } else if (arg == "--lidar" && IsSimulatedLidar(value)) {
-        m.lidar = value;
-      } else if (arg == "--frames" && ParseInt(value, 10, 100000, &n)) {
-        m.frames = static_cast<int>(n);
-      } else if (arg == "--seed" && ParseInt(value, 0, 1LL << 53, &n)) {
-        m.seed = static_cast<unsigned long long>(n);
-      } else if (arg == "--work-dir") {
-        m.work_dir = value;
-      } else if (arg == "--json") {
-        m.json_path = value;
-      } else if (arg == "--loops") {
-        m.loops.clear();
-        std::stringstream ss(value);
-        std::string item;
-        while (std::getline(ss, item, ',')) {
-          if (!ParseInt(item, 1, 1000, &n)) {
-            std::cerr << "calibd-bench: --loops takes integers in [1, 1000] (got '" << item
-                      << "')\n";
-            return 2;
-          }
-          m.loops.push_back(static_cast<int>(n));
-        }
-      } else {
-        return BadOption(arg, value);
-      }
-      continue;
-    }
-    if (pipeline && arg == "--agent") {
-      p.agent_path = value == "none" ? "" : value;
-      continue;
-    }
-    if (pipeline && arg == "--engine-runs" && ParseInt(value, 1, 1000, &n)) {
-      p.engine_runs = static_cast<int>(n);
-      continue;
-    }
-    if (pipeline && arg == "--work-dir") {
-      p.work_dir = value;
-      continue;
-    }
-    if (arg == "--lidar") {
-      d.lidars.clear();
-      std::stringstream ss(value);
-      std::string item;
-      while (std::getline(ss, item, ',')) {
-        if (!IsSimulatedLidar(item)) {
-          std::cerr << "calibd-bench: unknown LiDAR model '" << item
-                    << "' in --lidar (expected any of " << calibd::LidarModelNames()
-                    << " but generic)\n";
-          return 2;
-        }
-        d.lidars.push_back(item);
-      }
-      c.lidars = p.lidars = d.lidars;
-    } else if (arg == "--frames" && ParseInt(value, 1, 100000, &n)) {
-      d.frames = c.frames = p.frames = static_cast<int>(n);
-    } else if (arg == "--seed" && ParseInt(value, 0, 1LL << 53, &n)) {
-      d.seed = c.seed = p.seed = static_cast<unsigned long long>(n);
-    } else if (arg == "--json") {
-      d.json_path = c.json_path = p.json_path = value;
-    } else if (calib && arg == "--trajectories" && ParseInt(value, 1, 1000, &n)) {
-      c.trajectories = static_cast<int>(n);
-    } else if (calib && arg == "--trials" && ParseInt(value, 0, 100000, &n)) {
-      c.trials = static_cast<int>(n);
-    } else {
-      return BadOption(arg, value);
-    }
-  }
-  if (soak && (k.drive_log.empty() || k.calib_yaml.empty())) {
-    std::cerr << "calibd-bench: soak needs --drive LOG and --calib-yaml FILE (see --help)\n";
-    return 2;
-  }
+  calibd::bench::BenchCommandLine b;
+  b.memory.agent_path = b.pipeline.agent_path = b.soak.agent_path = CALIBD_AGENT_EXE;
+  b.soak.sim_path = CALIBD_SIM_EXE;
   std::string error;
-  const bool ok = time_offset  ? calibd::bench::RunTimeOffsetBench(t, std::cout, &std::cerr, &error)
-                  : verdicts   ? calibd::bench::RunVerdictsBench(v, std::cout, &std::cerr, &error)
-                  : recordings ? calibd::bench::RunRecordingsBench(r, std::cout, &std::cerr, &error)
-                  : soak       ? calibd::bench::RunSoakBench(k, std::cout, &std::cerr, &error)
-                  : memory   ? calibd::bench::RunAgentMemoryBench(m, std::cout, &std::cerr, &error)
-                  : pipeline ? calibd::bench::RunPipelineBench(p, std::cout, &std::cerr, &error)
-                  : calib    ? calibd::bench::RunCalibBench(c, std::cout, &std::cerr, &error)
-                             : calibd::bench::RunDetectBench(d, std::cout, &std::cerr, &error);
+  if (!calibd::bench::ParseBenchCommandLine(argc, argv, &b, &error)) {
+    std::cerr << "calibd-bench: " << error << "\n";
+    return calibd::tools::kExitBadOption;
+  }
+  if (b.help) {
+    std::cout << kHelp;
+    return 0;
+  }
+  const std::string& c = b.command;
+  if (c == "resolution") return calibd::bench::RunResolutionBench(b.resolution);
+  std::ostream& out = std::cout;
+  std::ostream* progress = &std::cerr;
+  using namespace calibd::bench;
+  const bool ok = c == "time-offset"    ? RunTimeOffsetBench(b.time_offset, out, progress, &error)
+                  : c == "verdicts"     ? RunVerdictsBench(b.verdicts, out, progress, &error)
+                  : c == "recordings"   ? RunRecordingsBench(b.recordings, out, progress, &error)
+                  : c == "soak"         ? RunSoakBench(b.soak, out, progress, &error)
+                  : c == "agent-memory" ? RunAgentMemoryBench(b.memory, out, progress, &error)
+                  : c == "pipeline"     ? RunPipelineBench(b.pipeline, out, progress, &error)
+                  : c == "calib"        ? RunCalibBench(b.calib, out, progress, &error)
+                                        : RunDetectBench(b.detect, out, progress, &error);
   if (!ok) {
     std::cerr << "calibd-bench: " << error << "\n";
     return 1;

@@ -6,11 +6,11 @@
 #include <nlohmann/json.hpp>
 
 #include "calib_experiments.hpp"
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/lidar_model.hpp"
-#include "calibd/core/lidar_resolution.hpp"
-#include "calibd/core/session_observations.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_resolution.hpp"
+#include "calibd/core/session/session_observations.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/config.hpp"
+#include "calibd/core/session/config.hpp"
 
 namespace calibd::bench {
 

@@ -4,14 +4,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <ctime>
 #include <string>
 #include <vector>
 
-#include "calibd/core/lidar_model.hpp"
-#include "calibd/core/lidar_resolution.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_resolution.hpp"
 #include "session.hpp"
 
 namespace calibd::bench {
@@ -25,18 +24,8 @@ double ThreadCpuMs() {
 }
 }  // namespace
 
-int RunResolutionBench(int argc, char** argv) {
-  int repeat = 50;
-  for (int i = 0; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--repeat" && i + 1 < argc) {
-      repeat = std::atoi(argv[++i]);
-      if (repeat >= 1 && repeat <= 10000) continue;
-    }
-    std::fprintf(stderr, "calibd-bench resolution: bad option '%s' (--repeat N, 1-10000)\n",
-                 arg.c_str());
-    return 2;
-  }
+int RunResolutionBench(const ResolutionBenchOptions& options) {
+  const int repeat = options.repeat;
   std::printf("%-7s %8s %9s %9s %9s %9s %9s %9s %9s %9s %s\n", "lidar", "points", "az [deg]",
               "el [deg]", "model az", "model el", "h spread", "h frac", "median ms", "p95 ms",
               "pattern");

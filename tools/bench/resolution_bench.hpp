@@ -5,7 +5,11 @@
 
 namespace calibd::bench {
 
-/// Runs the benchmark with the options after the command (`--repeat N`); returns the exit code.
-int RunResolutionBench(int argc, char** argv);
+struct ResolutionBenchOptions {
+  int repeat = 50;  ///< timed runs per model (--repeat)
+};
+
+/// Runs the benchmark, the table on stdout; returns the exit code.
+int RunResolutionBench(const ResolutionBenchOptions& options);
 
 }  // namespace calibd::bench

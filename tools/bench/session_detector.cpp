@@ -4,7 +4,7 @@
 
 #include <chrono>
 
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 
 namespace calibd::bench {
 

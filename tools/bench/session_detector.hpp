@@ -8,8 +8,8 @@
 #include <optional>
 #include <string>
 
-#include "calibd/core/camera_detector.hpp"
-#include "calibd/core/lidar_detector.hpp"
+#include "calibd/core/camera/camera_detector.hpp"
+#include "calibd/core/lidar/lidar_detector.hpp"
 #include "session.hpp"
 
 namespace calibd::bench {

@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include "calib_experiments.hpp"
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "quality_json.hpp"

@@ -2,7 +2,7 @@
 
 #include <numeric>
 
-#include "calibd/core/stats.hpp"
+#include "calibd/core/common/stats.hpp"
 #include "calibd/drivers/calibration_export.hpp"
 #include "quality_json.hpp"
 

@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/lidar_model.hpp"
-#include "calibd/core/lidar_resolution.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_resolution.hpp"
 #include "log_session.hpp"
 
 namespace calibd::tools {

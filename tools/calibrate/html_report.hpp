@@ -18,7 +18,7 @@
 #include <string_view>
 #include <vector>
 
-#include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
 
 namespace calibd::tools {
 

@@ -8,9 +8,9 @@
 #include <sstream>
 
 #include "calibd/camera_frame_t.hpp"
-#include "calibd/core/lidar_model.hpp"
-#include "calibd/core/lidar_resolution.hpp"
-#include "calibd/core/target_survey.hpp"
+#include "calibd/core/camera/target_survey.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_resolution.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "calibd/drivers/intrinsics_file.hpp"

@@ -7,9 +7,9 @@
 
 #include <string>
 
-#include "calibd/core/config.hpp"
-#include "calibd/core/lidar_model.hpp"
-#include "calibd/core/lidar_resolution.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_resolution.hpp"
+#include "calibd/core/session/config.hpp"
 
 namespace calibd::tools {
 

@@ -7,9 +7,9 @@
 
 #include "calibd/camera_frame_t.hpp"
 #include "calibd/channels.hpp"
-#include "calibd/core/frame_pairing.hpp"
-#include "calibd/core/lidar_model.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
+#include "calibd/core/session/frame_pairing.hpp"
 #include "calibd/drivers/frame_debug.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
 #include "calibd/drivers/recorded_folder.hpp"

@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/camera_detector.hpp"
-#include "calibd/core/config.hpp"
-#include "calibd/core/lidar_detector.hpp"
-#include "calibd/core/session_observations.hpp"
+#include "calibd/core/camera/camera_detector.hpp"
+#include "calibd/core/lidar/lidar_detector.hpp"
+#include "calibd/core/session/config.hpp"
+#include "calibd/core/session/session_observations.hpp"
 
 namespace calibd::tools {
 

@@ -11,10 +11,10 @@
 #include <string>
 
 #include "calibd/agent/agent_config.hpp"
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/stats.hpp"
-#include "calibd/core/stopwatch.hpp"
-#include "calibd/core/text_format.hpp"
+#include "calibd/core/common/stats.hpp"
+#include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/common/text_format.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
 #include "calibration_run.hpp"

@@ -5,7 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
 
 namespace calibd {
 

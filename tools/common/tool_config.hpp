@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/config.hpp"
+#include "calibd/core/session/config.hpp"
 
 namespace calibd::tools {
 

@@ -9,7 +9,7 @@
 
 #include "calibd/camera_frame_t.hpp"
 #include "calibd/channels.hpp"
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "calibd/drivers/lcm_log.hpp"
 #include "calibd/drivers/recorded_folder.hpp"

@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
-#include "calibd/core/camera_model.hpp"
+#include "calibd/core/camera/camera_model.hpp"
 #include "scene.hpp"
 #include "tag_texture.hpp"
 

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 #include "scene.hpp"
 
 namespace calibd::sim {

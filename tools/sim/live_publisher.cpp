@@ -9,7 +9,7 @@
 
 #include "calibd/camera_frame_t.hpp"
 #include "calibd/channels.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
 #include "calibd/lidar_frame_t.hpp"
 #include "calibd/sensor_info_t.hpp"

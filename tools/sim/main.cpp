@@ -1,15 +1,12 @@
 // calibd-sim: simulates a workshop calibration session (camera + LiDAR frames of square AprilTag
 // boards) with a known extrinsic. See --help.
 
-#include <cmath>
-#include <cstdlib>
-#include <functional>
+#include <cstdint>
 #include <iostream>
-#include <map>
-#include <sstream>
 #include <string>
 #include <vector>
 
+#include "command_line.hpp"
 #include "live_publisher.hpp"
 #include "run.hpp"
 
@@ -124,268 +121,236 @@ Identity:
 Exit codes: 0 done, 1 failed while writing, 2 bad option.
 )";
 
-bool ParseNumbers(const std::string& text, std::vector<double>* out) {
-  out->clear();
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    char* end = nullptr;
-    const double v = std::strtod(item.c_str(), &end);
-    if (item.empty() || *end != '\0' || !std::isfinite(v)) return false;
-    out->push_back(v);
-  }
-  return !out->empty();
-}
-
-struct Parser {
-  std::map<std::string, std::function<bool(const std::string&)>> with_value;
-  std::map<std::string, std::function<void()>> flags;
+// What the command line asks for: a simulated session (`options`, `outputs`) or a replay (`live`).
+struct SimCommandLine {
+  SessionOptions options;
+  SimOutputs outputs;
+  calibd::sim::LivePublishOptions live;
+  bool quiet = false, help = false;
 };
+
+// The command line into `s` (the camera's principal point defaults to the image centre, --frames
+// sets the duration); false, with the error in `line`, on a bad option.
+bool ParseOptions(calibd::tools::CommandLine& line, SimCommandLine* s) {
+  SessionOptions& o = s->options;
+  SimOutputs& out = s->outputs;
+  calibd::sim::LivePublishOptions& live = s->live;
+  live.start_delay_s = 0.5;
+  bool cx_set = false, cy_set = false;
+  long frames = -1, n = 0;
+  std::vector<double> v;
+  line.AcceptInlineValues();  // --option=VALUE, as this tool always took
+  while (line.Next()) {
+    if (line.Is("--help") || line.Is("-h")) {
+      s->help = true;
+    } else if (line.Is("--quiet")) {
+      s->quiet = true;
+    } else if (line.Is("--no-frames-csv")) {
+      out.folder_without_times = true;
+    } else if (line.Is("--no-clutter")) {
+      o.workshop.clutter = false;
+    } else if (line.Is("--no-walls")) {
+      o.workshop.walls = false;
+    } else if (line.Is("--out")) {
+      line.Text(&out.log_path);
+    } else if (line.Is("--folder")) {
+      line.Text(&out.folder_path);
+    } else if (line.Is("--replay")) {
+      line.Text(&live.log_path);
+    } else if (line.Is("--publish-url")) {
+      line.Text(&live.url);
+    } else if (line.Is("--loops")) {
+      line.Integer(1, 1000000, &live.loops);
+    } else if (line.Is("--speed")) {
+      line.Number(0.01, 100, &live.speed);
+    } else if (line.Is("--start-delay")) {
+      line.Number(0, 60, &live.start_delay_s);
+    } else if (line.Is("--truth")) {
+      line.Text(&out.truth_path);
+    } else if (line.Is("--config-out")) {
+      line.Text(&out.config_path);
+    } else if (line.Is("--overlay-png")) {
+      line.Text(&out.overlay_path);
+    } else if (line.Is("--overlay-frame")) {
+      line.Integer(0, 1000000, &out.overlay_frame);
+    } else if (line.Is("--overlay-scale")) {
+      line.Number(0.05, 1.0, &out.overlay_scale);
+    } else if (line.Is("--seed")) {
+      if (line.Integer(0, 9000000000000000L, &n)) o.seed = static_cast<uint64_t>(n);
+    } else if (line.Is("--lidar")) {
+      line.Text(&o.lidar_model);
+    } else if (line.Is("--trajectory")) {
+      line.Text(&o.trajectory.mode);
+    } else if (line.Is("--distance")) {
+      if (line.Numbers({2, 2}, &v)) {
+        o.trajectory.min_distance_m = v[0];
+        o.trajectory.max_distance_m = v[1];
+      }
+    } else if (line.Is("--static-distance")) {
+      line.Number(1, 150, &o.trajectory.static_distance_m);
+    } else if (line.Is("--still-distance")) {
+      if (line.Numbers({2, 2}, &v)) {
+        o.stills.min_distance_m = v[0];
+        o.stills.max_distance_m = v[1];
+      }
+    } else if (line.Is("--frames-per-pose")) {
+      line.Integer(1, 100, &o.stills.frames_per_pose);
+    } else if (line.Is("--occluded-share")) {
+      line.Number(0, 0.5, &o.stills.occluded_share);
+    } else if (line.Is("--board-speed")) {
+      line.Number(0, 3, &o.stills.board_speed_mps);
+    } else if (line.Is("--duration")) {
+      line.Number(0.1, 3600, &o.trajectory.duration_s);
+    } else if (line.Is("--rate")) {
+      line.Number(0.1, 50, &o.trajectory.rate_hz);
+    } else if (line.Is("--frames")) {
+      line.Integer(1, 100000, &frames);
+    } else if (line.Is("--boards")) {
+      line.Integer(1, 12, &o.workshop.num_boards);
+    } else if (line.Is("--board-size")) {
+      if (line.Numbers({1, 2}, &v)) {
+        o.workshop.board_width_m = v[0];
+        o.workshop.board_height_m = v.back();
+      }
+    } else if (line.Is("--tag-size")) {
+      line.Number(0.01, 5, &o.workshop.tag_size_m);
+    } else if (line.Is("--tag-family")) {
+      line.Text(&o.workshop.tag_family);
+    } else if (line.Is("--tag-ids")) {
+      if (line.Numbers({1, 12}, &v)) o.workshop.tag_ids.assign(v.begin(), v.end());
+    } else if (line.Is("--board-scales")) {
+      line.Numbers({1, 12}, &o.workshop.board_scales);
+    } else if (line.Is("--board-bows")) {
+      line.Numbers({1, 12}, &o.workshop.board_bows_m);
+    } else if (line.Is("--checkerboard")) {
+      if (line.Numbers({4, 4}, &v)) {
+        o.workshop.checkerboard_board = static_cast<int>(v[0]);
+        o.workshop.checker_inner_rows = static_cast<int>(v[1]);
+        o.workshop.checker_inner_cols = static_cast<int>(v[2]);
+        o.workshop.checker_square_m = v[3];
+      }
+    } else if (line.Is("--layout")) {
+      line.Text(&o.workshop.layout);
+    } else if (line.Is("--board-spacing")) {
+      line.Number(0.1, 20, &o.workshop.board_spacing_m);
+    } else if (line.Is("--range-noise")) {
+      line.Number(0, 0.5, &o.lidar_noise.range_sigma_m);
+    } else if (line.Is("--angular-jitter")) {
+      line.Number(0, 1, &o.lidar_noise.angular_jitter_deg);
+    } else if (line.Is("--dropout")) {
+      line.Number(0, 0.99, &o.lidar_noise.dropout_probability);
+    } else if (line.Is("--beam-divergence")) {
+      line.Number(0, 20, &o.lidar_noise.beam_divergence_mrad);
+    } else if (line.Is("--range-bias")) {
+      line.Number(-1, 1, &o.lidar_noise.range_bias_m);
+    } else if (line.Is("--camera-delay-us")) {
+      if (line.Integer(-1000000, 1000000, &n)) o.camera_delay_us = n;
+    } else if (line.Is("--camera-readout-us")) {
+      if (line.Integer(0, 200000, &n)) o.camera_readout_us = n;
+    } else if (line.Is("--width")) {
+      line.Integer(16, 16384, &o.camera.width);
+    } else if (line.Is("--height")) {
+      line.Integer(16, 16384, &o.camera.height);
+    } else if (line.Is("--fx")) {
+      line.Number(1, 1e5, &o.camera.fx);
+    } else if (line.Is("--fy")) {
+      line.Number(1, 1e5, &o.camera.fy);
+    } else if (line.Is("--cx")) {
+      cx_set = line.Number(0, 16384, &o.camera.cx);
+    } else if (line.Is("--cy")) {
+      cy_set = line.Number(0, 16384, &o.camera.cy);
+    } else if (line.Is("--distortion")) {
+      if (line.Numbers({5, 5}, &v)) {
+        o.camera.k1 = v[0];
+        o.camera.k2 = v[1];
+        o.camera.p1 = v[2];
+        o.camera.p2 = v[3];
+        o.camera.k3 = v[4];
+      }
+    } else if (line.Is("--blur")) {
+      line.Number(0, 10, &o.imaging.blur_sigma_px);
+    } else if (line.Is("--image-noise")) {
+      line.Number(0, 50, &o.imaging.noise_sigma);
+    } else if (line.Is("--exposure")) {
+      if (line.Numbers({2, 2}, &v)) {
+        o.imaging.exposure_min = v[0];
+        o.imaging.exposure_max = v[1];
+      }
+    } else if (line.Is("--image-encoding")) {
+      line.Text(&o.image_encoding);
+    } else if (line.Is("--jpeg-quality")) {
+      line.Integer(1, 100, &o.jpeg_quality);
+    } else if (line.Is("--lidar-mount")) {
+      if (line.Numbers({6, 6}, &v))
+        for (int i = 0; i < 6; ++i) o.lidar_mount[i] = v[static_cast<size_t>(i)];
+    } else if (line.Is("--camera-mount")) {
+      if (line.Numbers({6, 6}, &v))
+        for (int i = 0; i < 6; ++i) o.camera_mount[i] = v[static_cast<size_t>(i)];
+    } else if (line.Is("--prior-rot-deg")) {
+      line.Number(-10, 10, &o.prior_rot_deg);
+    } else if (line.Is("--prior-rot-axis")) {
+      if (line.Numbers({3, 3}, &v)) o.prior_rot_axis = {v[0], v[1], v[2]};
+    } else if (line.Is("--prior-trans-m")) {
+      line.Number(-0.5, 0.5, &o.prior_trans_m);
+    } else if (line.Is("--camera-id")) {
+      line.Text(&o.camera_id);
+    } else if (line.Is("--lidar-id")) {
+      line.Text(&o.lidar_id);
+    } else if (line.Is("--camera-serial")) {
+      line.Text(&o.camera_serial);
+    } else if (line.Is("--lidar-serial")) {
+      line.Text(&o.lidar_serial);
+    } else {
+      line.Unknown();
+    }
+  }
+  if (!cx_set) o.camera.cx = (o.camera.width - 1) / 2.0;
+  if (!cy_set) o.camera.cy = (o.camera.height - 1) / 2.0;
+  if (frames > 0) o.trajectory.duration_s = static_cast<double>(frames) / o.trajectory.rate_hz;
+  return !line.failed();
+}
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  SessionOptions o;
-  SimOutputs out;
-  bool quiet = false, help = false, cx_set = false, cy_set = false;
-  int frames = -1;
-  calibd::sim::LivePublishOptions live;
-  live.start_delay_s = 0.5;
-  std::string bad;  // what was wrong with the current value
-
-  auto number = [&](double* dst, double lo, double hi) {
-    return [=, &bad](const std::string& v) {
-      std::vector<double> n;
-      if (!ParseNumbers(v, &n) || n.size() != 1 || n[0] < lo || n[0] > hi) {
-        std::ostringstream m;
-        m << "expected a number in [" << lo << ", " << hi << "]";
-        bad = m.str();
-        return false;
-      }
-      *dst = n[0];
-      return true;
-    };
-  };
-  auto integer = [&](auto* dst, double lo, double hi) {
-    return [=, &bad](const std::string& v) {
-      std::vector<double> n;
-      if (!ParseNumbers(v, &n) || n.size() != 1 || n[0] != std::floor(n[0]) || n[0] < lo ||
-          n[0] > hi) {
-        std::ostringstream m;
-        m << "expected an integer in [" << lo << ", " << hi << "]";
-        bad = m.str();
-        return false;
-      }
-      *dst = static_cast<std::remove_pointer_t<decltype(dst)>>(n[0]);
-      return true;
-    };
-  };
-  auto list = [&](size_t min_n, size_t max_n, std::function<void(const std::vector<double>&)> set) {
-    return [=, &bad](const std::string& v) {
-      std::vector<double> n;
-      if (!ParseNumbers(v, &n) || n.size() < min_n || n.size() > max_n) {
-        bad = min_n == max_n ? "expected " + std::to_string(min_n) + " comma-separated numbers"
-                             : "expected " + std::to_string(min_n) + " to " +
-                                   std::to_string(max_n) + " comma-separated numbers";
-        return false;
-      }
-      set(n);
-      return true;
-    };
-  };
-  auto text = [&](std::string* dst) {
-    return [=, &bad](const std::string& v) {
-      if (v.empty()) {
-        bad = "expected a non-empty value";
-        return false;
-      }
-      *dst = v;
-      return true;
-    };
-  };
-
-  Parser p;
-  p.with_value = {
-      {"--out", text(&out.log_path)},
-      {"--folder", text(&out.folder_path)},
-      {"--replay", text(&live.log_path)},
-      {"--publish-url", text(&live.url)},
-      {"--loops", integer(&live.loops, 1, 1e6)},
-      {"--speed", number(&live.speed, 0.01, 100)},
-      {"--start-delay", number(&live.start_delay_s, 0, 60)},
-      {"--truth", text(&out.truth_path)},
-      {"--config-out", text(&out.config_path)},
-      {"--overlay-png", text(&out.overlay_path)},
-      {"--overlay-frame", integer(&out.overlay_frame, 0, 1e6)},
-      {"--overlay-scale", number(&out.overlay_scale, 0.05, 1.0)},
-      {"--seed", integer(&o.seed, 0, 9.0e15)},
-      {"--lidar", text(&o.lidar_model)},
-      {"--trajectory", text(&o.trajectory.mode)},
-      {"--distance", list(2, 2,
-                          [&](auto& n) {
-                            o.trajectory.min_distance_m = n[0];
-                            o.trajectory.max_distance_m = n[1];
-                          })},
-      {"--static-distance", number(&o.trajectory.static_distance_m, 1, 150)},
-      {"--still-distance", list(2, 2,
-                                [&](auto& n) {
-                                  o.stills.min_distance_m = n[0];
-                                  o.stills.max_distance_m = n[1];
-                                })},
-      {"--frames-per-pose", integer(&o.stills.frames_per_pose, 1, 100)},
-      {"--occluded-share", number(&o.stills.occluded_share, 0, 0.5)},
-      {"--board-speed", number(&o.stills.board_speed_mps, 0, 3)},
-      {"--duration", number(&o.trajectory.duration_s, 0.1, 3600)},
-      {"--rate", number(&o.trajectory.rate_hz, 0.1, 50)},
-      {"--frames", integer(&frames, 1, 100000)},
-      {"--boards", integer(&o.workshop.num_boards, 1, 12)},
-      {"--board-size", list(1, 2,
-                            [&](auto& n) {
-                              o.workshop.board_width_m = n[0];
-                              o.workshop.board_height_m = n.size() > 1 ? n[1] : n[0];
-                            })},
-      {"--tag-size", number(&o.workshop.tag_size_m, 0.01, 5)},
-      {"--tag-family", text(&o.workshop.tag_family)},
-      {"--tag-ids", list(1, 12, [&](auto& n) { o.workshop.tag_ids.assign(n.begin(), n.end()); })},
-      {"--board-scales",
-       list(1, 12, [&](auto& n) { o.workshop.board_scales.assign(n.begin(), n.end()); })},
-      {"--board-bows",
-       list(1, 12, [&](auto& n) { o.workshop.board_bows_m.assign(n.begin(), n.end()); })},
-      {"--checkerboard", list(4, 4,
-                              [&](auto& n) {
-                                o.workshop.checkerboard_board = static_cast<int>(n[0]);
-                                o.workshop.checker_inner_rows = static_cast<int>(n[1]);
-                                o.workshop.checker_inner_cols = static_cast<int>(n[2]);
-                                o.workshop.checker_square_m = n[3];
-                              })},
-      {"--layout", text(&o.workshop.layout)},
-      {"--board-spacing", number(&o.workshop.board_spacing_m, 0.1, 20)},
-      {"--range-noise", number(&o.lidar_noise.range_sigma_m, 0, 0.5)},
-      {"--angular-jitter", number(&o.lidar_noise.angular_jitter_deg, 0, 1)},
-      {"--dropout", number(&o.lidar_noise.dropout_probability, 0, 0.99)},
-      {"--beam-divergence", number(&o.lidar_noise.beam_divergence_mrad, 0, 20)},
-      {"--range-bias", number(&o.lidar_noise.range_bias_m, -1, 1)},
-      {"--camera-delay-us", integer(&o.camera_delay_us, -1e6, 1e6)},
-      {"--camera-readout-us", integer(&o.camera_readout_us, 0, 200000)},
-      {"--width", integer(&o.camera.width, 16, 16384)},
-      {"--height", integer(&o.camera.height, 16, 16384)},
-      {"--fx", number(&o.camera.fx, 1, 1e5)},
-      {"--fy", number(&o.camera.fy, 1, 1e5)},
-      {"--cx",
-       [&](const std::string& v) {
-         cx_set = true;
-         return number(&o.camera.cx, 0, 16384)(v);
-       }},
-      {"--cy",
-       [&](const std::string& v) {
-         cy_set = true;
-         return number(&o.camera.cy, 0, 16384)(v);
-       }},
-      {"--distortion", list(5, 5,
-                            [&](auto& n) {
-                              o.camera.k1 = n[0];
-                              o.camera.k2 = n[1];
-                              o.camera.p1 = n[2];
-                              o.camera.p2 = n[3];
-                              o.camera.k3 = n[4];
-                            })},
-      {"--blur", number(&o.imaging.blur_sigma_px, 0, 10)},
-      {"--image-noise", number(&o.imaging.noise_sigma, 0, 50)},
-      {"--exposure", list(2, 2,
-                          [&](auto& n) {
-                            o.imaging.exposure_min = n[0];
-                            o.imaging.exposure_max = n[1];
-                          })},
-      {"--image-encoding", text(&o.image_encoding)},
-      {"--jpeg-quality", integer(&o.jpeg_quality, 1, 100)},
-      {"--lidar-mount", list(6, 6,
-                             [&](auto& n) {
-                               for (int i = 0; i < 6; ++i) o.lidar_mount[i] = n[i];
-                             })},
-      {"--camera-mount", list(6, 6,
-                              [&](auto& n) {
-                                for (int i = 0; i < 6; ++i) o.camera_mount[i] = n[i];
-                              })},
-      {"--prior-rot-deg", number(&o.prior_rot_deg, -10, 10)},
-      {"--prior-rot-axis", list(3, 3,
-                                [&](auto& n) {
-                                  o.prior_rot_axis = {n[0], n[1], n[2]};
-                                })},
-      {"--prior-trans-m", number(&o.prior_trans_m, -0.5, 0.5)},
-      {"--camera-id", text(&o.camera_id)},
-      {"--lidar-id", text(&o.lidar_id)},
-      {"--camera-serial", text(&o.camera_serial)},
-      {"--lidar-serial", text(&o.lidar_serial)},
-  };
-  p.flags = {{"--quiet", [&] { quiet = true; }},
-             {"--no-frames-csv", [&] { out.folder_without_times = true; }},
-             {"--help", [&] { help = true; }},
-             {"-h", [&] { help = true; }},
-             {"--no-clutter", [&] { o.workshop.clutter = false; }},
-             {"--no-walls", [&] { o.workshop.walls = false; }}};
-
-  for (int i = 1; i < argc; ++i) {
-    std::string arg = argv[i], value;
-    bool has_inline = false;
-    if (const auto eq = arg.find('='); arg.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = arg.substr(eq + 1);
-      arg = arg.substr(0, eq);
-      has_inline = true;
-    }
-    if (auto f = p.flags.find(arg); f != p.flags.end() && !has_inline) {
-      f->second();
-      continue;
-    }
-    auto w = p.with_value.find(arg);
-    if (w == p.with_value.end()) {
-      std::cerr << "calibd-sim: unknown option '" << arg << "' (see --help)\n";
-      return 2;
-    }
-    if (!has_inline) {
-      if (i + 1 >= argc) {
-        std::cerr << "calibd-sim: option " << arg << " needs a value (see --help)\n";
-        return 2;
-      }
-      value = argv[++i];
-    }
-    if (!w->second(value)) {
-      std::cerr << "calibd-sim: bad value '" << value << "' for " << arg << ": " << bad << "\n";
-      return 2;
-    }
-  }
-  if (help) {
+  SimCommandLine s;
+  calibd::tools::CommandLine line("calibd-sim", argc, argv);
+  if (!ParseOptions(line, &s)) return line.Fail(std::cerr);
+  const SessionOptions& o = s.options;
+  const SimOutputs& out = s.outputs;
+  const calibd::sim::LivePublishOptions& live = s.live;
+  const bool quiet = s.quiet;
+  if (s.help) {
     std::cout << kHelp;
     return 0;
   }
   if (!live.log_path.empty() || !live.url.empty()) {
     if (live.log_path.empty() || live.url.empty()) {
       std::cerr << "calibd-sim: --replay and --publish-url go together (see --help)\n";
-      return 2;
+      return calibd::tools::kExitBadOption;
     }
-    calibd::sim::LivePublishSummary s;
+    calibd::sim::LivePublishSummary published;
     std::string error;
-    if (!calibd::sim::PublishLive(live, &s, quiet ? nullptr : &std::cerr, &error)) {
+    if (!calibd::sim::PublishLive(live, &published, quiet ? nullptr : &std::cerr, &error)) {
       std::cerr << "calibd-sim: " << error << "\n";
       return 1;
     }
     if (!quiet)
-      std::cout << "calibd-sim: published " << s.camera << " camera and " << s.lidar
-                << " LiDAR frames, " << s.other << " other events (" << s.bytes / 1000000
-                << " MB) in " << s.duration_s << " s; " << s.late
-                << " events more than a frame period late (max " << s.max_lateness_ms << " ms)\n";
+      std::cout << "calibd-sim: published " << published.camera << " camera and " << published.lidar
+                << " LiDAR frames, " << published.other << " other events ("
+                << published.bytes / 1000000 << " MB) in " << published.duration_s << " s; "
+                << published.late << " events more than a frame period late (max "
+                << published.max_lateness_ms << " ms)\n";
     return 0;
   }
-  if (!cx_set) o.camera.cx = (o.camera.width - 1) / 2.0;
-  if (!cy_set) o.camera.cy = (o.camera.height - 1) / 2.0;
-  if (frames > 0) o.trajectory.duration_s = frames / o.trajectory.rate_hz;
   if (out.log_path.empty() && out.folder_path.empty()) {
     std::cerr << "calibd-sim: --out FILE or --folder DIR is required (see --help)\n";
-    return 2;
+    return calibd::tools::kExitBadOption;
   }
   std::string error;
   if (!o.IsValid(&error)) {
     std::cerr << "calibd-sim: " << error << "\n";
-    return 2;
+    return calibd::tools::kExitBadOption;
   }
   calibd::sim::SimSummary summary;
   if (!calibd::sim::RunSimulation(o, out, &summary, quiet ? nullptr : &std::cerr, &error)) {

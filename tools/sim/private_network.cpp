@@ -7,7 +7,7 @@
 #include <cstring>
 #include <fstream>
 
-#include "calibd/core/validation.hpp"
+#include "calibd/core/common/validation.hpp"
 
 namespace calibd::sim {
 

@@ -10,7 +10,7 @@
 #include <ostream>
 
 #include "calibd/channels.hpp"
-#include "calibd/core/stopwatch.hpp"
+#include "calibd/core/common/stopwatch.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "calibd/drivers/lcm_log.hpp"

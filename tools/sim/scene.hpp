@@ -8,7 +8,7 @@
 #include <array>
 #include <vector>
 
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
 
 namespace calibd::sim {
 
@@ -30,7 +30,8 @@ struct Primitive {
   double bow_m = 0.0;
 };
 
-/// A board placed in the scene: its pose T_world_board (board frame of calibd/core/board.hpp).
+/// A board placed in the scene: its pose T_world_board (board frame of
+/// calibd/core/common/board.hpp).
 struct PlacedBoard {
   Pose T_world_board = Pose::Identity();
   int primitive_index = -1;  ///< the kBox primitive that is the board's slab

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <random>
 
-#include "calibd/core/validation.hpp"
+#include "calibd/core/common/validation.hpp"
 
 namespace calibd::sim {
 

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/camera_model.hpp"
-#include "calibd/core/config.hpp"
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/camera/camera_model.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
+#include "calibd/core/session/config.hpp"
 #include "camera_render.hpp"
 #include "lidar_sim.hpp"
 #include "stills.hpp"

@@ -8,7 +8,7 @@
 #include <functional>
 #include <string>
 
-#include "calibd/core/lidar_model.hpp"
+#include "calibd/core/lidar/lidar_model.hpp"
 #include "workshop.hpp"
 
 namespace calibd::sim {

@@ -1,6 +1,6 @@
 #include "tag_texture.hpp"
 
-#include "calibd/core/tag_layout.hpp"
+#include "calibd/core/camera/tag_layout.hpp"
 
 #include <cmath>
 #include <cstdint>

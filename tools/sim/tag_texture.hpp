@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/board.hpp"
+#include "calibd/core/common/board.hpp"
 
 namespace calibd::sim {
 

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "calibd/core/validation.hpp"
+#include "calibd/core/common/validation.hpp"
 
 namespace calibd::sim {
 

@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
 
 namespace calibd::sim {
 

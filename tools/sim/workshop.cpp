@@ -4,7 +4,7 @@
 #include <random>
 #include <set>
 
-#include "calibd/core/validation.hpp"
+#include "calibd/core/common/validation.hpp"
 
 namespace calibd::sim {
 

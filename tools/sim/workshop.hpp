@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/board.hpp"
+#include "calibd/core/common/board.hpp"
 #include "scene.hpp"
 #include "tag_texture.hpp"
 

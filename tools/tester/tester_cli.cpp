@@ -12,6 +12,7 @@
 #include "calibd/agent/uds/routines.hpp"
 #include "calibd/agent/uds/security_access.hpp"
 #include "calibd/agent/uds/uds_types.hpp"
+#include "command_line.hpp"
 #include "uds_decode.hpp"
 
 namespace calibd::tester {
@@ -74,14 +75,6 @@ constexpr const char* kPrefix = "calibd-tester: ";
 // solve reports 90 % (SessionMachine::progress).
 constexpr int kSolvingPercent = 90;
 
-bool ParseInt(const std::string& text, long min, long max, long* value) {
-  char* end = nullptr;
-  const long v = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || v < min || v > max) return false;
-  *value = v;
-  return true;
-}
-
 bool ParseHexId(const std::string& text, uint32_t* id) {
   std::string digits = text;
   if (digits.size() > 2 && digits[0] == '0' && (digits[1] == 'x' || digits[1] == 'X'))
@@ -94,15 +87,18 @@ bool ParseHexId(const std::string& text, uint32_t* id) {
   return true;
 }
 
-std::vector<std::string> Split(const std::string& text, char sep) {
-  std::vector<std::string> parts;
-  size_t start = 0;
-  for (;;) {
-    const size_t pos = text.find(sep, start);
-    parts.push_back(text.substr(start, pos == std::string::npos ? std::string::npos : pos - start));
-    if (pos == std::string::npos) return parts;
-    start = pos + 1;
+// --ids REQ,RSP,FUNC into `isotp`; the error in `line` when they are not three hex ids.
+void ReadIds(const std::string& value, tools::CommandLine* line, IsoTpConfig* isotp) {
+  const std::vector<std::string> ids = tools::SplitList(value);
+  uint32_t v[3] = {};
+  if (ids.size() != 3 || !ParseHexId(ids[0], &v[0]) || !ParseHexId(ids[1], &v[1]) ||
+      !ParseHexId(ids[2], &v[2])) {
+    line->Error("--ids takes three hex ids REQ,RSP,FUNC, e.g. 7E0,7E8,7DF (got '" + value + "')");
+    return;
   }
+  isotp->physical_request_id = v[0];
+  isotp->physical_response_id = v[1];
+  isotp->functional_request_id = v[2];
 }
 
 bool IsRoutineCommand(const std::string& c) { return c == "calibrate" || c == "verify"; }
@@ -347,7 +343,7 @@ int RunRoutine(UdsClient& client, const TesterOptions& o, std::ostream& out, std
 
 int RunRead(UdsClient& client, const TesterOptions& o, std::ostream& out, std::ostream& err) {
   std::vector<uint8_t> request = {uds::kSidReadDataByIdentifier};
-  for (const std::string& text : Split(o.args[0], ',')) {
+  for (const std::string& text : tools::SplitList(o.args[0])) {
     uint16_t did = 0;
     ParseDid(text, &did);  // checked by ParseTesterArgs
     request.push_back(static_cast<uint8_t>(did >> 8));
@@ -491,79 +487,52 @@ bool ParseTesterArgs(const std::vector<std::string>& argv, TesterOptions* o, boo
                      std::string* error) {
   *help = false;
   bool have_max_duration = false;
-  auto value_of = [&](size_t* i, std::string* value) {
-    if (*i + 1 >= argv.size()) {
-      *error = "option " + argv[*i] + " needs a value (see --help)";
-      return false;
-    }
-    *value = argv[++*i];
-    return true;
-  };
-  for (size_t i = 0; i < argv.size(); ++i) {
-    const std::string& arg = argv[i];
+  tools::CommandLine line("calibd-tester", argv);
+  while (line.Next()) {
     std::string value;
-    long n = 0;
-    if (arg == "--help" || arg == "-h") {
+    if (line.Is("--help") || line.Is("-h")) {
       *help = true;
       return true;
-    } else if (arg == "--extended-ids") {
+    } else if (line.Is("--extended-ids")) {
       o->isotp.extended_ids = true;
-    } else if (arg == "--can-fd") {
+    } else if (line.Is("--can-fd")) {
       o->isotp.can_fd = true;
-    } else if (arg == "--quiet") {
+    } else if (line.Is("--quiet")) {
       o->quiet = true;
-    } else if (arg == "--static") {
+    } else if (line.Is("--static")) {
       o->static_mode = true;
-    } else if (arg == "--no-wait") {
+    } else if (line.Is("--no-wait")) {
       o->no_wait = true;
-    } else if (arg == "--clear") {
+    } else if (line.Is("--clear")) {
       o->clear = true;
-    } else if (arg == "--functional") {
+    } else if (line.Is("--functional")) {
       o->functional = true;
-    } else if (arg == "--interface") {
-      if (!value_of(&i, &value)) return false;
-      o->isotp.interface = value;
-    } else if (arg == "--secret") {
-      if (!value_of(&i, &value)) return false;
-      o->secret_file = value;
-    } else if (arg == "--ids") {
-      if (!value_of(&i, &value)) return false;
-      const std::vector<std::string> ids = Split(value, ',');
-      uint32_t v[3] = {};
-      if (ids.size() != 3 || !ParseHexId(ids[0], &v[0]) || !ParseHexId(ids[1], &v[1]) ||
-          !ParseHexId(ids[2], &v[2])) {
-        *error = "--ids takes three hex ids REQ,RSP,FUNC, e.g. 7E0,7E8,7DF (got '" + value + "')";
-        return false;
-      }
-      o->isotp.physical_request_id = v[0];
-      o->isotp.physical_response_id = v[1];
-      o->isotp.functional_request_id = v[2];
-    } else if (arg == "--p2-ms" || arg == "--p2-star-ms" || arg == "--poll-ms") {
-      if (!value_of(&i, &value)) return false;
-      if (!ParseInt(value, 1, 600000, &n)) {
-        *error = arg + " must be an integer in [1, 600000] ms (got '" + value + "')";
-        return false;
-      }
-      (arg == "--p2-ms"        ? o->timing.p2_ms
-       : arg == "--p2-star-ms" ? o->timing.p2_star_ms
-                               : o->poll_ms) = static_cast<int>(n);
-    } else if (arg == "--max-duration") {
-      if (!value_of(&i, &value)) return false;
-      if (!ParseInt(value, 1, uds::kMaxCalibrationDurationS, &n)) {
-        *error = "--max-duration must be an integer number of seconds in [1, 3600] (got '" + value +
-                 "')";
-        return false;
-      }
-      o->max_duration_s = static_cast<int>(n);
-      have_max_duration = true;
-    } else if (arg.size() > 1 && arg[0] == '-' && o->command != "raw") {
-      *error = "unknown option '" + arg + "' (see --help)";
-      return false;
+    } else if (line.Is("--interface")) {
+      line.Value(&o->isotp.interface);
+    } else if (line.Is("--secret")) {
+      line.Value(&o->secret_file);
+    } else if (line.Is("--ids")) {
+      if (line.Value(&value)) ReadIds(value, &line, &o->isotp);
+    } else if (line.Is("--p2-ms")) {
+      line.Integer(1, 600000, &o->timing.p2_ms, "ms");
+    } else if (line.Is("--p2-star-ms")) {
+      line.Integer(1, 600000, &o->timing.p2_star_ms, "ms");
+    } else if (line.Is("--poll-ms")) {
+      line.Integer(1, 600000, &o->poll_ms, "ms");
+    } else if (line.Is("--max-duration")) {
+      have_max_duration =
+          line.Integer(1, uds::kMaxCalibrationDurationS, &o->max_duration_s, "seconds");
+    } else if (line.IsOption() && o->command != "raw") {  // raw's request: checked below
+      line.Unknown();
     } else if (o->command.empty()) {
-      o->command = arg;
+      o->command = line.arg();
     } else {
-      o->args.push_back(arg);
+      o->args.push_back(line.arg());
     }
+  }
+  if (line.failed()) {
+    *error = line.error();
+    return false;
   }
 
   const std::string& c = o->command;
@@ -605,7 +574,7 @@ bool ParseTesterArgs(const std::vector<std::string>& argv, TesterOptions* o, boo
     if (!args_count(0, 0, "dtc [--clear]")) return false;
   } else if (c == "read") {
     if (!args_count(1, 1, "read DID[,DID...] (hex, e.g. F190,FD00)")) return false;
-    const std::vector<std::string> dids = Split(o->args[0], ',');
+    const std::vector<std::string> dids = tools::SplitList(o->args[0]);
     if (dids.size() > 16) {
       *error = "read takes at most 16 DIDs in one request";
       return false;

@@ -6,9 +6,9 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
-#include "calibd/core/camera_model.hpp"
-#include "calibd/core/geometry.hpp"
-#include "calibd/core/image_view.hpp"
+#include "calibd/core/camera/camera_model.hpp"
+#include "calibd/core/common/geometry.hpp"
+#include "calibd/core/common/image_view.hpp"
 
 namespace calibd::viz {
 

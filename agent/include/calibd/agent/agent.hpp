@@ -29,7 +29,7 @@
 #include "calibd/agent/session_recorder.hpp"
 #include "calibd/agent/solve_runner.hpp"
 #include "calibd/calibration_request_t.hpp"
-#include "calibd/core/range_image.hpp"
+#include "calibd/core/lidar/range_image.hpp"
 #include "calibd/drivers/calibration_store.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
 #include "calibd/drivers/systemd_notify.hpp"

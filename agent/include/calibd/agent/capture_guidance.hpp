@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <string>
 
-#include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
 
 namespace calibd {
 

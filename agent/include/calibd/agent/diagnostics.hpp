@@ -21,7 +21,7 @@
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/uds/uds_backend.hpp"
 #include "calibd/agent/uds/uds_server.hpp"
-#include "calibd/core/status_frame.hpp"
+#include "calibd/core/common/status_frame.hpp"
 #include "calibd/drivers/can_raw_socket.hpp"
 #include "calibd/drivers/gpio_lines.hpp"
 #include "calibd/drivers/isotp_channel.hpp"

@@ -27,12 +27,12 @@
 #include <vector>
 
 #include "calibd/camera_frame_t.hpp"
-#include "calibd/core/camera_detector.hpp"
-#include "calibd/core/config.hpp"
-#include "calibd/core/frame_pairing.hpp"
-#include "calibd/core/lidar_detector.hpp"
-#include "calibd/core/session_observations.hpp"
-#include "calibd/core/stream_gaps.hpp"
+#include "calibd/core/camera/camera_detector.hpp"
+#include "calibd/core/lidar/lidar_detector.hpp"
+#include "calibd/core/session/config.hpp"
+#include "calibd/core/session/frame_pairing.hpp"
+#include "calibd/core/session/session_observations.hpp"
+#include "calibd/core/session/stream_gaps.hpp"
 #include "calibd/drivers/frame_debug.hpp"
 #include "calibd/drivers/lcm_frames.hpp"
 #include "calibd/drivers/wake_event.hpp"

@@ -15,7 +15,7 @@
 #include "calibd/agent/session_machine.hpp"
 #include "calibd/calibration_result_t.hpp"
 #include "calibd/calibration_status_t.hpp"
-#include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
 #include "calibd/drivers/calibration_store.hpp"
 #include "calibd/drivers/lcm_bus.hpp"
 #include "calibd/health_t.hpp"

@@ -21,7 +21,7 @@
 
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/capture_guidance.hpp"
-#include "calibd/core/calibration_engine.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
 
 namespace calibd {
 

@@ -10,8 +10,8 @@
 #include "calibd/agent/agent_config.hpp"
 #include "calibd/agent/frame_intake.hpp"
 #include "calibd/agent/session_machine.hpp"
-#include "calibd/core/session_observations.hpp"
-#include "calibd/core/session_thinning.hpp"
+#include "calibd/core/session/session_observations.hpp"
+#include "calibd/core/session/session_thinning.hpp"
 
 namespace calibd {
 

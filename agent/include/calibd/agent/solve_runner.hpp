@@ -8,9 +8,9 @@
 #include <cstdint>
 #include <thread>
 
-#include "calibd/core/calibration_engine.hpp"
-#include "calibd/core/range_image.hpp"
-#include "calibd/core/session_observations.hpp"
+#include "calibd/core/engine/calibration_engine.hpp"
+#include "calibd/core/lidar/range_image.hpp"
+#include "calibd/core/session/session_observations.hpp"
 #include "calibd/drivers/wake_event.hpp"
 
 namespace calibd {

@@ -21,7 +21,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
 
 namespace calibd {
 

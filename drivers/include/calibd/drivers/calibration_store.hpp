@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/geometry.hpp"
+#include "calibd/core/common/geometry.hpp"
 
 namespace calibd {
 

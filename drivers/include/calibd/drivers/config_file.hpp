@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/config.hpp"
-#include "calibd/core/text_format.hpp"
+#include "calibd/core/common/text_format.hpp"
+#include "calibd/core/session/config.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 
 namespace calibd {

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "calibd/core/camera_detector.hpp"
-#include "calibd/core/lidar_detector.hpp"
+#include "calibd/core/camera/camera_detector.hpp"
+#include "calibd/core/lidar/lidar_detector.hpp"
 
 namespace calibd {
 

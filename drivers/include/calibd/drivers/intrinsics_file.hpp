@@ -22,7 +22,7 @@
 
 #include <string>
 
-#include "calibd/core/camera_model.hpp"
+#include "calibd/core/camera/camera_model.hpp"
 
 namespace calibd {
 

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "calibd/camera_frame_t.hpp"
-#include "calibd/core/image_view.hpp"
+#include "calibd/core/common/image_view.hpp"
 #include "calibd/lidar_frame_t.hpp"
 
 namespace calibd {

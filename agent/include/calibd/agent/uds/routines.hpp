@@ -37,7 +37,7 @@
 #include <cstdint>
 #include <string_view>
 
-#include "calibd/core/reason.hpp"
+#include "calibd/core/verdict/reason.hpp"
 
 namespace calibd::uds {
 

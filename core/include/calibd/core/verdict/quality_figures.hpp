@@ -1,0 +1,93 @@
+#pragma once
+/// \file
+/// What the verdict judges a solved session by: the quality figures the engine measures
+/// (paper Table I's reprojection error, formal sigmas, stability, and the camera-LiDAR checks
+/// beyond the paper), each documented where it is declared.
+
+#include <Eigen/Core>
+#include <limits>
+
+namespace calibd {
+
+struct QualityFigures {
+  double reprojection_mean_px = 0.0, reprojection_p95_px = 0.0;  ///< paper Table I metric
+  /// The LiDAR's point spacing on the boards as the camera sees it, px: per board f sqrt(A / n) / d
+  /// (A the board's area, n its LiDAR points, d its distance from the camera), mean over the
+  /// boards. Each board's own fit, which the Table I metric measures, is as good as a share of it.
+  double lidar_spacing_px = 0.0;
+  /// The reprojection gate the verdict applied: VerdictConfig::max_reprojection_mean_px, or
+  /// kReprojectionSpacingShare of lidar_spacing_px where the LiDAR resolves the boards coarser.
+  double reprojection_gate_px = 0.0;
+  double residual_rms_m = 0.0;
+  int frames_used = 0, boards_used = 0;
+  double min_distance_m = 0.0, max_distance_m = 0.0;  ///< camera-to-board distances used
+  double image_coverage = 0.0;  ///< fraction of a 4x4 grid of image cells holding a board centre
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  double min_information_eigenvalue = 0.0;
+  double rotation_sigma_deg = 0.0, translation_sigma_m = 0.0;  ///< formal, from J^T J
+  double plane_conditioning = 0.0;  ///< see VerdictConfig::min_plane_conditioning
+  double rotation_spread_deg = 0.0, translation_spread_m = 0.0;  ///< half-data re-solves
+  double start_rotation_deg = 0.0, start_translation_m = 0.0;    ///< solves from other starts
+  /// Camera-LiDAR scale agreement (EstimateCameraScale): the relative error of the camera's board
+  /// distances against the LiDAR's, fitted over the boards with what a translation explains
+  /// taken out, and its standard deviation; NaN with fewer than kMinScaleBoards boards. A wrong
+  /// tag size or focal length scales every PnP distance; a translation cannot absorb that.
+  double camera_scale_error = std::numeric_limits<double>::quiet_NaN();
+  double camera_scale_sigma = std::numeric_limits<double>::quiet_NaN();
+  /// What the solution was corrected for (the camera's patterns and distances scaled by
+  /// 1 / (1 + it)): the scale error when it exceeded kScaleSigmas of its sigma and stayed within
+  /// VerdictConfig::max_camera_scale_error, else 0. camera_scale_error includes it.
+  double camera_scale_corrected = 0.0;
+  /// How far a scale error as large as its sigma moves the translation (sigma x the boards'
+  /// distance): what the result rests on the tag size for; NaN where the scale is not fitted.
+  double camera_scale_translation_m = std::numeric_limits<double>::quiet_NaN();
+  /// A constant LiDAR range offset fitted in the same way (with the scale and a translation),
+  /// m, and its standard deviation: large when the boards' directions cannot tell it from a
+  /// translation (all in front of the LiDAR). NaN with too few boards.
+  double lidar_range_offset_m = std::numeric_limits<double>::quiet_NaN();
+  double lidar_range_offset_sigma_m = std::numeric_limits<double>::quiet_NaN();
+  /// The camera's time offset against the LiDAR (s; positive: the camera exposed later than its
+  /// stamps say) and its sigma, from the boards' motion (board_motion.hpp, EstimateTimeOffset);
+  /// not fitted (sigma infinite) without moving boards or capture times. `time_offset_corrected_s`
+  /// is what the solution was corrected for: the offset when it exceeded kTimeOffsetSigmas of its
+  /// sigma, else 0.
+  bool time_offset_fitted = false;
+  double time_offset_s = 0.0;
+  double time_offset_sigma_s = std::numeric_limits<double>::infinity();
+  double time_offset_corrected_s = 0.0;
+  /// RMS speed of the boards along their normals (m/s) in the observations with a velocity.
+  double board_normal_speed_mps = 0.0;
+  /// The principal point the tags fit against the configured one (principal_point_check.hpp),
+  /// px, and its sigma; not fitted with too few camera observations.
+  bool principal_point_fitted = false;
+  Eigen::Vector2d principal_point_shift_px = Eigen::Vector2d::Zero();
+  Eigen::Vector2d principal_point_sigma_px =
+      Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  /// RMS of the tags' corner residuals in that fit, px (PrincipalPointEstimate).
+  double principal_point_residual_px = 0.0;
+  /// What a corner bias common to every tag could move the shift by (PrincipalPointEstimate).
+  Eigen::Vector2d principal_point_systematic_px =
+      Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  /// The most bent board (board_flatness.hpp): its id, the bend at its centre line (m, towards
+  /// the sensors positive; about its vertical or horizontal axis, whichever is the more
+  /// significant) and its sigma; id -1 when no board's bend was measured.
+  /// Ring LiDARs: the lasers' elevations against the model's table (ring_elevations.hpp): rings
+  /// measured, RMS of their deltas about the mean (deg) and the mean squared delta in sigmas.
+  int ring_elevation_rings = 0;
+  double ring_elevation_rms_deg = 0.0;
+  double ring_elevation_chi2 = 0.0;
+  int board_bend_id = -1;
+  double board_bend_m = 0.0;
+  double board_bend_sigma_m = std::numeric_limits<double>::infinity();
+  /// The turn that shift gives the result: about |(dx / fx, dy / fy)|, deg.
+  double principal_point_turn_deg = 0.0;
+  double principal_point_ms = 0.0;
+};
+
+/// The image coverage grid (QualityFigures::image_coverage, the agent's coverage gate): the image
+/// in kImageGridSide x kImageGridSide cells.
+inline constexpr int kImageGridSide = 4;
+/// Cell (row * kImageGridSide + column) of a pixel of a width x height image; -1 outside.
+int ImageCell(double u_px, double v_px, int width, int height);
+
+}  // namespace calibd

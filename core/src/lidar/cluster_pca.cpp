@@ -1,0 +1,214 @@
+#include "calibd/core/lidar/cluster_pca.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+namespace calibd {
+
+double ClusterPca::planarity() const {
+  if (eigenvalues(1) <= 0.0) return 1.0;
+  return std::sqrt(std::max(0.0, eigenvalues(2)) / eigenvalues(1));
+}
+
+void ComputeClusterPca(const Eigen::Vector3f* points, int n, ClusterPca* pca,
+                       const float* weights) {
+  *pca = ClusterPca{};
+  if (n <= 0) return;
+  auto weight = [weights](int i) { return weights ? static_cast<double>(weights[i]) : 1.0; };
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double total = 0.0;
+  for (int i = 0; i < n; ++i) {
+    sum += weight(i) * points[i].cast<double>();
+    total += weight(i);
+  }
+  if (!(total > 0.0)) return;
+  const Eigen::Vector3d c = sum / total;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d d = points[i].cast<double>() - c;
+    cov.noalias() += weight(i) * d * d.transpose();
+  }
+  cov /= total;
+  // Closed-form 3x3 solver: eigenvalues in increasing order.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(cov);
+  Eigen::Matrix3d axes;
+  for (int k = 0; k < 3; ++k) axes.col(k) = solver.eigenvectors().col(2 - k);
+  pca->eigenvalues = solver.eigenvalues().reverse();
+
+  Eigen::Vector3d third = Eigen::Vector3d::Zero();
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d q = axes.transpose() * (points[i].cast<double>() - c);
+    third += weight(i) * q.cwiseProduct(q).cwiseProduct(q);
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  for (int k = 0; k < 2; ++k) {
+    if (third(k) < 0.0) {
+      axes.col(k) = -axes.col(k);
+      std::swap(lo(k), hi(k));
+      lo(k) = -lo(k);
+      hi(k) = -hi(k);
+    }
+  }
+  axes.col(2) = axes.col(0).cross(axes.col(1));
+  pca->centroid = c;
+  pca->axes = axes;
+  pca->extents = hi - lo;
+}
+
+Eigen::Vector2d InPlaneRectangle(const ClusterPca& pca, const Eigen::Vector3f* points, int n,
+                                 int num_angles) {
+  if (n <= 0 || num_angles < 1) return Eigen::Vector2d::Zero();
+  const Eigen::Vector3f c = pca.centroid.cast<float>();
+  const Eigen::Vector3f e0 = pca.axes.col(0).cast<float>(), e1 = pca.axes.col(1).cast<float>();
+  Eigen::Vector2d best(0.0, 0.0);
+  double best_area = 1e300;
+  for (int a = 0; a < num_angles; ++a) {
+    const double angle = (M_PI / 2.0) * a / num_angles;
+    const float ca = static_cast<float>(std::cos(angle)), sa = static_cast<float>(std::sin(angle));
+    const Eigen::Vector3f u = ca * e0 + sa * e1, v = -sa * e0 + ca * e1;
+    float u_lo = 1e30f, u_hi = -1e30f, v_lo = 1e30f, v_hi = -1e30f;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3f d = points[i] - c;
+      const float pu = u.dot(d), pv = v.dot(d);
+      u_lo = std::min(u_lo, pu);
+      u_hi = std::max(u_hi, pu);
+      v_lo = std::min(v_lo, pv);
+      v_hi = std::max(v_hi, pv);
+    }
+    const double su = u_hi - u_lo, sv = v_hi - v_lo;
+    if (su * sv < best_area) {
+      best_area = su * sv;
+      best = Eigen::Vector2d(std::max(su, sv), std::min(su, sv));
+    }
+  }
+  return best;
+}
+
+namespace {
+
+// Start of the window of length `side` over the values sorted[0..n).first (ascending) holding the
+// most of them; `count` receives how many.
+float BestWindowStart(const std::pair<float, float>* sorted, int n, float side, int* count) {
+  int best = 0, best_start = 0;
+  for (int lo = 0, hi = 0; lo < n; ++lo) {
+    while (hi < n && sorted[hi].first <= sorted[lo].first + side) ++hi;
+    if (hi - lo > best) {
+      best = hi - lo;
+      best_start = lo;
+    }
+  }
+  *count = best;
+  return n > 0 ? sorted[best_start].first : 0.0f;
+}
+
+// (u, v) of each of n points along a window's sides, turned by `angle` in the cluster's principal
+// plane, into uv: one arithmetic for the search and for Contains, so that a point falls on the
+// same side of an edge in both.
+void WindowCoordinates(const ClusterPca& pca, double angle, const Eigen::Vector3f* points, int n,
+                       std::pair<float, float>* uv) {
+  const Eigen::Matrix3f Rt = pca.axes.transpose().cast<float>();
+  const Eigen::Vector3f c = pca.centroid.cast<float>();
+  const float ca = static_cast<float>(std::cos(angle)), sa = static_cast<float>(std::sin(angle));
+  const Eigen::Vector2f eu(ca, sa), ev(-sa, ca);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3f d = Rt * (points[i] - c);
+    uv[i] = {eu.dot(d.head<2>()), ev.dot(d.head<2>())};
+  }
+}
+
+// x within the span [lo, lo + side].
+bool InSpan(float x, float lo, float side) { return x >= lo && x <= lo + side; }
+
+}  // namespace
+
+bool PlaneWindow::Contains(const ClusterPca& pca, const Eigen::Vector3f& point) const {
+  std::pair<float, float> uv;
+  WindowCoordinates(pca, angle_rad, &point, 1, &uv);
+  return InSpan(uv.first, u0, side_u) && InSpan(uv.second, v0, side_v);
+}
+
+PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* points, int n, double w,
+                             double h, std::pair<float, float>* scratch, int num_angles) {
+  PlaneWindow best, result;
+  if (n <= 0 || num_angles < 1) return best;
+  // The count-best window at `angle` into `best` when it holds more than `best` does.
+  auto try_angle = [&](double angle) {
+    for (int turn = 0; turn < (w == h ? 1 : 2); ++turn) {
+      const float side_u = static_cast<float>(turn == 0 ? w : h);
+      const float side_v = static_cast<float>(turn == 0 ? h : w);
+      WindowCoordinates(pca, angle, points, n, scratch);
+      std::sort(scratch, scratch + n);
+      int count_u = 0;
+      const float u0 = BestWindowStart(scratch, n, side_u, &count_u);
+      if (count_u <= best.count) continue;  // the second side can only lose points
+      // The window's points by their v.
+      int m = 0;
+      for (int i = 0; i < n; ++i)
+        if (InSpan(scratch[i].first, u0, side_u)) scratch[m++] = {scratch[i].second, 0.0f};
+      std::sort(scratch, scratch + m);
+      int count = 0;
+      const float v0 = BestWindowStart(scratch, m, side_v, &count);
+      if (count > best.count) best = PlaneWindow{angle, side_u, side_v, u0, v0, count};
+    }
+  };
+  // Coarse turns by the count alone.
+  const double step = (M_PI / 2.0) / num_angles;
+  for (int a = 0; a < num_angles; ++a) try_angle(step * a);
+  if (best.count == 0) return best;
+  // A window of the board's own size loses a wedge of it when turned a little off (2 cm along a
+  // 0.8 m side per 1.5 deg), and a strip as dense as the board along its edge ties with it on the
+  // count: a window shifted onto the strip by a column holds as many points. The board's own
+  // window cuts through nothing. Around the coarse turn (to a tenth of its step) and its
+  // count-best place (by kShiftM steps), the window kept has the most of
+  // 2 x inside - in_u_band - in_v_band: points inside, less those beside it in its row and column
+  // bands (inside its u range but not its v range, or the reverse).
+  static constexpr int kTurnSteps = 5, kShiftSteps = 5;
+  static constexpr float kShiftM = 0.005f;
+  const PlaneWindow coarse = best;
+  int best_score = std::numeric_limits<int>::min();
+  for (int k = -kTurnSteps; k <= kTurnSteps; ++k) {
+    best = PlaneWindow{};
+    try_angle(coarse.angle_rad + 0.1 * step * k);
+    if (best.count == 0) continue;
+    const PlaneWindow centre = best;
+    WindowCoordinates(pca, centre.angle_rad, points, n, scratch);
+    for (int a = -kShiftSteps; a <= kShiftSteps; ++a) {
+      for (int b = -kShiftSteps; b <= kShiftSteps; ++b) {
+        PlaneWindow shifted = centre;
+        shifted.u0 += static_cast<float>(a) * kShiftM;
+        shifted.v0 += static_cast<float>(b) * kShiftM;
+        int inside = 0, in_u = 0, in_v = 0;
+        for (int i = 0; i < n; ++i) {
+          const bool iu = InSpan(scratch[i].first, shifted.u0, shifted.side_u);
+          const bool iv = InSpan(scratch[i].second, shifted.v0, shifted.side_v);
+          in_u += iu;
+          in_v += iv;
+          inside += iu && iv;
+        }
+        shifted.count = inside;
+        const int score = 2 * inside - in_u - in_v;
+        if (score > best_score) {
+          best_score = score;
+          result = shifted;
+        }
+      }
+    }
+  }
+  return result;
+}
+
+void AlignToPrincipalAxes(const ClusterPca& pca, const Eigen::Vector3f* points, int n,
+                          Eigen::Vector3f* aligned) {
+  const Eigen::Matrix3f Rt = pca.axes.transpose().cast<float>();
+  const Eigen::Vector3f c = pca.centroid.cast<float>();
+  for (int i = 0; i < n; ++i) aligned[i] = Rt * (points[i] - c);
+}
+
+}  // namespace calibd

@@ -1,0 +1,213 @@
+#include "calibd/core/verdict/measure_quality.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/session/board_distances.hpp"
+#include "calibd/core/session/board_motion.hpp"
+#include "calibd/core/verdict/board_flatness.hpp"
+#include "calibd/core/verdict/camera_scale.hpp"
+#include "calibd/core/verdict/principal_point_check.hpp"
+#include "calibd/core/verdict/range_offset.hpp"
+#include "calibd/core/verdict/ring_elevations.hpp"
+
+namespace calibd {
+
+namespace {
+
+// Formal standard deviations: covariance = sigma^2 (J^T J)^-1 with sigma the residual RMS, in the
+// tangent [dt, dtheta]; the worst direction of each block.
+void FormalSigmas(const Eigen::Matrix<double, 6, 6>& info, double residual_rms, QualityFigures* q) {
+  const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(info);
+  if (!lu.isInvertible()) {
+    q->rotation_sigma_deg = q->translation_sigma_m = std::numeric_limits<double>::infinity();
+    return;
+  }
+  const Eigen::Matrix<double, 6, 6> cov = lu.inverse() * residual_rms * residual_rms;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> et(cov.topLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> er(cov.bottomRightCorner<3, 3>());
+  q->translation_sigma_m = std::sqrt(std::max(0.0, et.eigenvalues()(2)));
+  q->rotation_sigma_deg = std::sqrt(std::max(0.0, er.eigenvalues()(2))) * kRad2Deg;
+}
+
+// The camera's scale and the LiDAR's range offset (camera_scale.hpp, range_offset.hpp).
+void ScaleAndRangeOffset(const ObservationSet& corr, const std::vector<BoardDistance>& distances,
+                         QualityFigures* quality) {
+  QualityFigures& q = *quality;
+  const CameraScaleEstimate e = EstimateCameraScale(corr, distances);
+  if (e.scale_fitted) {
+    q.camera_scale_error = (1.0 + q.camera_scale_corrected) * (1.0 + e.scale) - 1.0;
+    q.camera_scale_sigma = e.scale_sigma;
+    q.camera_scale_translation_m = e.scale_sigma * e.distance_m;
+  }
+  if (e.range_offset_fitted) {
+    q.lidar_range_offset_m = e.range_offset_m;
+    q.lidar_range_offset_sigma_m = e.range_offset_sigma_m;
+  }
+  // The range offset from the plane distances alone where the boards face the LiDAR from varied
+  // directions (still poses), or from the boards' in-plane centres too (range_offset.hpp),
+  // which determine it while driving towards boards ahead, where the plane distances cannot:
+  // whichever is the more precise. Over fewer than kMinScaleClusterBlocks blocks (still poses,
+  // a sparse subset of a drive) the centres' sigma is a least-squares one only, which a few
+  // poses held by people or beside clutter leave too small (a clean falcon session of 15
+  // poses: 2.1 +-0.4 cm, the planes 1.2 +-0.5 cm): there the centres must be twice as precise
+  // to be taken. Only here: the corrections use the scale alone.
+  if (static_cast<int>(distances.size()) >= kMinScaleBoards) {
+    const RangeOffsetFit centres =
+        FitRangeOffset(distances, HasTimeOffsetTerm(corr, distances), kMinScaleClusterBlocks);
+    const double centres_share = centres.blocks >= kMinScaleClusterBlocks ? 1.0 : 0.5;
+    const double planes_sigma_m =
+        e.range_offset_fitted ? e.range_offset_sigma_m : std::numeric_limits<double>::infinity();
+    if (centres.fitted && centres.sigma_m < centres_share * planes_sigma_m) {
+      q.lidar_range_offset_m = centres.offset_m;
+      q.lidar_range_offset_sigma_m = centres.sigma_m;
+    }
+  }
+}
+
+// The lasers' elevations against the model's table (ring_elevations.hpp).
+void RingElevationFigures(const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
+                          const RangeImage& projection, const DirectResult& direct,
+                          QualityFigures* quality) {
+  QualityFigures& q = *quality;
+  const Pose& T_camera_lidar = direct.T_camera_lidar;
+  const RingElevationCheck rings =
+      CheckRingElevations(boards, corr, projection, T_camera_lidar, direct.T_camera_board);
+  if (rings.measured) {
+    q.ring_elevation_rings = rings.rings;
+    q.ring_elevation_rms_deg = rings.rms_deg;
+    q.ring_elevation_chi2 = rings.chi2_per_ring;
+  }
+}
+
+// The most bent board (board_flatness.hpp).
+void BoardBendFigures(const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
+                      const DirectResult& direct, QualityFigures* quality) {
+  QualityFigures& q = *quality;
+  const Pose& T_camera_lidar = direct.T_camera_lidar;
+  for (const BoardBend& b :
+       EstimateBoardBends(boards, corr, T_camera_lidar, direct.T_camera_board)) {
+    // Where both axes are measured, the one further from flat in its own sigmas.
+    for (const auto& [bend, sigma] :
+         {std::pair{b.bend_u_m, b.sigma_u_m}, std::pair{b.bend_v_m, b.sigma_v_m}}) {
+      if (!std::isfinite(sigma)) continue;
+      if (q.board_bend_id < 0 ||
+          std::fabs(bend) / sigma > std::fabs(q.board_bend_m) / q.board_bend_sigma_m) {
+        q.board_bend_id = boards[static_cast<size_t>(b.board_index)].board_id;
+        q.board_bend_m = bend;
+        q.board_bend_sigma_m = sigma;
+      }
+    }
+  }
+}
+
+// The principal point the tags fit (principal_point_check.hpp) and the turn it gives the result.
+void PrincipalPointFigures(const CalibConfig& config, const SessionObservations& session,
+                           QualityFigures* quality) {
+  QualityFigures& q = *quality;
+  const auto t_pp = SteadyClock::now();
+  const PrincipalPointEstimate pp = EstimatePrincipalPoint(config.camera, config.boards, session);
+  q.principal_point_fitted = pp.fitted;
+  q.principal_point_shift_px = pp.shift_px;
+  q.principal_point_sigma_px = pp.sigma_px;
+  q.principal_point_systematic_px = pp.systematic_px;
+  q.principal_point_residual_px = pp.residual_rms_px;
+  q.principal_point_turn_deg =
+      std::hypot(pp.shift_px.x() / config.camera.fx, pp.shift_px.y() / config.camera.fy) * kRad2Deg;
+  q.principal_point_ms = MsSince(t_pp);
+}
+
+// What is left of the time offset after the corrections, added to what they applied
+// (board_motion.hpp).
+void TimeOffsetFigures(const ObservationSet& corr, const std::vector<BoardDistance>& distances,
+                       QualityFigures* quality) {
+  QualityFigures& q = *quality;
+  const TimeOffsetEstimate t = EstimateTimeOffset(corr, distances);
+  q.time_offset_fitted = t.fitted;
+  q.time_offset_s = corr.time_offset_s + (t.fitted ? t.offset_s : 0.0);
+  q.time_offset_sigma_s = t.sigma_s;
+  q.time_offset_corrected_s = corr.time_offset_s;
+  q.board_normal_speed_mps = t.normal_speed_rms_mps;
+}
+
+// VerdictConfig::min_plane_conditioning's figure: smallest / largest eigenvalue of the
+// board-plane information, rotations scaled by a 10 m lever arm.
+double PlaneConditioning(const DirectResult& direct) {
+  Eigen::Matrix<double, 6, 1> scale;
+  scale << 1.0, 1.0, 1.0, 10.0, 10.0, 10.0;  // rad -> m at a 10 m lever arm
+  const Eigen::Matrix<double, 6, 6> S = scale.cwiseInverse().asDiagonal() *
+                                        direct.plane_information *
+                                        scale.cwiseInverse().asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(S);
+  const double top = es.eigenvalues()(5);
+  return top > 0.0 ? std::max(0.0, es.eigenvalues()(0)) / top : 0.0;
+}
+
+}  // namespace
+
+int ImageCell(double u_px, double v_px, int width, int height) {
+  if (!(u_px >= 0.0 && u_px < width && v_px >= 0.0 && v_px < height)) return -1;
+  const int col = static_cast<int>(u_px * kImageGridSide / width);
+  const int row = static_cast<int>(v_px * kImageGridSide / height);
+  return row * kImageGridSide + col;
+}
+
+void CoverageFigures(const CalibConfig& config, const ObservationSet& set, QualityFigures* q) {
+  const CameraModel camera(config.camera);
+  std::set<int> frames, cells;
+  q->min_distance_m = 1e9;
+  q->max_distance_m = 0.0;
+  const double f = 0.5 * (config.camera.fx + config.camera.fy);
+  double spacing_sum = 0.0;
+  int spaced = 0;
+  for (const auto& o : set.observations) {
+    frames.insert(o.frame);
+    const double d = o.T_camera_board.translation().norm();
+    if (o.num_points > 0 && d > 0.0 && o.board_index >= 0 &&
+        o.board_index < static_cast<int>(config.boards.size())) {
+      const BoardGeometry& b = config.boards[static_cast<size_t>(o.board_index)];
+      spacing_sum += f * std::sqrt(b.width_m * b.height_m / o.num_points) / d;
+      ++spaced;
+    }
+    q->min_distance_m = std::min(q->min_distance_m, d);
+    q->max_distance_m = std::max(q->max_distance_m, d);
+    Eigen::Vector2d uv;
+    if (camera.Project(o.T_camera_board.translation(), &uv, 1e6)) {
+      // A centre projected just outside the image counts in the nearest border cell.
+      const double w = config.camera.width, h = config.camera.height;
+      cells.insert(ImageCell(std::clamp(uv.x(), 0.0, std::nextafter(w, 0.0)),
+                             std::clamp(uv.y(), 0.0, std::nextafter(h, 0.0)), config.camera.width,
+                             config.camera.height));
+    }
+  }
+  if (set.observations.empty()) q->min_distance_m = 0.0;
+  q->frames_used = static_cast<int>(frames.size());
+  q->boards_used = static_cast<int>(set.observations.size());
+  q->lidar_spacing_px = spaced > 0 ? spacing_sum / spaced : 0.0;
+  q->image_coverage =
+      static_cast<double>(cells.size()) / static_cast<double>(kImageGridSide * kImageGridSide);
+}
+
+void MeasureQuality(const CalibConfig& config, const SessionObservations& session,
+                    const RangeImage& projection, const ObservationSet& corr,
+                    const std::vector<BoardGeometry>& boards, const DirectResult& direct,
+                    QualityFigures* q) {
+  q->residual_rms_m = direct.residual_rms_m;
+  q->information = direct.information;
+  q->min_information_eigenvalue = direct.min_information_eigenvalue;
+  FormalSigmas(direct.information, direct.residual_rms_m, q);
+  const std::vector<BoardDistance> distances = BoardDistances(corr, direct.T_camera_lidar, &boards);
+  ScaleAndRangeOffset(corr, distances, q);
+  RingElevationFigures(boards, corr, projection, direct, q);
+  BoardBendFigures(boards, corr, direct, q);
+  PrincipalPointFigures(config, session, q);
+  TimeOffsetFigures(corr, distances, q);
+  q->plane_conditioning = PlaneConditioning(direct);
+}
+
+}  // namespace calibd

@@ -1,0 +1,100 @@
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "calibd/core/common/parallel_for.hpp"
+#include "calibd/core/verdict/gates/stability_gate.hpp"
+#include "calibd/core/verdict/measure_quality.hpp"
+#include "calibd/core/verdict/reprojection.hpp"
+
+namespace calibd {
+
+namespace {
+
+// Start `k` of the start checks: the solution turned by kStartCheckRotationDeg and moved by
+// kStartCheckTranslationM along fixed directions that differ from check to check.
+Pose StartCheckPose(const Pose& T_camera_lidar, int k) {
+  static const Eigen::Vector3d kAxes[] = {{1, 1, 0}, {0, -1, 1}, {-1, 0, 1}, {1, -1, -1}};
+  const Eigen::Vector3d axis = kAxes[k % 4].normalized();
+  Pose start = T_camera_lidar;
+  start.linear() =
+      RotationFromAxisAngle(axis, kStartCheckRotationDeg / kRad2Deg) * T_camera_lidar.linear();
+  start.translation() += kStartCheckTranslationM * Eigen::Vector3d(axis.z(), axis.x(), axis.y());
+  return start;
+}
+
+// The solver's settings for one re-solve on one thread. Re-solves on random halves need the
+// spread of the extrinsic over board subsets, not every point of each board: half the points do.
+DirectOptimizerConfig OneResolve(const DirectOptimizerConfig& solver) {
+  DirectOptimizerConfig one = solver;
+  one.threads = 1;
+  one.max_points_per_observation = std::max(3, one.max_points_per_observation / 2);
+  one.max_points_per_solve /= 2;
+  return one;
+}
+
+// The largest rotation (deg) and translation (m) between `T` and any of `ends`.
+void WidestSpread(const std::vector<Pose>& ends, const Pose& T, double* rotation_deg,
+                  double* translation_m) {
+  for (const Pose& end : ends) {
+    *rotation_deg = std::max(*rotation_deg, RotationAngle(end.linear(), T.linear()) * kRad2Deg);
+    *translation_m = std::max(*translation_m, (end.translation() - T.translation()).norm());
+  }
+}
+
+}  // namespace
+
+void MeasureStabilityAndReprojection(const StabilityChecks& checks,
+                                     const DirectOptimizerConfig& solver,
+                                     const ReprojectionGateConfig& gate,
+                                     const std::vector<BoardGeometry>& boards,
+                                     const CameraModel& camera, const ObservationSet& corr,
+                                     const DirectResult& direct, QualityFigures* q,
+                                     std::vector<double>* reprojection_px) {
+  const Pose& T = direct.T_camera_lidar;
+  const int runs = std::max(0, checks.half_data_runs);
+  const int starts = std::max(0, checks.start_checks);
+  std::mt19937_64 rng(12345);
+  std::vector<std::vector<char>> use(runs, std::vector<char>(corr.observations.size()));
+  for (auto& u : use)
+    for (auto& b : u) b = static_cast<char>(rng() & 1u);
+  std::vector<DirectResult> half(static_cast<size_t>(runs)), started(static_cast<size_t>(starts));
+  const DirectOptimizerConfig one = OneResolve(solver);
+  const int threads = std::max(1, solver.threads);
+  const size_t n = corr.observations.size();
+  const int chunks = 4 * threads;
+  std::vector<double> errors_px(4 * n);
+  // Tasks [0, runs): re-solves on random halves (deterministic seed) from the full solution with
+  // its board poses held, i.e. how far the extrinsic moves when half the boards are left out;
+  // tasks [runs, runs + starts): solves of every board from other starts, board poses refined
+  // again from the camera's (does the solve end in the same minimum?); then
+  // [runs + starts, runs + starts + chunks): reprojection errors of a slice of the observations.
+  ParallelFor(threads, runs + starts + chunks, [&](int, int task) {
+    if (task < runs) {
+      half[task] = ResolveWithHeldBoards(boards, corr, T, one, direct.T_camera_board, &use[task]);
+    } else if (task < runs + starts) {
+      const int k = task - runs;
+      started[static_cast<size_t>(k)] = OptimizeDirect(
+          boards, corr, StartCheckPose(T, k), one, DirectSolveOptions::RefiningBoardPoses(camera));
+    } else {
+      const size_t c = static_cast<size_t>(task - runs - starts);
+      ReprojectionErrors(boards, camera, corr, T, solver, direct.T_camera_board, n * c / chunks,
+                         n * (c + 1) / chunks, errors_px.data());
+    }
+  });
+  if (reprojection_px) MeanCornerErrors(errors_px, reprojection_px);
+  ReprojectionFigures(std::move(errors_px), q);
+  q->reprojection_gate_px = ReprojectionGatePx(gate, q->lidar_spacing_px);
+  std::vector<Pose> ends;
+  for (const DirectResult& h : half)
+    if (h.usable) ends.push_back(h.T_camera_lidar);
+  WidestSpread(ends, T, &q->rotation_spread_deg, &q->translation_spread_m);
+  ends.clear();
+  // A solve that did not converge from there ended nowhere near: as far as its start.
+  for (size_t k = 0; k < started.size(); ++k)
+    ends.push_back(started[k].usable ? started[k].T_camera_lidar
+                                     : StartCheckPose(T, static_cast<int>(k)));
+  WidestSpread(ends, T, &q->start_rotation_deg, &q->start_translation_m);
+}
+
+}  // namespace calibd
