@@ -75,7 +75,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   out.prior_T_camera_lidar = out.T_camera_lidar = config.prior_T_camera_lidar;
   QualityFigures& q = out.quality;
   std::string detail;
-  auto failed = [&detail](Reason reason) { return reason != Reason::kNone; };
+  auto failed = [](Reason reason) { return reason != Reason::kNone; };
   if (const Reason r = CheckInputs(config, observed, engine, &detail); failed(r))
     return Reject(out, r, detail);
 

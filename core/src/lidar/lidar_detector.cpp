@@ -506,6 +506,72 @@ struct LidarDetector::Impl {
     scores.resize(num_references);
     return true;
   }
+
+  // One segment of the range image: evaluated as a board candidate, and where it is not a board
+  // as a whole (and plane extraction is on), its planes (EvaluatePlanes).
+  void EvaluateSegment(const PointCloudView& cloud, int s, LidarDetections* out) {
+    const LidarDetectorConfig& c = config;
+    const Segment& seg = segmenter.segment(s);
+    const int n = seg.size();
+    if (n < c.min_cluster_points) return;
+    const int32_t* cells = segmenter.members() + seg.begin;
+    LidarClusterReport report;
+    report.segment = s;
+    report.num_points = n;
+    report.first_cell = cells[0];
+    const bool too_large = TooLarge(cells, n);
+    if (too_large && !c.extract_planes) {
+      if (c.report_clusters) {
+        const RangeImageCell& first = image.cell(cells[0]);
+        report.centroid = Eigen::Vector3d(first.x, first.y, first.z);
+      }
+      Report(ClusterGate::kTooLarge, &report, out);
+      return;
+    }
+    FillPoints(cloud, cells, n);
+    ClusterGate gate = ClusterGate::kTooLarge;
+    if (too_large) {
+      report.centroid = cluster_points[0].cast<double>();
+      Report(gate, &report, out);
+    } else {
+      gate = Evaluate(cloud, cells, cluster_points.data(), n, segmenter.labels().data(), seg.label,
+                      &report, out);
+    }
+    if (c.extract_planes && ExtractsPlanes(gate)) EvaluatePlanes(cloud, s, cells, n, out);
+  }
+
+  // The cluster is not a board as a whole: the board may be one of its planes
+  // (plane_regions.hpp). Each plane is evaluated like a cluster of its own.
+  void EvaluatePlanes(const PointCloudView& cloud, int s, const int32_t* cells, int n,
+                      LidarDetections* out) {
+    const int num_planes = planes.Extract(image, cells, cluster_points.data(), n);
+    for (int p = 0; p < num_planes; ++p) {
+      const PlaneRegion& region = planes.region(p);
+      if (region.size() == n) break;  // the whole cluster again
+      for (int m = 0; m < region.size(); ++m) {
+        const int32_t k = planes.members()[region.begin + m];
+        region_cells[m] = cells[k];
+        region_points[m] = cluster_points[k];
+      }
+      LidarClusterReport plane_report;
+      plane_report.segment = s;
+      plane_report.plane = p;
+      plane_report.num_points = region.size();
+      plane_report.first_cell = region_cells[0];
+      plane_report.centroid = region.center.cast<double>();
+      if (TooLarge(region_cells.data(), region.size())) {
+        Report(ClusterGate::kTooLarge, &plane_report, out);
+        continue;
+      }
+      plane_report.attached_fraction = planes.AttachedFraction(image, cluster_points.data(), p);
+      if (plane_report.attached_fraction > config.max_attached_fraction) {
+        Report(ClusterGate::kAttached, &plane_report, out);
+        continue;
+      }
+      Evaluate(cloud, region_cells.data(), region_points.data(), region.size(),
+               planes.cell_region().data(), p + 1, &plane_report, out);
+    }
+  }
 };
 
 bool LidarDetector::CheckInputs(const LidarDetectorConfig& config, const LidarModel& model,
@@ -654,12 +720,10 @@ void LidarDetector::ReserveOutput(LidarDetections* out) const {
     out->clusters.reserve(c.max_clusters);
 }
 
-void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
-  Impl& d = *impl_;
-  const LidarDetectorConfig& c = d.config;
-  // Capacities are reserved on the first use of `out` (unless ReserveOutput did it); later calls
-  // only clear and refill.
-  ReserveOutput(out);
+namespace {
+
+// Empties `out` for the detections of `cloud`, keeping its capacities.
+void ClearOutput(const PointCloudView& cloud, LidarDetections* out) {
   out->boards.clear();
   out->points.clear();
   out->point_indices.clear();
@@ -671,6 +735,16 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
   out->chained_points = 0;
   out->num_clusters = out->dropped_candidates = out->dropped_boards = 0;
   out->times = LidarStageTimes{};
+}
+
+}  // namespace
+
+void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
+  Impl& d = *impl_;
+  // Capacities are reserved on the first use of `out` (unless ReserveOutput did it); later calls
+  // only clear and refill.
+  ReserveOutput(out);
+  ClearOutput(cloud, out);
   if (!d.ok) return;
 
   const SteadyClock::time_point t0 = SteadyClock::now();
@@ -688,66 +762,7 @@ void LidarDetector::Detect(const PointCloudView& cloud, LidarDetections* out) {
   out->num_clusters = d.segmenter.num_segments();
   const SteadyClock::time_point t3 = SteadyClock::now();
 
-  const int32_t* members = d.segmenter.members();
-  for (int s = 0; s < d.segmenter.num_segments(); ++s) {
-    const Segment& seg = d.segmenter.segment(s);
-    const int n = seg.size();
-    if (n < c.min_cluster_points) continue;
-    const int32_t* cells = members + seg.begin;
-    LidarClusterReport report;
-    report.segment = s;
-    report.num_points = n;
-    report.first_cell = cells[0];
-    const bool too_large = d.TooLarge(cells, n);
-    if (too_large && !c.extract_planes) {
-      if (c.report_clusters) {
-        const RangeImageCell& first = d.image.cell(cells[0]);
-        report.centroid = Eigen::Vector3d(first.x, first.y, first.z);
-      }
-      d.Report(ClusterGate::kTooLarge, &report, out);
-      continue;
-    }
-    d.FillPoints(cloud, cells, n);
-    ClusterGate gate = ClusterGate::kTooLarge;
-    if (too_large) {
-      report.centroid = d.cluster_points[0].cast<double>();
-      d.Report(gate, &report, out);
-    } else {
-      gate = d.Evaluate(cloud, cells, d.cluster_points.data(), n, d.segmenter.labels().data(),
-                        seg.label, &report, out);
-    }
-    if (!c.extract_planes || !ExtractsPlanes(gate)) continue;
-    // The cluster is not a board as a whole: the board may be one of its planes
-    // (plane_regions.hpp).
-    const int num_planes = d.planes.Extract(d.image, cells, d.cluster_points.data(), n);
-    for (int p = 0; p < num_planes; ++p) {
-      const PlaneRegion& region = d.planes.region(p);
-      if (region.size() == n) break;  // the whole cluster again
-      for (int m = 0; m < region.size(); ++m) {
-        const int32_t k = d.planes.members()[region.begin + m];
-        d.region_cells[m] = cells[k];
-        d.region_points[m] = d.cluster_points[k];
-      }
-      LidarClusterReport plane_report;
-      plane_report.segment = s;
-      plane_report.plane = p;
-      plane_report.num_points = region.size();
-      plane_report.first_cell = d.region_cells[0];
-      plane_report.centroid = region.center.cast<double>();
-      if (d.TooLarge(d.region_cells.data(), region.size())) {
-        d.Report(ClusterGate::kTooLarge, &plane_report, out);
-        continue;
-      }
-      plane_report.attached_fraction =
-          d.planes.AttachedFraction(d.image, d.cluster_points.data(), p);
-      if (plane_report.attached_fraction > c.max_attached_fraction) {
-        d.Report(ClusterGate::kAttached, &plane_report, out);
-        continue;
-      }
-      d.Evaluate(cloud, d.region_cells.data(), d.region_points.data(), region.size(),
-                 d.planes.cell_region().data(), p + 1, &plane_report, out);
-    }
-  }
+  for (int s = 0; s < d.segmenter.num_segments(); ++s) d.EvaluateSegment(cloud, s, out);
   const SteadyClock::time_point t4 = SteadyClock::now();
   out->times.range_image_ms = MsBetween(t0, t1);
   out->times.ground_ms = MsBetween(t1, t2);
