@@ -124,12 +124,7 @@ void RangeSegmenter::Report(int begin, int end, int32_t label) {
   segments_[num_segments_++] = Segment{begin, end, label};
 }
 
-void RangeSegmenter::PruneAndReport(const RangeImage& image, int begin, int end, int* tail) {
-  const int32_t label = labels_[queue_[begin]];
-  if (config_.min_row_width_m <= 0.0) {
-    Report(begin, end, label);
-    return;
-  }
+int RangeSegmenter::MeasureRows(const RangeImage& image, int begin, int end) {
   const int cols = image.cols();
   const int seed_col = image.ColOf(queue_[begin]);
   int num_touched = 0;
@@ -152,10 +147,14 @@ void RangeSegmenter::PruneAndReport(const RangeImage& image, int begin, int end,
     row_range_[row] += image.cell(idx).range;
     ++row_count_[row];
   }
+  return num_touched;
+}
+
+bool RangeSegmenter::MarkThinRows(const RangeImage& image, int num_touched) {
   // A row is thin when it and the rows next to it span less than min_row_width_m together: a
   // post is thin over many rows, while the edge rows of a board, and the sparse bin rows that a
   // MEMS raster crossing the bins at a slant leaves between full ones, have wide neighbours.
-  bool any_pruned = false;
+  bool any_thin = false;
   const int rows = image.rows();
   for (int k = 0; k < num_touched; ++k) {
     const int row = touched_rows_[k];
@@ -170,8 +169,19 @@ void RangeSegmenter::PruneAndReport(const RangeImage& image, int begin, int end,
     }
     const double width = (hi - lo + 1) * image.azimuth_step_rad() * (range_sum / count);
     row_thin_[row] = width < config_.min_row_width_m;
-    any_pruned = any_pruned || row_thin_[row];
+    any_thin = any_thin || row_thin_[row];
   }
+  return any_thin;
+}
+
+void RangeSegmenter::PruneAndReport(const RangeImage& image, int begin, int end, int* tail) {
+  const int32_t label = labels_[queue_[begin]];
+  if (config_.min_row_width_m <= 0.0) {
+    Report(begin, end, label);
+    return;
+  }
+  const int num_touched = MeasureRows(image, begin, end);
+  const bool any_pruned = MarkThinRows(image, num_touched);
   if (any_pruned) {
     for (int i = begin; i < end; ++i) {
       const int idx = queue_[i];

@@ -80,6 +80,11 @@ class RangeSegmenter {
   int Grow(const RangeImage& image, int seed, int32_t from, int32_t to, int tail);
   /// Prunes thin rows of cluster [begin, end) and reports its remaining pieces.
   void PruneAndReport(const RangeImage& image, int begin, int end, int* tail);
+  /// PruneAndReport's steps: each row's column span and range sum over the segment queue_[begin,
+  /// end) (returns the rows touched, in touched_rows_), then which rows are thin (row_thin_; true
+  /// when any is).
+  int MeasureRows(const RangeImage& image, int begin, int end);
+  bool MarkThinRows(const RangeImage& image, int num_touched);
   void Report(int begin, int end, int32_t label);
 
   SegmentationConfig config_;
