@@ -3,7 +3,8 @@
 # AddressSanitizer + UndefinedBehaviorSanitizer (asan), the latter without the whole-session
 # suites labelled `slow`, the simulator's own suites (`sim`) and the VM tests labelled `vm`
 # (tests/vm/: kernel I/O, not memory);
-# then every libFuzzer target for a short fixed time from its seed corpus (fuzz-smoke).
+# then every libFuzzer target for a short fixed time from its seed corpus (fuzz-smoke); last, the
+# aarch64 cross build and core's suites under qemu (cross-test).
 # The sanitizer build is clang at -O1 -g1 (ASan's recommended level, line tables for its stack
 # traces), and holds the libFuzzer targets too: one sanitizer build instead of two.
 # `make check PRESET=debug|release|asan` runs one build's suite.
@@ -42,6 +43,7 @@ test: deps
 	@$(PHASE) "asan: build (with the fuzz targets)" $(MAKE) --no-print-directory build PRESET=asan
 	@$(PHASE) "asan: suite without slow, vm, fuzz" ctest --preset asan -j $(JOBS) -LE 'slow|vm|fuzz'
 	@$(PHASE) "fuzz: smoke" ctest --preset asan -j $(FUZZ_JOBS) -L fuzz
+	@$(PHASE) "aarch64: cross build, core suites under qemu" $(MAKE) --no-print-directory cross-test
 	@echo "make test: phase times"; $(PHASE) --print
 
 install:
@@ -53,7 +55,8 @@ demo: build
 
 # The aarch64 cross build (preset aarch64): core, its tests and calibd-agent, then the core suites
 # under qemu user emulation. Installs the cross compiler, qemu-user-static and an arm64 sysroot
-# (build/aarch64-sysroot) when missing; see toolchains/cross-test.sh. CTEST_ARGS go to its ctest.
+# (~/.cache/calibd/aarch64-sysroot, once per machine) when missing; see toolchains/cross-test.sh.
+# CTEST_ARGS go to its ctest. The last phase of `make test`.
 cross-test:
 	@JOBS=$(JOBS) bash toolchains/cross-test.sh $(CTEST_ARGS)
 

@@ -1,7 +1,7 @@
 # Cross build for 64-bit Arm Linux with Debian's cross compiler (g++-aarch64-linux-gnu) against an
 # arm64 sysroot of Debian bookworm's -dev packages. toolchains/cross-test.sh makes the sysroot in
-# build/aarch64-sysroot (mmdebstrap --variant=extract); CALIBD_AARCH64_SYSROOT in the environment
-# points elsewhere. Multiarch (libXXX-dev:arm64 beside the amd64 ones) is not used: apt wanted to
+# ~/.cache/calibd/aarch64-sysroot (mmdebstrap --variant=extract; $XDG_CACHE_HOME/calibd/... where
+# that is set); CALIBD_AARCH64_SYSROOT in the environment points elsewhere. Multiarch (libXXX-dev:arm64 beside the amd64 ones) is not used: apt wanted to
 # remove the host's libopencv-dev, libceres-dev and liblcm-dev for it.
 set(CMAKE_SYSTEM_NAME Linux)
 set(CMAKE_SYSTEM_PROCESSOR aarch64)
@@ -12,9 +12,10 @@ set(CMAKE_CXX_COMPILER aarch64-linux-gnu-g++)
 
 if(DEFINED ENV{CALIBD_AARCH64_SYSROOT})
   set(_calibd_sysroot "$ENV{CALIBD_AARCH64_SYSROOT}")
+elseif(DEFINED ENV{XDG_CACHE_HOME})
+  set(_calibd_sysroot "$ENV{XDG_CACHE_HOME}/calibd/aarch64-sysroot")
 else()
-  get_filename_component(_calibd_sysroot "${CMAKE_CURRENT_LIST_DIR}/../build/aarch64-sysroot"
-    ABSOLUTE)
+  set(_calibd_sysroot "$ENV{HOME}/.cache/calibd/aarch64-sysroot")
 endif()
 if(NOT EXISTS "${_calibd_sysroot}/usr/include")
   message(FATAL_ERROR "no arm64 sysroot at ${_calibd_sysroot}: run toolchains/cross-test.sh "

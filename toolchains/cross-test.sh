@@ -3,13 +3,14 @@
 # aarch64, toolchains/aarch64-linux-gnu.cmake) and runs the core suites (label core) under qemu user
 # emulation. Installs what it needs first, idempotently: Debian's cross compiler, qemu-user-static
 # and mmdebstrap on the host (no amd64 package is changed), and an arm64 sysroot of bookworm's -dev
-# packages in build/aarch64-sysroot (about 1.2 GB, several minutes the first time; kept while the
-# package list below is unchanged). Installing needs root (or sudo). JOBS sets the build's
-# parallelism (default 2); arguments go to ctest (e.g. -R Geometry).
+# packages in ~/.cache/calibd/aarch64-sysroot (about 1.2 GB, several minutes the first time; kept
+# while the package list below is unchanged). Like the host's packages, the sysroot is installed
+# once per machine, not per checkout: a fresh clone (CI) finds it made. Installing needs root (or
+# sudo). JOBS sets the build's parallelism (default 2); arguments go to ctest (e.g. -R Geometry).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-SYSROOT="${CALIBD_AARCH64_SYSROOT:-$PWD/build/aarch64-sysroot}"
+SYSROOT="${CALIBD_AARCH64_SYSROOT:-${XDG_CACHE_HOME:-$HOME/.cache}/calibd/aarch64-sysroot}"
 export CALIBD_AARCH64_SYSROOT="$SYSROOT"
 JOBS="${JOBS:-2}"
 BUILD=build/aarch64
