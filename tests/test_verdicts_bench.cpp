@@ -1,7 +1,7 @@
 // calibd-bench verdicts on a few of its sessions: a clean one is accepted within tolerance and
-// counted so, the same seed gives the same answer, and a fault drawn from the catalogue reaches
-// the engine (a wrong tag size is refused for its scale, a wrong principal point for what the
-// tags say).
+// counted so, with its error inside the bound it predicts for itself, the same seed gives the
+// same answer, and a fault drawn from the catalogue reaches the engine (a wrong tag size is
+// refused for its scale, a wrong principal point for what the tags say).
 
 #include <gtest/gtest.h>
 
@@ -40,12 +40,20 @@ TEST(VerdictsBenchTest, ACleanSessionIsAcceptedAndSizeAndCentreFaultsAreRefusedF
                                      VerdictSessionIndex("principal_point", 3)};
   const nlohmann::json first = RunSessions(sessions, dir.file("a.json"), &table, &ok);
   EXPECT_TRUE(ok) << table;
+  // Seed 1 (the default) is a tuning seed, and the table and JSON say so.
+  EXPECT_EQ(first["seed_kind"], "tuning");
+  EXPECT_NE(table.find("(quick, seed 1, tuning)"), std::string::npos) << table;
   ASSERT_EQ(first["sessions"].size(), 3u);
   const nlohmann::json& clean = first["sessions"][0];
   EXPECT_EQ(clean["fault"], "none");
   EXPECT_EQ(clean["verdict"], "updated") << clean["detail"];
   EXPECT_LT(clean["rotation_error_deg"].get<double>(), 0.3);
   EXPECT_FALSE(clean["false_accept"].get<bool>());
+  // Its true error lies inside the bound it predicts for itself, and that bound is finite.
+  EXPECT_TRUE(clean["inside_bound"].get<bool>()) << clean["quality"].dump();
+  EXPECT_TRUE(clean["quality"]["rotation_bound_deg"].is_number());
+  EXPECT_GT(clean["quality"]["rotation_bound_deg"].get<double>(),
+            clean["rotation_error_deg"].get<double>());
   const nlohmann::json& tag = first["sessions"][1];
   EXPECT_EQ(tag["fault"], "tag_size");
   EXPECT_EQ(tag["reason"], "camera_scale_mismatch") << tag["detail"];

@@ -5,6 +5,7 @@
 
 #include "bench_command_line.hpp"
 #include "command_line.hpp"
+#include "seed_kind.hpp"
 
 namespace {
 
@@ -27,7 +28,7 @@ detect   camera and LiDAR board detection over the default simulated session (3 
          camera corner error against the truth, and median/p95 time per frame of each stage.
   --lidar LIST        comma-separated models (default ot128,m1,falcon)
   --frames N          frame pairs per session (default 200)
-  --seed N            simulation seed (default 1)
+  --seed N            simulation seed (default 1; its kind: Seeds, below)
   --json FILE         also write the figures as JSON
 
 calib    calibration over simulated drives, each detected once with the real detectors, then
@@ -46,7 +47,7 @@ calib    calibration over simulated drives, each detected once with the real det
   --lidar LIST        comma-separated models (default ot128,m1,falcon)
   --trajectories N    drives per LiDAR, seeds seed .. seed+N-1 (default 5)
   --frames N          frame pairs per drive (default 200; fewer make a faster drive, 6-30 m)
-  --seed N            first simulation seed (default 1)
+  --seed N            first simulation seed (default 1; its kind: Seeds, below)
   --trials N          grid-search trials with and without the search (default 100; 0 skips)
   --json FILE         also write the figures as JSON
 
@@ -62,7 +63,7 @@ agent-memory
   --frames N          frame pairs of the drive (default 200)
   --loops LIST        comma-separated: one session per entry, the drive published that many
                       times (default 1,10: sessions of 200 and 2000 pairs)
-  --seed N            simulation seed (default 1)
+  --seed N            simulation seed (default 1; its kind: Seeds, below)
   --work-dir DIR      keep the log, configs, stores and outputs there (default: a temporary
                       directory, removed)
   --json FILE         also write the figures as JSON
@@ -77,7 +78,7 @@ pipeline the time and CPU of every stage against the paper's (§IV-E: 18.7 s LiD
          to result, the agent's CPU time and peak RSS. About 2.5 min per model on 2 cores.
   --lidar LIST        comma-separated models (default ot128,m1,falcon)
   --frames N          frame pairs per drive (default 200)
-  --seed N            simulation seed (default 1)
+  --seed N            simulation seed (default 1; its kind: Seeds, below)
   --engine-runs N     runs of each in-process engine configuration; the median run's figures
                       (default 5)
   --agent PATH|none   calibd-agent to run (default: this build's; none skips the live part)
@@ -129,7 +130,7 @@ recordings
          the engine started from the truth), against the targets. Fails when a target is
          missed.
   --scenario LIST     comma-separated scenarios (default: all)
-  --seed N            simulation seed (default 1)
+  --seed N            simulation seed (default 1; its kind: Seeds, below)
   --trials N          grid-search trials per scenario (default 20; 0 skips)
   --extract-planes on|off
                       search clusters refused as a whole for board planes (LiDAR detector's
@@ -160,7 +161,7 @@ verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-
   --quick             sessions whose collection ends at 80 pairs with boards (80-pair drives,
                       still poses of 6 sweeps) instead of at the agent's target (200 pairs;
                       200-pair drives, 10 sweeps a pose)
-  --seed N            simulation seed (default 1)
+  --seed N            simulation seed (default 1; its kind: Seeds, below)
   --threads N         sessions at once (default 2)
   --only LIST         only these sessions (comma-separated indices, as in --json): to look
                       again at one
@@ -173,18 +174,29 @@ time-offset the camera's time offset against the LiDAR, estimated by the engine 
          the offset cannot be told from a translation. Per drive: the true and estimated offset
          (sigma), what the solution was corrected for, its error and the verdict.
   --lidar LIST        comma-separated models (default ot128,m1)
-  --seed N            simulation seed (default 1)
+  --seed N            simulation seed (default 1; its kind: Seeds, below)
   --threads N         drives at once (default 2)
   --json FILE         also write every drive as JSON
 
 Exit codes: 0 done, 1 failed, 2 bad option.
 )";
 
+// The Seeds paragraph of the help, from the one list of tuning seeds.
+std::string SeedsHelp() {
+  std::string seeds;
+  for (const unsigned long long s : calibd::bench::kTuningSeeds)
+    seeds += (seeds.empty() ? "" : ", ") + std::to_string(s);
+  return "\nSeeds: " + seeds +
+         " are tuning seeds, on which sessions are looked at and constants set; any other is\n"
+         "held-out, run only to report (docs/error-bound.md). Every table names its seed and\n"
+         "that seed's kind.\n";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
-    std::cout << kHelp;
+    std::cout << kHelp << SeedsHelp();
     return argc < 2 ? calibd::tools::kExitBadOption : 0;
   }
   calibd::bench::BenchCommandLine b;
@@ -196,7 +208,7 @@ int main(int argc, char** argv) {
     return calibd::tools::kExitBadOption;
   }
   if (b.help) {
-    std::cout << kHelp;
+    std::cout << kHelp << SeedsHelp();
     return 0;
   }
   const std::string& c = b.command;

@@ -13,6 +13,7 @@
 #include "calibd/core/session/session_observations.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
+#include "seed_kind.hpp"
 
 namespace calibd::bench {
 
@@ -180,9 +181,11 @@ bool RunRecordingsBench(const RecordingsBenchOptions& o, std::ostream& out, std:
   }
   nlohmann::json doc;
   doc["seed"] = o.seed;
+  doc["seed_kind"] = SeedKind(o.seed);
   doc["extract_planes"] = o.extract_planes;
   bool all_met = true;
-  out << "LiDAR detector: planes inside refused clusters "
+  out << "Recorded-style sessions (" << SeedLabel(o.seed) << "). LiDAR detector: planes inside "
+      << "refused clusters "
       << (o.extract_planes ? "extracted (calibd-calibrate's default)" : "not extracted") << "\n\n";
   out << "| scenario | camera boards found / in view | LiDAR detector: recall / precision | "
          "LiDAR boards in the solve: recall / precision | verdict "

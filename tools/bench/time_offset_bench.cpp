@@ -9,6 +9,7 @@
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/config_file.hpp"
 #include "quality_json.hpp"
+#include "seed_kind.hpp"
 
 namespace calibd::bench {
 
@@ -90,13 +91,14 @@ bool RunTimeOffsetBench(const TimeOffsetBenchOptions& o, std::ostream& out, std:
       progress, "calibd-bench time-offset", "drives");
 
   out << "Camera time offset, estimated from the boards' motion: the default drive (3 boards, "
-         "6-30 m and back, 20 s at 10 Hz; one way: only towards the boards), seed "
-      << o.seed << ".\n\n"
+         "6-30 m and back, 20 s at 10 Hz; one way: only towards the boards), "
+      << SeedLabel(o.seed) << ".\n\n"
       << "| LiDAR | stamps | camera late | true offset | estimated (sigma) | corrected for | "
          "error of the estimate | rotation error | translation error | verdict |\n"
       << "|---|---|---|---|---|---|---|---|---|---|\n";
   nlohmann::json doc;
   doc["seed"] = o.seed;
+  doc["seed_kind"] = SeedKind(o.seed);
   for (const DriveResult& r : results) {
     if (!r.error.empty()) {
       if (error) *error = r.drive.lidar + ": " + r.error;

@@ -525,6 +525,14 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += InfoRow("image coverage (4x4 cells holding a board centre)",
                Num(q.image_coverage * 100.0, 0) + " %");
   s += InfoRow("smallest information eigenvalue", Sci(q.min_information_eigenvalue));
+  // The result's own predicted error bound (ErrorBound); reported, not yet a gate.
+  if (std::isfinite(q.rotation_bound_deg))
+    s += InfoRow("predicted error bound, 99 % (rotation, translation)",
+                 Num(q.rotation_bound_deg, 3) + " deg, " + Num(q.translation_bound_m, 4) +
+                     " m (clustered sigma " + Num(q.rotation_clustered_sigma_deg, 4) + " deg, " +
+                     Num(q.translation_clustered_sigma_m, 4) + " m; systematic " +
+                     Num(q.rotation_systematic_deg, 3) + " deg, " +
+                     Num(q.translation_systematic_m, 4) + " m)");
   s += InfoRow("grid search: perturbation of the prior (roll, pitch, yaw) [deg]",
                Num(out.grid.perturbation_rpy_deg.x(), 2) + ", " +
                    Num(out.grid.perturbation_rpy_deg.y(), 2) + ", " +

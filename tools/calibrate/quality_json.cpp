@@ -60,7 +60,18 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["board_bend_m"] = q.board_bend_id >= 0 ? nlohmann::json(q.board_bend_m) : nullptr;
   j["board_bend_sigma_m"] = q.board_bend_id >= 0 ? nlohmann::json(q.board_bend_sigma_m) : nullptr;
   j["principal_point_turn_deg"] = q.principal_point_turn_deg;
+  j["principal_point_turn_sigma_deg"] =
+      q.principal_point_fitted ? nlohmann::json(q.principal_point_turn_sigma_deg) : nullptr;
   j["principal_point_ms"] = q.principal_point_ms;
+  // The predicted 99 % bound on the result's own error and its parts (ErrorBound); null where
+  // the clustered covariance could not be estimated.
+  const auto finite = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nullptr; };
+  j["rotation_clustered_sigma_deg"] = finite(q.rotation_clustered_sigma_deg);
+  j["translation_clustered_sigma_m"] = finite(q.translation_clustered_sigma_m);
+  j["rotation_systematic_deg"] = q.rotation_systematic_deg;
+  j["translation_systematic_m"] = q.translation_systematic_m;
+  j["rotation_bound_deg"] = finite(q.rotation_bound_deg);
+  j["translation_bound_m"] = finite(q.translation_bound_m);
   return j;
 }
 

@@ -110,10 +110,14 @@ bool CompressedBoxCost::Evaluate(double const* const* parameters, double* residu
 void CompressedBoxCost::Statistics(const Pose& T_camera_lidar, BoxStatistics* stats) const {
   const Eigen::Matrix3d R = T_camera_lidar.linear();
   const Eigen::Vector3d t = T_camera_lidar.translation();
+  const size_t first = stats->term_scores.size();
+  stats->term_scores.resize(first + terms_.size(), Eigen::Matrix<double, 6, 1>::Zero());
   ForEachPoint(terms_, R, t, huber_, true,
-               [&](const BoxTerm& term, const Eigen::Vector3d& p, const Eigen::Vector3d&,
+               [&](const BoxTerm& term, const Eigen::Vector3d& p, const Eigen::Vector3d& r,
                    const Eigen::Matrix<double, 3, 6>& J) {
                  stats->information.noalias() += J.transpose() * J;
+                 stats->term_scores[first + static_cast<size_t>(&term - terms_.data())].noalias() +=
+                     J.transpose() * r;
                  stats->plane_information.noalias() += J.row(2).transpose() * J.row(2);
                  const Eigen::Vector3d p_board =
                      term.T_board_camera.linear() * (R * p + t) + term.T_board_camera.translation();

@@ -118,6 +118,7 @@ bool DirectOptimizerConfig::IsValid(std::string* error) const {
     return Invalid(error, "max_joint_points_per_solve must be >= 0");
   if (max_iterations < 1) return Invalid(error, "max_iterations must be >= 1");
   if (round_iterations < 1) return Invalid(error, "round_iterations must be >= 1");
+  if (covariance_stretches < 2) return Invalid(error, "covariance_stretches must be >= 2");
   if (threads < 1) return Invalid(error, "threads must be >= 1");
   if (!(corner_sigma_px > 0.0 && corner_sigma_px < 100.0))
     return Invalid(error, "corner_sigma_px must be in (0, 100) px");
@@ -164,6 +165,7 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
   // The observations' box costs in compressed form (compressed_box_cost.hpp), a few chunks so
   // that Ceres evaluates them on its threads.
   std::vector<BoxTerm> terms;
+  std::vector<size_t> term_observation;  // each term's observation in `set`
   for (size_t k = 0; k < set.observations.size(); ++k) {
     if (!Used(boards, set, use, k)) continue;
     const BoardObservation& o = set.observations[k];
@@ -175,6 +177,7 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
     term.T_board_camera = T_camera_board[k].inverse();
     term.half_extent = Eigen::Vector3d(g.width_m / 2.0, g.height_m / 2.0, config.alpha_m);
     terms.push_back(term);
+    term_observation.push_back(k);
     ++result.observations;
     result.points += term.num_used();
   }
@@ -217,6 +220,15 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
   result.min_information_eigenvalue =
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(result.information)
           .eigenvalues()(0);
+  std::vector<ObservationScore> scores(terms.size());
+  for (size_t i = 0; i < terms.size(); ++i) {
+    const BoardObservation& o = set.observations[term_observation[i]];
+    scores[i].board = o.board_index;
+    scores[i].frame = o.frame;
+    scores[i].score = stats.term_scores[i];
+  }
+  result.clustered =
+      ClusterRobustCovariance(result.information, scores, config.covariance_stretches);
 }
 
 // The checks both entry points make before solving; false with result->reason set.

@@ -20,6 +20,16 @@ namespace calibd {
 
 namespace {
 
+// The worst direction's standard deviation of each block of a covariance in the tangent
+// [dt, dtheta]: translation (m) and rotation (deg).
+void WorstSigmas(const Eigen::Matrix<double, 6, 6>& cov, double* translation_m,
+                 double* rotation_deg) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> et(cov.topLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> er(cov.bottomRightCorner<3, 3>());
+  *translation_m = std::sqrt(std::max(0.0, et.eigenvalues()(2)));
+  *rotation_deg = std::sqrt(std::max(0.0, er.eigenvalues()(2))) * kRad2Deg;
+}
+
 // Formal standard deviations: covariance = sigma^2 (J^T J)^-1 with sigma the residual RMS, in the
 // tangent [dt, dtheta]; the worst direction of each block.
 void FormalSigmas(const Eigen::Matrix<double, 6, 6>& info, double residual_rms, QualityFigures* q) {
@@ -28,11 +38,8 @@ void FormalSigmas(const Eigen::Matrix<double, 6, 6>& info, double residual_rms, 
     q->rotation_sigma_deg = q->translation_sigma_m = std::numeric_limits<double>::infinity();
     return;
   }
-  const Eigen::Matrix<double, 6, 6> cov = lu.inverse() * residual_rms * residual_rms;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> et(cov.topLeftCorner<3, 3>());
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> er(cov.bottomRightCorner<3, 3>());
-  q->translation_sigma_m = std::sqrt(std::max(0.0, et.eigenvalues()(2)));
-  q->rotation_sigma_deg = std::sqrt(std::max(0.0, er.eigenvalues()(2))) * kRad2Deg;
+  WorstSigmas(lu.inverse() * residual_rms * residual_rms, &q->translation_sigma_m,
+              &q->rotation_sigma_deg);
 }
 
 // The camera's scale and the LiDAR's range offset (camera_scale.hpp, range_offset.hpp).
@@ -119,6 +126,8 @@ void PrincipalPointFigures(const CalibConfig& config, const SessionObservations&
   q.principal_point_residual_px = pp.residual_rms_px;
   q.principal_point_turn_deg =
       std::hypot(pp.shift_px.x() / config.camera.fx, pp.shift_px.y() / config.camera.fy) * kRad2Deg;
+  q.principal_point_turn_sigma_deg =
+      std::hypot(pp.sigma_px.x() / config.camera.fx, pp.sigma_px.y() / config.camera.fy) * kRad2Deg;
   q.principal_point_ms = MsSince(t_pp);
 }
 
@@ -208,6 +217,49 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
   PrincipalPointFigures(config, session, q);
   TimeOffsetFigures(corr, distances, q);
   q->plane_conditioning = PlaneConditioning(direct);
+  ErrorBound(direct, q);
+}
+
+void ErrorBound(const DirectResult& direct, QualityFigures* q) {
+  const auto finite = [](double x) { return std::isfinite(x) ? x : 0.0; };
+  // The systematic terms: what the checks estimated (left uncorrected: a bias, added as it is)
+  // and how uncertain each estimate is (added in quadrature to the statistical part).
+  double rotation_bias_deg = 0.0, rotation_var = 0.0;  // deg, deg^2
+  if (q->principal_point_fitted) {
+    rotation_bias_deg = q->principal_point_turn_deg;
+    rotation_var = std::pow(finite(q->principal_point_turn_sigma_deg), 2);
+  }
+  double translation_bias_m = 0.0, translation_var = 0.0;  // m, m^2
+  if (std::isfinite(q->lidar_range_offset_m)) {
+    translation_bias_m = std::fabs(q->lidar_range_offset_m);
+    translation_var += std::pow(finite(q->lidar_range_offset_sigma_m), 2);
+  }
+  // The scale: what is left of its error after the correction moves the translation by that
+  // share of the boards' distance (camera_scale_translation_m is its sigma times the distance).
+  if (std::isfinite(q->camera_scale_error) && q->camera_scale_sigma > 0.0 &&
+      std::isfinite(q->camera_scale_translation_m)) {
+    const double distance_m = q->camera_scale_translation_m / q->camera_scale_sigma;
+    const double left = (1.0 + q->camera_scale_error) / (1.0 + q->camera_scale_corrected) - 1.0;
+    translation_bias_m += std::fabs(left) * distance_m;
+  }
+  translation_var += std::pow(finite(q->camera_scale_translation_m), 2);
+  if (q->time_offset_fitted)
+    translation_var += std::pow(finite(q->time_offset_sigma_s) * q->board_normal_speed_mps, 2);
+  const double k = kBoundNormQuantile3d;
+  q->rotation_systematic_deg = rotation_bias_deg + k * std::sqrt(rotation_var);
+  q->translation_systematic_m = translation_bias_m + k * std::sqrt(translation_var);
+  if (!direct.clustered.valid) {
+    q->rotation_bound_deg = q->translation_bound_m = std::numeric_limits<double>::infinity();
+    return;
+  }
+  WorstSigmas(direct.clustered.covariance, &q->translation_clustered_sigma_m,
+              &q->rotation_clustered_sigma_deg);
+  q->rotation_bound_deg =
+      rotation_bias_deg +
+      k * std::sqrt(std::pow(q->rotation_clustered_sigma_deg, 2) + rotation_var);
+  q->translation_bound_m =
+      translation_bias_m +
+      k * std::sqrt(std::pow(q->translation_clustered_sigma_m, 2) + translation_var);
 }
 
 }  // namespace calibd

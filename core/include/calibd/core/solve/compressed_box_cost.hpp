@@ -46,6 +46,9 @@ struct BoxStatistics {
   Eigen::Matrix<double, 6, 6> plane_information = Eigen::Matrix<double, 6, 6>::Zero();
   double sum_squared_residuals = 0.0;
   int points = 0;
+  /// J^T r of each term's points (the robust residuals the solve minimises), one entry per term
+  /// in the order of the terms: what clustered_covariance.hpp clusters.
+  std::vector<Eigen::Matrix<double, 6, 1>> term_scores;
 };
 
 class CompressedBoxCost final : public ceres::CostFunction {

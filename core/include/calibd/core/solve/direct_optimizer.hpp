@@ -13,6 +13,7 @@
 #include "calibd/core/common/board.hpp"
 #include "calibd/core/common/geometry.hpp"
 #include "calibd/core/session/board_observation.hpp"
+#include "calibd/core/solve/clustered_covariance.hpp"
 
 namespace calibd {
 
@@ -59,6 +60,10 @@ struct DirectOptimizerConfig {
   /// Iterations of each extrinsic solve between refinements (the final solve runs to
   /// convergence, up to max_iterations).
   int round_iterations = 4;
+  /// Runs of consecutive frames the cluster-robust covariance clusters by
+  /// (clustered_covariance.hpp): each a stretch of a drive or a few still poses, long enough to
+  /// hold what neighbouring frames share, and enough of them for the covariance to be estimated.
+  int covariance_stretches = 8;
 
   bool IsValid(std::string* error) const;
 };
@@ -80,6 +85,9 @@ struct DirectResult {
   /// board's border, which beam width and mixed points make unreliable, so observability is
   /// judged on this one: one board, or parallel boards, leave it rank-deficient.
   Eigen::Matrix<double, 6, 6> plane_information = Eigen::Matrix<double, 6, 6>::Zero();
+  /// The extrinsic's covariance robust to errors shared by a board or a stretch of frames
+  /// (clustered_covariance.hpp), tangent [dt, dtheta]; with the information, from the final solve.
+  ClusteredCovariance clustered;
   double solve_ms = 0.0;
   int refined_boards = 0;  ///< board poses refined (0 without refine_board_poses)
   /// Mean change of the refined board poses from the camera's PnP: rotation (deg), translation

@@ -31,6 +31,23 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
                     const std::vector<BoardGeometry>& boards, const DirectResult& direct,
                     QualityFigures* q);
 
+/// The 99 % quantile of the norm of a 3-D Gaussian error along its worst direction (the square
+/// root of chi-square with 3 degrees of freedom at 0.99), which the error bound scales its
+/// standard deviations by.
+inline constexpr double kBoundNormQuantile3d = 3.368;
+
+/// The predicted 99 % bound on the result's own error (QualityFigures::rotation_bound_deg,
+/// translation_bound_m and their parts), from `direct`'s clustered covariance and the systematic
+/// figures MeasureQuality set in `q`: the principal point's turn (rotation), the LiDAR's range
+/// offset, the camera's scale and the time offset left (translation: the first moves it by about
+/// itself, the scale error left after its correction, and its sigma, by themselves times the
+/// boards' distance, the time offset by its sigma times the boards' speed along their normals).
+/// What a check estimated and left uncorrected is a bias, added as it is; the estimates' sigmas
+/// join the clustered sigma in quadrature, and the sum is scaled by kBoundNormQuantile3d. A term
+/// not measured adds nothing: its own gate decides about it. Reported, not yet a gate: its coverage
+/// is measured by `calibd-bench verdicts`.
+void ErrorBound(const DirectResult& direct, QualityFigures* q);
+
 /// How many re-solves the stability figures take.
 struct StabilityChecks {
   int half_data_runs = 4;  ///< re-solves on random halves of the correspondences (0: skip)

@@ -25,6 +25,18 @@ struct QualityFigures {
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
   double min_information_eigenvalue = 0.0;
   double rotation_sigma_deg = 0.0, translation_sigma_m = 0.0;  ///< formal, from J^T J
+  /// The same from the cluster-robust covariance (clustered_covariance.hpp): honest about errors
+  /// a board or a stretch of frames shares; infinite where it cannot be estimated.
+  double rotation_clustered_sigma_deg = std::numeric_limits<double>::infinity();
+  double translation_clustered_sigma_m = std::numeric_limits<double>::infinity();
+  /// What the systematic terms the checks measure could move the result by (ErrorBound in
+  /// measure_quality.hpp): the principal point's turn, the range offset, the camera's scale and
+  /// the time offset left, their estimates plus their sigmas at the bound's quantile.
+  double rotation_systematic_deg = 0.0, translation_systematic_m = 0.0;
+  /// The predicted bound on this result's own error (99 %): the clustered covariance's worst
+  /// direction at the 99 % quantile of a 3-D error's norm, plus the systematic terms.
+  double rotation_bound_deg = std::numeric_limits<double>::infinity();
+  double translation_bound_m = std::numeric_limits<double>::infinity();
   double plane_conditioning = 0.0;  ///< see VerdictConfig::min_plane_conditioning
   double rotation_spread_deg = 0.0, translation_spread_m = 0.0;  ///< half-data re-solves
   double start_rotation_deg = 0.0, start_translation_m = 0.0;    ///< solves from other starts
@@ -79,8 +91,10 @@ struct QualityFigures {
   int board_bend_id = -1;
   double board_bend_m = 0.0;
   double board_bend_sigma_m = std::numeric_limits<double>::infinity();
-  /// The turn that shift gives the result: about |(dx / fx, dy / fy)|, deg.
+  /// The turn that shift gives the result: about |(dx / fx, dy / fy)|, deg, and the same of the
+  /// shift's sigma.
   double principal_point_turn_deg = 0.0;
+  double principal_point_turn_sigma_deg = std::numeric_limits<double>::infinity();
   double principal_point_ms = 0.0;
 };
 

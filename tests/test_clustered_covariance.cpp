@@ -1,0 +1,94 @@
+// The cluster-robust covariance against Monte Carlo: a linear least-squares problem whose errors
+// are shared by stretches of frames (as a drive's motion and timing errors are). The formal
+// covariance, which takes every row as independent, understates the scatter of the estimate;
+// the clustered one matches it.
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <random>
+#include <vector>
+
+#include "calibd/core/solve/clustered_covariance.hpp"
+
+namespace calibd {
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+constexpr int kFrames = 80, kRowsPerObservation = 10, kStretches = 8, kDraws = 3000;
+constexpr double kSharedSigma = 0.5, kOwnSigma = 0.3;
+
+TEST(ClusteredCovarianceTest, MatchesTheScatterOfAnEstimateWhoseErrorsStretchesShare) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> n(0.0, 1.0);
+  // One observation a frame, its rows' design fixed over the draws: alike within a frame (a
+  // board's points constrain the extrinsic in about the same direction), so that an error they
+  // share adds up where independent ones would cancel.
+  std::vector<Eigen::Matrix<double, kRowsPerObservation, 6>> A(kFrames);
+  Matrix6d H = Matrix6d::Zero();
+  for (auto& a : A) {
+    Vector6d direction;
+    for (int j = 0; j < 6; ++j) direction(j) = n(rng);
+    for (int i = 0; i < a.rows(); ++i)
+      for (int j = 0; j < 6; ++j) a(i, j) = direction(j) + 0.3 * n(rng);
+    H += a.transpose() * a;
+  }
+  const Matrix6d H_inv = H.inverse();
+  Matrix6d scatter = Matrix6d::Zero(), clustered = Matrix6d::Zero(), formal = Matrix6d::Zero();
+  for (int draw = 0; draw < kDraws; ++draw) {
+    // Each stretch of 10 frames shares one error in every row, beside the rows' own.
+    std::vector<double> shared(kStretches);
+    for (double& s : shared) s = kSharedSigma * n(rng);
+    std::vector<Eigen::Matrix<double, kRowsPerObservation, 1>> y(kFrames);
+    Vector6d g = Vector6d::Zero();
+    for (int f = 0; f < kFrames; ++f) {
+      for (int i = 0; i < kRowsPerObservation; ++i)
+        y[f](i) = shared[f * kStretches / kFrames] + kOwnSigma * n(rng);
+      g += A[f].transpose() * y[f];
+    }
+    const Vector6d estimate = H_inv * g;  // the truth is 0
+    scatter += estimate * estimate.transpose();
+    // Scores of the residuals at the estimate, as the solve has them.
+    std::vector<ObservationScore> scores(kFrames);
+    double rss = 0.0;
+    for (int f = 0; f < kFrames; ++f) {
+      const Eigen::Matrix<double, kRowsPerObservation, 1> r = y[f] - A[f] * estimate;
+      scores[f].board = 0;
+      scores[f].frame = f;
+      scores[f].score = A[f].transpose() * r;
+      rss += r.squaredNorm();
+    }
+    const ClusteredCovariance c = ClusterRobustCovariance(H, scores, kStretches);
+    ASSERT_TRUE(c.valid);
+    EXPECT_EQ(c.stretches, kStretches);
+    EXPECT_EQ(c.boards, 1);
+    clustered += c.covariance;
+    formal += H_inv * rss / (kFrames * kRowsPerObservation - 6);
+  }
+  for (int j = 0; j < 6; ++j) {
+    const double truth = scatter(j, j) / kDraws;
+    const double mean_clustered = clustered(j, j) / kDraws, mean_formal = formal(j, j) / kDraws;
+    std::printf("parameter %d: scatter %.3e, clustered %.3e (%.2f), formal %.3e (%.2f)\n", j, truth,
+                mean_clustered, mean_clustered / truth, mean_formal, mean_formal / truth);
+    EXPECT_GT(mean_clustered / truth, 0.6) << j;
+    EXPECT_LT(mean_clustered / truth, 1.5) << j;
+    EXPECT_LT(mean_formal / truth, 0.5) << j;
+  }
+}
+
+TEST(ClusteredCovarianceTest, NeedsTwoStretchesAndAnInvertibleInformation) {
+  std::vector<ObservationScore> one_frame(3);
+  for (int k = 0; k < 3; ++k) one_frame[k].frame = 4, one_frame[k].board = k;
+  EXPECT_FALSE(ClusterRobustCovariance(Matrix6d::Identity(), one_frame, 8).valid);
+  std::vector<ObservationScore> two(2);
+  two[1].frame = 1;
+  EXPECT_FALSE(ClusterRobustCovariance(Matrix6d::Zero(), two, 8).valid);
+  const ClusteredCovariance c = ClusterRobustCovariance(Matrix6d::Identity(), two, 8);
+  EXPECT_TRUE(c.valid);
+  EXPECT_EQ(c.stretches, 2);
+}
+
+}  // namespace
+}  // namespace calibd
