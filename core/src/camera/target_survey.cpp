@@ -28,7 +28,11 @@ TargetSurvey::TargetSurvey(const TargetSurveyConfig& config) : impl_(std::make_u
   impl_->config = config;
   impl_->detector = apriltag_detector_create();
   impl_->detector->quad_decimate = 2.0f;
-  impl_->detector->nthreads = 2;
+  // One thread: Debian's libapriltag 3.3 has a race in its worker pool (a worker woken
+  // spuriously reads the task list while a task is added and the list reallocated; fixed upstream
+  // by AprilRobotics/apriltag#339, 2024), seen here as a segfault in about 1 of 60 runs under
+  // qemu-aarch64. A survey of a few images does not need the speed.
+  impl_->detector->nthreads = 1;
   for (const std::string& name : config.families) {
     const internal::AprilTagFamilyEntry* entry = internal::FindAprilTagFamily(name);
     if (!entry) {
