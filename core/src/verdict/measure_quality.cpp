@@ -124,10 +124,8 @@ void PrincipalPointFigures(const CalibConfig& config, const SessionObservations&
   q.principal_point_sigma_px = pp.sigma_px;
   q.principal_point_systematic_px = pp.systematic_px;
   q.principal_point_residual_px = pp.residual_rms_px;
-  q.principal_point_turn_deg =
-      std::hypot(pp.shift_px.x() / config.camera.fx, pp.shift_px.y() / config.camera.fy) * kRad2Deg;
-  q.principal_point_turn_sigma_deg =
-      std::hypot(pp.sigma_px.x() / config.camera.fx, pp.sigma_px.y() / config.camera.fy) * kRad2Deg;
+  q.principal_point_turn_deg = PrincipalPointTurnDeg(pp.shift_px, config.camera);
+  q.principal_point_turn_sigma_deg = PrincipalPointTurnDeg(pp.sigma_px, config.camera);
   q.principal_point_ms = MsSince(t_pp);
 }
 

@@ -7,6 +7,8 @@
 #include <array>
 #include <cmath>
 
+#include "calibd/core/common/geometry.hpp"
+
 namespace calibd {
 
 namespace {
@@ -196,6 +198,10 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
   est.systematic_px = sensitivity.systematic_px;
   est.residual_rms_px = sensitivity.residual_rms_px;
   return est;
+}
+
+double PrincipalPointTurnDeg(const Eigen::Vector2d& shift_px, const CameraIntrinsics& camera) {
+  return std::hypot(shift_px.x() / camera.fx, shift_px.y() / camera.fy) * kRad2Deg;
 }
 
 }  // namespace calibd

@@ -1,9 +1,7 @@
 #include "calibd/core/verdict/gates/principal_point_gate.hpp"
 
-#include <cmath>
-
-#include "calibd/core/common/geometry.hpp"
 #include "calibd/core/common/text_format.hpp"
+#include "calibd/core/verdict/principal_point_check.hpp"
 #include "calibd/core/verdict/verdict.hpp"
 
 namespace calibd {
@@ -12,8 +10,7 @@ namespace {
 
 // The turn the principal point's sigma alone gives the result, deg.
 double SigmaTurnDeg(const GateInput& in) {
-  const Eigen::Vector2d s = in.quality.principal_point_sigma_px;
-  return std::hypot(s.x() / in.camera.fx, s.y() / in.camera.fy) * kRad2Deg;
+  return PrincipalPointTurnDeg(in.quality.principal_point_sigma_px, in.camera);
 }
 
 double MaxTurnDeg(const GateInput& in) {

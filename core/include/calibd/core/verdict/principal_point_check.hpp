@@ -49,6 +49,10 @@ inline constexpr double kCornerNoisePx = 0.1;
 /// (blur and the pixel grid; real lenses, demosaicing and compression add to it).
 inline constexpr double kCornerBiasPx = 0.05;
 
+/// The turn a principal point shift of `shift_px` (or its sigma) gives the result, deg: about
+/// |(dx / fx, dy / fy)|, which the LiDAR cannot see.
+double PrincipalPointTurnDeg(const Eigen::Vector2d& shift_px, const CameraIntrinsics& camera);
+
 /// Fits the principal point shift to the camera observations of `session` (tag corners of the
 /// configured boards; checkerboards by their four outer corners), starting from each one's PnP
 /// pose.
