@@ -87,6 +87,7 @@ TEST(AgentConfigTest, DocumentedDefaultFileLoadsWithTheDocumentedValues) {
   std::string error;
   ASSERT_TRUE(LoadAgentConfig(kDefaultConfigPath, &c, &error)) << error;
   ExpectAgentAndEngineDefaults(c);
+  EXPECT_EQ(c.cache_dir, "/var/cache/calibd");  // calibd.service's CacheDirectory=
   EXPECT_EQ(c.calib.camera_id, "front");
   EXPECT_EQ(c.calib.lidar_model, "ot128");
   EXPECT_EQ(c.calib.camera_frame, "camera");
@@ -136,6 +137,7 @@ TEST(AgentConfigTest, PartialSectionsKeepTheOtherDefaults) {
   EXPECT_EQ(c.max_frames, 300);
   EXPECT_EQ(c.store.keep_previous, 9);
   EXPECT_EQ(c.store.directory, "/var/lib/calibd");
+  EXPECT_EQ(c.cache_dir, "");  // nothing kept unless the config says where
   EXPECT_EQ(c.engine.verdict.min_boards, 40);
   c.max_frames = 200;
   c.store.keep_previous = AgentConfig{}.store.keep_previous;
@@ -424,6 +426,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"  lcm_url: \"\"\n", "  lcm_url: localhost\n", "agent.lcm_url"},
         BadCase{"directory: /var/lib/calibd\n", "directory: var/calibd\n", "agent.store.directory"},
         BadCase{"keep_previous: 5\n", "keep_previous: -1\n", "agent.store.keep_previous"},
+        BadCase{"cache_dir: /var/cache/calibd\n", "cache_dir: cache\n", "agent.cache_dir"},
         BadCase{"max_boards_per_frame: 0\n", "max_boards_per_frame: 2\n",
                 "agent.max_boards_per_frame"},
         BadCase{"max_points_per_board: 4096\n", "max_points_per_board: lots\n",

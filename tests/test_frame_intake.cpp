@@ -10,8 +10,11 @@
 #include <chrono>
 #include <thread>
 
+#include "calibd/drivers/atomic_file.hpp"
+#include "calibd/drivers/lidar_reference_file.hpp"
 #include "simulated_messages.hpp"
 #include "small_camera.hpp"
+#include "temp_dir.hpp"
 
 namespace calibd {
 namespace {
@@ -96,6 +99,59 @@ TEST(FrameIntakeTest, DetectsPairsLikeTheDetectorsDirectly) {
   }
   EXPECT_EQ(session.points, direct.points);
   EXPECT_EQ(session.frame_times[3].camera_utime, m.camera[3].utime);
+}
+
+// The LiDAR references kept between starts (IntakeConfig::reference_cache_file): the first
+// start builds them and writes the file, creating its directory; the next takes them from it
+// and detects the same boards in the same frames; a damaged file is named, rebuilt and rewritten.
+TEST(FrameIntakeTest, TheLidarReferencesAreKeptBetweenStartsAndADamagedCacheIsRebuilt) {
+  const Messages& m = SimulatedMessages();
+  const testing::TempDir dir;
+  IntakeConfig config = SmallIntake(8);
+  config.reference_cache_file = dir.file("cache/lidar-references.bin");
+  auto start = [&](SessionObservations* session) {
+    FrameIntake intake;
+    std::string error;
+    EXPECT_TRUE(intake.Init(config, m.config, &error)) << error;
+    EXPECT_TRUE(intake.AwaitStartup()) << intake.startup().error;
+    intake.SetActive(true);
+    for (size_t k = 0; k < m.camera.size(); ++k) {
+      intake.OnCamera(m.camera[k]);
+      intake.OnLidar(m.lidar[k]);
+    }
+    session->Reserve(20, 8, 4096);
+    EXPECT_EQ(DrainAll(&intake, session, 6), 6);
+    return intake.startup();
+  };
+  SessionObservations first, second, third;
+  const FrameIntake::Startup built = start(&first);
+  EXPECT_FALSE(built.from_cache);
+  EXPECT_EQ(built.cache_note, "written to '" + config.reference_cache_file + "'");
+  LidarReferenceSet kept;
+  std::string error;
+  ASSERT_TRUE(ReadReferenceFile(config.reference_cache_file, &kept, &error)) << error;
+  EXPECT_EQ(static_cast<int>(kept.views.size()), built.references);
+
+  const FrameIntake::Startup cached = start(&second);
+  EXPECT_TRUE(cached.from_cache);
+  EXPECT_EQ(cached.cache_note, "");
+  EXPECT_EQ(cached.references, built.references);
+  EXPECT_FALSE(first.lidar.empty());
+  EXPECT_EQ(second.lidar.size(), first.lidar.size());
+  EXPECT_EQ(second.points, first.points);
+
+  // One byte flipped in the middle of the descriptors: the CRC-32 tells.
+  std::string bytes;
+  ASSERT_TRUE(ReadWholeFile(config.reference_cache_file, &bytes, &error)) << error;
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x10);
+  ASSERT_TRUE(WriteFileAtomic(config.reference_cache_file, bytes, &error)) << error;
+  const FrameIntake::Startup rebuilt = start(&third);
+  EXPECT_FALSE(rebuilt.from_cache);
+  EXPECT_EQ(rebuilt.cache_note, "'" + config.reference_cache_file +
+                                    "': CRC-32 mismatch (a damaged file); written to '" +
+                                    config.reference_cache_file + "'");
+  EXPECT_EQ(third.points, first.points);
+  ASSERT_TRUE(ReadReferenceFile(config.reference_cache_file, &kept, &error)) << error;
 }
 
 // The LiDAR detector's fixed capacities: what does not fit is counted per pair drained.

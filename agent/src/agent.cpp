@@ -85,9 +85,10 @@ bool Agent::CheckDetectorStartup() {
   }
   if (!s.ready) return true;
   detectors_ready_ = true;
-  Log("LiDAR detector ready: " + std::to_string(s.references) + " reference descriptors in " +
-      std::to_string(static_cast<int64_t>(s.build_ms)) + " ms (built at nice " +
-      std::to_string(s.build_nice) + ")");
+  Log("LiDAR detector ready: " + std::to_string(s.references) + " reference descriptors " +
+      (s.from_cache ? "from the cache" : "built") + " in " +
+      std::to_string(static_cast<int64_t>(s.build_ms)) + " ms (at nice " +
+      std::to_string(s.build_nice) + ")" + (s.cache_note.empty() ? "" : "; cache " + s.cache_note));
   return true;
 }
 

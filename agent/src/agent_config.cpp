@@ -114,6 +114,10 @@ bool AgentKeysValid(const AgentConfig& c, std::string* error) {
     return Fail(error, "agent.store.directory",
                 "must be an absolute path (got '" + c.store.directory + "')");
 
+  if (!c.cache_dir.empty() && c.cache_dir.front() != '/')
+    return Fail(error, "agent.cache_dir",
+                "must be empty (no cache) or an absolute path (got '" + c.cache_dir + "')");
+
   if (!IntIn("agent.max_frames", c.max_frames, 10, 100000, error)) return false;
   const int boards = static_cast<int>(c.calib.boards.size());
   if (c.max_boards_per_frame != 0 &&
@@ -408,6 +412,7 @@ void ParseAgentSection(const YAML::Node& node, AgentConfig* c) {
   store.Read("directory", &c->store.directory);
   store.Read("keep_previous", &c->store.keep_previous);
   store.RejectUnknown();
+  s.Read("cache_dir", &c->cache_dir);
   s.Read("max_frames", &c->max_frames);
   s.Read("max_boards_per_frame", &c->max_boards_per_frame);
   s.Read("max_points_per_board", &c->max_points_per_board);

@@ -1,12 +1,14 @@
 #include "calibd/agent/frame_intake.hpp"
 
 #include <chrono>
+#include <filesystem>
 
 #include "calibd/agent/thread_nice.hpp"
 #include "calibd/core/common/stopwatch.hpp"
 #include "calibd/core/common/validation.hpp"
 #include "calibd/core/lidar/lidar_model.hpp"
 #include "calibd/core/lidar/lidar_resolution.hpp"
+#include "calibd/drivers/lidar_reference_file.hpp"
 
 namespace calibd {
 
@@ -272,14 +274,29 @@ void FrameIntake::BuildLidarDetector() {
   const auto t0 = std::chrono::steady_clock::now();
   // On a thread of its own at kReferenceBuildNice (its helper inherits it), below the detection
   // the worker goes on with (raising a nice value back would need CAP_SYS_NICE).
+  // The references kept by an earlier start, when there is a cache file (no file yet: built).
+  LidarReferenceSet cached;
+  std::string cache_note;
+  const std::string& cache_file = config_.reference_cache_file;
+  const bool have_cached = !cache_file.empty() && std::filesystem::exists(cache_file) &&
+                           ReadReferenceFile(cache_file, &cached, &cache_note);
   std::unique_ptr<LidarDetector> detector;
   bool niced = false;
   std::thread builder([&] {
     niced = NiceThisThread(kReferenceBuildNice);
-    detector =
-        std::make_unique<LidarDetector>(lidar_config_, lidar_model_, calib_.boards, &cancel_build_);
+    detector = std::make_unique<LidarDetector>(lidar_config_, lidar_model_, calib_.boards,
+                                               &cancel_build_, have_cached ? &cached : nullptr);
   });
   builder.join();
+  if (have_cached && !detector->references_from_cache())
+    cache_note = "'" + cache_file + "' not taken: " + detector->cache_refusal();
+  if (!cache_file.empty() && detector->ok() && !detector->references_from_cache()) {
+    std::string error;
+    const std::string written = WriteReferenceFile(cache_file, detector->references(), &error)
+                                    ? "written to '" + cache_file + "'"
+                                    : "not written: " + error;
+    cache_note = cache_note.empty() ? written : cache_note + "; " + written;
+  }
   // No slot is queued before the detector is ready (frames are ignored), so the slots' LiDAR
   // detections are this thread's alone here.
   if (detector->ok())
@@ -289,6 +306,8 @@ void FrameIntake::BuildLidarDetector() {
     startup_.build_ms = MsSince(t0);
     startup_.references = detector->num_references();
     startup_.build_nice = niced ? kReferenceBuildNice : 0;
+    startup_.from_cache = detector->references_from_cache();
+    startup_.cache_note = cache_note;
     if (detector->ok()) {
       lidar_detector_ = std::move(detector);
       startup_.ready = true;

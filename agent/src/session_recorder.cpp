@@ -17,6 +17,8 @@ IntakeConfig IntakeConfigFrom(const AgentConfig& config) {
   intake.lidar.max_board_points = config.max_points_per_board;
   // The LiDAR detector keeps as many boards per sweep as the session store takes per pair.
   intake.lidar.max_boards = config.BoardsPerFrame();
+  if (!config.cache_dir.empty())
+    intake.reference_cache_file = config.cache_dir + "/" + AgentConfig::kReferenceCacheName;
   return intake;
 }
 

@@ -18,6 +18,7 @@
 #include "calibd/calibration_request_t.hpp"
 #include "calibd/camera_frame_t.hpp"
 #include "calibd/drivers/calibration_store.hpp"
+#include "calibd/drivers/lidar_reference_file.hpp"
 #include "calibd/lidar_frame_t.hpp"
 #include "pcd_writer.hpp"
 
@@ -220,6 +221,19 @@ void Store() {
   fs::remove_all(dir);
 }
 
+// The LiDAR reference cache: a small set, and the same with no views.
+void References() {
+  calibd::LidarReferenceSet set;
+  set.key = 0x5eed5eed5eed5eedull;
+  set.dims = 4;
+  set.views = {0, 3};
+  set.descriptors = {0.5f, -0.5f, 0.25f, -0.25f, 0.1f, 0.2f, -0.3f, 0.0f};
+  Write("lidar_references", "two_views", calibd::EncodeReferenceSet(set));
+  set.views.clear();
+  set.descriptors.clear();
+  Write("lidar_references", "no_views", calibd::EncodeReferenceSet(set));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -234,5 +248,6 @@ int main(int argc, char** argv) {
   UdsRequests();
   Pcds();
   Store();
+  References();
   return 0;
 }

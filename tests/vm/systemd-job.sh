@@ -73,6 +73,7 @@ agent:
   lcm_url: "$lcm_url"
   store:
     directory: /var/lib/calibd
+  cache_dir: /var/cache/calibd
   min_frames: 60
   min_distance_bins: 1
   max_duration_s: 150
@@ -111,7 +112,7 @@ check "UDS answers on vcan0" uds_answers 10
 # The LiDAR references build after READY=1, under the poll loop's priority (the unit lets the
 # agent lower its own build thread's priority: setpriority).
 check "LiDAR references built at nice 10" wait_for 1200 \
-  sh -c 'journalctl -u calibd --no-pager | grep -q "LiDAR detector ready: .* (built at nice 10)"'
+  sh -c 'journalctl -u calibd --no-pager | grep -q "LiDAR detector ready: .* (at nice 10)"'
 
 # --- a workshop session to a committed calibration ---
 # The agent answers at once; its start routine refuses (0x22 conditionsNotCorrect) until it hears
@@ -142,6 +143,11 @@ check "restarted by systemd within 60 s" wait_for 600 restarted
 check "NRestarts=1" test "$(show NRestarts)" = 1
 echo "  new main PID $(show MainPID)"
 check "UDS answers after the restart" uds_answers 20
+# The first start built the LiDAR references and kept them in the unit's CacheDirectory=; the
+# restart takes them from there.
+check "references kept in /var/cache/calibd" test -f /var/cache/calibd/lidar-references.bin
+check "the restarted agent's references from the cache" wait_for 600 \
+  sh -c 'journalctl -u calibd --no-pager | grep -q "reference descriptors from the cache"'
 results=$(tester results 2>&1)
 echo "$results" | sed 's/^/  results: /'
 # A fresh agent has no routine to report (0x24) until a calibration is started.

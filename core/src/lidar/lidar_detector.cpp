@@ -135,8 +135,18 @@ struct LidarDetector::Impl {
   RangeImage image;
   RangeSegmenter segmenter;
   Describer describer;
+  // The references' build tasks: every distinct board size seen from each
+  // DefaultReferenceViews().
+  struct ReferenceTask {
+    double width_m, height_m;
+    BoardView view;
+  };
   Eigen::MatrixXf references;  // one standardized descriptor per column
   int num_references = 0;
+  std::vector<ReferenceTask> tasks;      // the references' build tasks (ReferenceTasks)
+  std::vector<int32_t> reference_views;  // the task of each column of `references`
+  bool references_from_cache = false;
+  std::string cache_refusal;
   double min_side_m = 0.0;
   // Largest area of a board passing the rectangle gate (its long side squared, m^2) and the
   // solid angle of the smallest range-image cell (sr), for the fast pre-check in Detect().
@@ -468,15 +478,8 @@ struct LidarDetector::Impl {
       reference->assign(sum.data(), sum.data() + sum.size());
   }
 
-  // The reference descriptors of every distinct board size (paper §III-C-2), built on two
-  // threads (views x reference_samples descriptors per board size). Each view has its own noise
-  // seed, so the result does not depend on the thread count. False when `cancel` stopped it.
-  bool BuildReferences(const std::atomic<bool>* cancel) {
-    struct Task {
-      double width_m, height_m;
-      BoardView view;
-    };
-    std::vector<Task> tasks;
+  static std::vector<ReferenceTask> ReferenceTasks(const std::vector<BoardGeometry>& boards) {
+    std::vector<ReferenceTask> tasks;
     std::vector<std::pair<double, double>> sizes;
     for (const BoardGeometry& g : boards) {
       const std::pair<double, double> s(g.width_m, g.height_m);
@@ -485,26 +488,93 @@ struct LidarDetector::Impl {
       for (const BoardView& view : DefaultReferenceViews())
         tasks.push_back({s.first, s.second, view});
     }
+    return tasks;
+  }
+
+  // The reference of build task `t` (its noise seed is t + 1, whichever thread builds it).
+  void DescribeTask(size_t t, Describer* scratch, std::vector<float>* reference) const {
+    DescribeView(tasks[t].width_m, tasks[t].height_m, tasks[t].view, t + 1, scratch, reference);
+  }
+
+  // The reference descriptors of every distinct board size (paper §III-C-2), built on two
+  // threads (views x reference_samples descriptors per board size). Each view has its own noise
+  // seed, so the result does not depend on the thread count. False when `cancel` stopped it.
+  bool BuildReferences(const std::atomic<bool>* cancel) {
     std::vector<std::vector<float>> descs(tasks.size());
     auto cancelled = [cancel] { return cancel != nullptr && cancel->load(); };
     Describer second(M2dpOf(config), static_cast<int>(describer.aligned.size()));
     Describer* scratch[] = {&describer, &second};
     ParallelFor(2, static_cast<int>(tasks.size()), [&](int worker, int task) {
-      const auto t = static_cast<size_t>(task);
-      if (!cancelled())
-        DescribeView(tasks[t].width_m, tasks[t].height_m, tasks[t].view, t + 1, scratch[worker],
-                     &descs[t]);
+      if (!cancelled()) DescribeTask(static_cast<size_t>(task), scratch[worker], &descs[task]);
     });
     if (cancelled()) return false;
-    num_references = 0;
-    for (const auto& d : descs) num_references += d.empty() ? 0 : 1;
-    references.resize(describer.m2dp.size(), num_references);
-    int r = 0;
-    for (const auto& d : descs)
-      if (!d.empty())
-        references.col(r++) = Eigen::Map<const Eigen::VectorXf>(d.data(), describer.m2dp.size());
-    scores.resize(num_references);
+    LidarReferenceSet built;
+    built.dims = describer.m2dp.size();
+    for (size_t t = 0; t < descs.size(); ++t) {
+      if (descs[t].empty()) continue;
+      built.views.push_back(static_cast<int32_t>(t));
+      built.descriptors.insert(built.descriptors.end(), descs[t].begin(), descs[t].end());
+    }
+    TakeReferences(built);
     return true;
+  }
+
+  // Descriptors of the cached set built again for this many tasks, spread over all of them.
+  static constexpr int kSpotChecks = 8;
+  // A descriptor built again may differ from the cached one by this much (standardized values
+  // of about 0.1; the same build gives the same bits, another compiler the last few).
+  static constexpr float kSpotCheckTolerance = 1e-4f;
+
+  // Takes `cached` when it fits this detector (see the constructor); else false with `refusal`.
+  bool TakeCached(const LidarReferenceSet& cached, uint64_t key, std::string* refusal) {
+    const int dims = describer.m2dp.size();
+    if (cached.key != key) {
+      *refusal = "built for another config, LiDAR model or board sizes";
+      return false;
+    }
+    const size_t n = cached.views.size();
+    bool shaped = cached.dims == dims && n > 0 &&
+                  cached.descriptors.size() == n * static_cast<size_t>(dims) &&
+                  cached.views.back() < static_cast<int32_t>(tasks.size()) &&
+                  cached.views.front() >= 0;
+    for (size_t i = 1; shaped && i < n; ++i) shaped = cached.views[i] > cached.views[i - 1];
+    for (size_t i = 0; shaped && i < cached.descriptors.size(); ++i)
+      shaped = std::isfinite(cached.descriptors[i]);
+    if (!shaped) {
+      *refusal =
+          "malformed: not " + std::to_string(dims) + " finite values for each of increasing views";
+      return false;
+    }
+    std::vector<float> again;
+    for (int k = 0; k < kSpotChecks; ++k) {
+      const size_t t = (tasks.size() - 1) * static_cast<size_t>(k) / (kSpotChecks - 1);
+      DescribeTask(t, &describer, &again);
+      const auto at =
+          std::lower_bound(cached.views.begin(), cached.views.end(), static_cast<int32_t>(t));
+      const bool listed = at != cached.views.end() && *at == static_cast<int32_t>(t);
+      bool same = listed != again.empty();
+      if (same && listed) {
+        const float* old =
+            cached.descriptors.data() + static_cast<size_t>(at - cached.views.begin()) * dims;
+        for (int i = 0; i < dims && same; ++i)
+          same = std::fabs(old[i] - again[static_cast<size_t>(i)]) <= kSpotCheckTolerance;
+      }
+      if (!same) {
+        *refusal = "reference view " + std::to_string(t) +
+                   " built again differs from the cached one (another build of calibd)";
+        return false;
+      }
+    }
+    TakeReferences(cached);
+    return true;
+  }
+
+  void TakeReferences(const LidarReferenceSet& set) {
+    reference_views = set.views;
+    num_references = static_cast<int>(set.views.size());
+    references =
+        Eigen::Map<const Eigen::MatrixXf>(set.descriptors.data(), set.dims, num_references);
+    scores.resize(num_references);
   }
 
   // One segment of the range image: evaluated as a board candidate, and where it is not a board
@@ -593,7 +663,7 @@ bool LidarDetector::CheckInputs(const LidarDetectorConfig& config, const LidarMo
 
 LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel& model,
                              const std::vector<BoardGeometry>& boards,
-                             const std::atomic<bool>* cancel)
+                             const std::atomic<bool>* cancel, const LidarReferenceSet* cached)
     : impl_(std::make_unique<Impl>(config, model)) {
   Impl& d = *impl_;
   if (!CheckInputs(config, model, boards, &d.error)) return;
@@ -645,7 +715,11 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   d.trim_cells.resize(d.cluster_points.size());
   d.window_scratch.resize(d.cluster_points.size());
   d.describer = Describer(Impl::M2dpOf(config), config.max_descriptor_points);
-  if (!d.BuildReferences(cancel)) {
+  d.tasks = Impl::ReferenceTasks(boards);
+  if (cached != nullptr)
+    d.references_from_cache =
+        d.TakeCached(*cached, ReferenceKey(config, model, boards), &d.cache_refusal);
+  if (!d.references_from_cache && !d.BuildReferences(cancel)) {
     d.error = "cancelled while its reference descriptors were built";
     return;
   }
@@ -661,6 +735,48 @@ LidarDetector::~LidarDetector() = default;
 bool LidarDetector::ok() const { return impl_->ok; }
 const std::string& LidarDetector::error() const { return impl_->error; }
 int LidarDetector::num_references() const { return impl_->num_references; }
+bool LidarDetector::references_from_cache() const { return impl_->references_from_cache; }
+const std::string& LidarDetector::cache_refusal() const { return impl_->cache_refusal; }
+
+LidarReferenceSet LidarDetector::references() const {
+  const Impl& d = *impl_;
+  LidarReferenceSet set;
+  if (!d.ok) return set;
+  set.key = ReferenceKey(d.config, d.model, d.boards);
+  set.dims = static_cast<int>(d.references.rows());
+  set.views = d.reference_views;
+  set.descriptors.assign(d.references.data(), d.references.data() + d.references.size());
+  return set;
+}
+
+uint64_t LidarDetector::ReferenceKey(const LidarDetectorConfig& config, const LidarModel& model,
+                                     const std::vector<BoardGeometry>& boards) {
+  Fingerprint f;
+  f.Add("calibd LidarReferenceSet 1");  // the layout of the set and what follows
+  const LidarDetectorConfig& c = config;
+  for (int v : {c.m2dp_elevations, c.m2dp_azimuths, c.m2dp_rings, c.m2dp_sectors,
+                c.max_descriptor_points, c.reference_samples, c.min_cluster_points})
+    f.AddValue(v);
+  f.AddValue(c.reference_range_noise_m);
+  f.AddValue(c.weight_by_sample_area);
+  f.AddValue(static_cast<int>(model.kind));
+  f.Add(model.name);
+  f.AddValue(model.has_rings);
+  f.AddValue(model.ring_elevation_deg.size());
+  for (double e : model.ring_elevation_deg) f.AddValue(e);
+  for (double v :
+       {model.azimuth_resolution_deg, model.elevation_resolution_deg, model.azimuth_min_deg,
+        model.azimuth_max_deg, model.elevation_min_deg, model.elevation_max_deg, model.min_range_m,
+        model.max_range_m, model.range_quantization_m, model.frame_rate_hz})
+    f.AddValue(v);
+  for (int v : {model.nominal_points_per_frame, model.pattern_points_per_frame}) f.AddValue(v);
+  f.AddValue(model.non_repetitive);
+  for (const Impl::ReferenceTask& t : Impl::ReferenceTasks(boards))
+    for (double v : {t.width_m, t.height_m, t.view.distance_m, t.view.elevation_deg, t.view.yaw_deg,
+                     t.view.pitch_deg, t.view.azimuth_phase, t.view.elevation_phase})
+      f.AddValue(v);
+  return f.value();
+}
 
 const RangeImage& LidarDetector::range_image() const { return impl_->image; }
 

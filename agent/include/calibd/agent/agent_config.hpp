@@ -45,6 +45,14 @@ struct AgentConfig {
   std::string lcm_url;
   /// `agent.store`: where the current, reference and previous calibrations live.
   CalibrationStoreConfig store = {"/var/lib/calibd"};
+  /// `agent.cache_dir`: what the agent computes at each start and may keep between starts (the
+  /// LiDAR detector's reference descriptors, lidar-references.bin: most of its start-up work),
+  /// e.g. systemd's CacheDirectory=. Taken only when it was built from the same config, LiDAR
+  /// model and board sizes and a sample of it built again agrees; otherwise built and rewritten.
+  /// Losing it costs one slower start. Empty: nothing kept, built at every start.
+  std::string cache_dir;
+  /// The reference descriptors' file in cache_dir.
+  static constexpr const char* kReferenceCacheName = "lidar-references.bin";
 
   // --- agent: buffers, sized once at start-up (fixed memory) ---
   /// Frame pairs kept for the solve. The session buffer takes about max_frames x

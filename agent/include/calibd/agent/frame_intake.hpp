@@ -55,6 +55,10 @@ struct IntakeConfig {
   /// detectors made of it (calibd/drivers/frame_debug.hpp; the LiDAR's cluster reports are
   /// turned on). Empty: nothing written.
   std::string debug_dir;
+  /// The file keeping the LiDAR detector's reference descriptors between starts
+  /// (drivers/lidar_reference_file.hpp; AgentConfig::cache_dir): read before the build, which it
+  /// replaces when it fits the config, model and boards; written after a build. Empty: none.
+  std::string reference_cache_file;
 
   bool IsValid(std::string* error) const;
 };
@@ -123,6 +127,11 @@ class FrameIntake {
     double build_ms = 0.0;
     int references = 0;
     int build_nice = 0;  ///< the build thread's nice value (0: setpriority was refused)
+    /// The references came from IntakeConfig::reference_cache_file.
+    bool from_cache = false;
+    /// What became of the cache when it was not used as is: why the file was not taken, or that
+    /// it was written, or why not (empty without a cache file).
+    std::string cache_note;
   };
   Startup startup() const;
   /// Blocks until the LiDAR detector is built or failed; true when ready. For programs that feed

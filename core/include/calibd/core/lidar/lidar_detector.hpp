@@ -18,6 +18,7 @@
 #include "calibd/core/common/image_view.hpp"
 #include "calibd/core/lidar/lidar_model.hpp"
 #include "calibd/core/lidar/range_image.hpp"
+#include "calibd/core/lidar/reference_set.hpp"
 
 namespace calibd {
 
@@ -243,9 +244,15 @@ class LidarDetector {
   /// the configured board sizes seen by `model` at several distances and angles). Check ok().
   /// When `cancel` is given and turns true while the references are built, the build stops
   /// early and the detector is not ok() (a daemon stopping during its start-up).
+  ///
+  /// With `cached` (an earlier detector's references()), its descriptors are taken instead when
+  /// they were built from the same config, model and board sizes (ReferenceKey) and a sample of
+  /// them, built again now, agrees (a build of other code may describe boards otherwise); the
+  /// start-up then costs that sample instead of every reference. Otherwise they are built, and
+  /// cache_refusal() says why the cached ones were not taken.
   LidarDetector(const LidarDetectorConfig& config, const LidarModel& model,
-                const std::vector<BoardGeometry>& boards,
-                const std::atomic<bool>* cancel = nullptr);
+                const std::vector<BoardGeometry>& boards, const std::atomic<bool>* cancel = nullptr,
+                const LidarReferenceSet* cached = nullptr);
   ~LidarDetector();
   LidarDetector(const LidarDetector&) = delete;
   LidarDetector& operator=(const LidarDetector&) = delete;
@@ -271,6 +278,17 @@ class LidarDetector {
   void ReserveOutput(LidarDetections* out) const;
 
   int num_references() const;
+  /// The reference descriptors, to keep for the next start (empty when not ok()).
+  LidarReferenceSet references() const;
+  /// Whether the references came from the `cached` set given to the constructor; if not, and one
+  /// was given, why (its key differs, a descriptor built again differs, its shape is wrong).
+  bool references_from_cache() const;
+  const std::string& cache_refusal() const;
+  /// Names everything the references are built from: the descriptor and reference settings of
+  /// `config`, the model's scan geometry, the distinct board sizes, the reference views and the
+  /// layout version of LidarReferenceSet.
+  static uint64_t ReferenceKey(const LidarDetectorConfig& config, const LidarModel& model,
+                               const std::vector<BoardGeometry>& boards);
 
   /// The last Detect()'s range image, and each of its cells' label: segmentation.hpp's
   /// kLabelEmpty, kLabelGround, kLabelPruned, kLabelNone, or the label of a segment, which is
