@@ -14,6 +14,14 @@
 namespace calibd {
 namespace {
 
+// One noisy sampling per reference view instead of LidarDetectorConfig's 4: a quarter of the
+// build, the same code path (the sanitizer build runs this).
+LidarDetectorConfig Config() {
+  LidarDetectorConfig c;
+  c.reference_samples = 1;
+  return c;
+}
+
 struct Fixture {
   LidarModel model = MakeLidarModel(LidarKind::kVlp16);
   std::vector<BoardGeometry> boards = std::vector<BoardGeometry>(2);
@@ -39,15 +47,15 @@ std::vector<double> Scores(LidarDetector* detector, const LidarModel& model) {
 
 TEST(LidarReferencesTest, ADetectorTakesAnEarlierOnesReferencesAndScoresAsItDid) {
   const Fixture f;
-  LidarDetector built(LidarDetectorConfig{}, f.model, f.boards);
+  LidarDetector built(Config(), f.model, f.boards);
   ASSERT_TRUE(built.ok()) << built.error();
   EXPECT_FALSE(built.references_from_cache());
   const LidarReferenceSet kept = built.references();
-  EXPECT_EQ(kept.key, LidarDetector::ReferenceKey(LidarDetectorConfig{}, f.model, f.boards));
+  EXPECT_EQ(kept.key, LidarDetector::ReferenceKey(Config(), f.model, f.boards));
   ASSERT_EQ(static_cast<int>(kept.views.size()), built.num_references());
   EXPECT_EQ(kept.descriptors.size(), kept.views.size() * static_cast<size_t>(kept.dims));
 
-  LidarDetector taken(LidarDetectorConfig{}, f.model, f.boards, nullptr, &kept);
+  LidarDetector taken(Config(), f.model, f.boards, nullptr, &kept);
   ASSERT_TRUE(taken.ok()) << taken.error();
   EXPECT_TRUE(taken.references_from_cache()) << taken.cache_refusal();
   EXPECT_EQ(taken.num_references(), built.num_references());
@@ -59,7 +67,7 @@ TEST(LidarReferencesTest, ADetectorTakesAnEarlierOnesReferencesAndScoresAsItDid)
 
 TEST(LidarReferencesTest, ReferencesOfOtherBoardsOtherCodeOrMalformedAreRefusedAndBuilt) {
   const Fixture f;
-  LidarDetector built(LidarDetectorConfig{}, f.model, f.boards);
+  LidarDetector built(Config(), f.model, f.boards);
   ASSERT_TRUE(built.ok()) << built.error();
   const LidarReferenceSet kept = built.references();
   const std::vector<double> expected = Scores(&built, f.model);
@@ -67,24 +75,23 @@ TEST(LidarReferencesTest, ReferencesOfOtherBoardsOtherCodeOrMalformedAreRefusedA
   // Another board size: another key.
   std::vector<BoardGeometry> other_boards = f.boards;
   other_boards[1].width_m = 0.7;
-  EXPECT_NE(LidarDetector::ReferenceKey(LidarDetectorConfig{}, f.model, other_boards), kept.key);
-  LidarDetector other(LidarDetectorConfig{}, f.model, other_boards, nullptr, &kept);
+  EXPECT_NE(LidarDetector::ReferenceKey(Config(), f.model, other_boards), kept.key);
+  LidarDetector other(Config(), f.model, other_boards, nullptr, &kept);
   ASSERT_TRUE(other.ok()) << other.error();
   EXPECT_FALSE(other.references_from_cache());
   EXPECT_EQ(other.cache_refusal(), "built for another config, LiDAR model or board sizes");
   // ... and another descriptor setting or LiDAR model.
-  LidarDetectorConfig samples;
+  LidarDetectorConfig samples = Config();
   samples.reference_samples = 3;
   EXPECT_NE(LidarDetector::ReferenceKey(samples, f.model, f.boards), kept.key);
-  EXPECT_NE(LidarDetector::ReferenceKey(LidarDetectorConfig{}, MakeLidarModel(LidarKind::kOs1_64),
-                                        f.boards),
+  EXPECT_NE(LidarDetector::ReferenceKey(Config(), MakeLidarModel(LidarKind::kOs1_64), f.boards),
             kept.key);
 
   // The same key over descriptors another build of calibd would not make: the sample built
   // again tells; the detector builds its own and scores as the first one.
   LidarReferenceSet tampered = kept;
   for (float& v : tampered.descriptors) v *= 1.01f;
-  LidarDetector rebuilt(LidarDetectorConfig{}, f.model, f.boards, nullptr, &tampered);
+  LidarDetector rebuilt(Config(), f.model, f.boards, nullptr, &tampered);
   ASSERT_TRUE(rebuilt.ok()) << rebuilt.error();
   EXPECT_FALSE(rebuilt.references_from_cache());
   EXPECT_NE(rebuilt.cache_refusal().find("built again differs from the cached one"),
@@ -94,7 +101,7 @@ TEST(LidarReferencesTest, ReferencesOfOtherBoardsOtherCodeOrMalformedAreRefusedA
 
   // Shapes that cannot be a detector's references.
   auto refusal = [&](const LidarReferenceSet& set) {
-    LidarDetector d(LidarDetectorConfig{}, f.model, f.boards, nullptr, &set);
+    LidarDetector d(Config(), f.model, f.boards, nullptr, &set);
     EXPECT_TRUE(d.ok()) << d.error();
     EXPECT_FALSE(d.references_from_cache());
     return d.cache_refusal();

@@ -42,7 +42,7 @@ class Reader {
   }
   bool TakeArray(void* out, size_t bytes) {
     if (rest_.size() < bytes) return false;
-    std::memcpy(out, rest_.data(), bytes);
+    if (bytes > 0) std::memcpy(out, rest_.data(), bytes);  // an empty vector's data() may be null
     rest_.remove_prefix(bytes);
     return true;
   }
