@@ -179,24 +179,62 @@ PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* point
     if (best.count == 0) continue;
     const PlaneWindow centre = best;
     WindowCoordinates(pca, centre.angle_rad, points, n, scratch);
-    for (int a = -kShiftSteps; a <= kShiftSteps; ++a) {
-      for (int b = -kShiftSteps; b <= kShiftSteps; ++b) {
-        PlaneWindow shifted = centre;
-        shifted.u0 += static_cast<float>(a) * kShiftM;
-        shifted.v0 += static_cast<float>(b) * kShiftM;
-        int inside = 0, in_u = 0, in_v = 0;
-        for (int i = 0; i < n; ++i) {
-          const bool iu = InSpan(scratch[i].first, shifted.u0, shifted.side_u);
-          const bool iv = InSpan(scratch[i].second, shifted.v0, shifted.side_v);
-          in_u += iu;
-          in_v += iv;
-          inside += iu && iv;
-        }
-        shifted.count = inside;
-        const int score = 2 * inside - in_u - in_v;
+    // Each shifted window's count of points inside, in its row band and in its column band,
+    // without testing every point against every shift: the shifts along u that hold a point's u
+    // are one run of a (the window's edges move up together), and so are those along v; the
+    // point adds 1 to in_u over its u run, to in_v over its v run and to inside over the product
+    // of both (a 2D difference array, summed afterwards). The same float comparisons as InSpan.
+    constexpr int kShifts = 2 * kShiftSteps + 1;
+    float u_lo[kShifts], v_lo[kShifts];
+    for (int a = 0; a < kShifts; ++a) {
+      u_lo[a] = centre.u0 + static_cast<float>(a - kShiftSteps) * kShiftM;
+      v_lo[a] = centre.v0 + static_cast<float>(a - kShiftSteps) * kShiftM;
+    }
+    // The run [first, last] of shifts whose span holds x (first > last: none).
+    auto run = [](float x, const float* lo, float side, int* first, int* last) {
+      *first = 0;
+      while (*first < kShifts && !InSpan(x, lo[*first], side)) ++*first;
+      *last = *first - 1;
+      while (*last + 1 < kShifts && InSpan(x, lo[*last + 1], side)) ++*last;
+    };
+    int in_u[kShifts + 1] = {}, in_v[kShifts + 1] = {};
+    int inside[kShifts + 1][kShifts + 1] = {};
+    for (int i = 0; i < n; ++i) {
+      int a0 = 0, a1 = 0, b0 = 0, b1 = 0;
+      run(scratch[i].first, u_lo, centre.side_u, &a0, &a1);
+      run(scratch[i].second, v_lo, centre.side_v, &b0, &b1);
+      if (a0 <= a1) {
+        ++in_u[a0];
+        --in_u[a1 + 1];
+      }
+      if (b0 <= b1) {
+        ++in_v[b0];
+        --in_v[b1 + 1];
+      }
+      if (a0 <= a1 && b0 <= b1) {
+        ++inside[a0][b0];
+        --inside[a0][b1 + 1];
+        --inside[a1 + 1][b0];
+        ++inside[a1 + 1][b1 + 1];
+      }
+    }
+    for (int a = 0; a < kShifts; ++a) {
+      in_u[a + 1] += in_u[a];
+      in_v[a + 1] += in_v[a];
+    }
+    for (int a = 0; a <= kShifts; ++a)
+      for (int b = 0; b <= kShifts; ++b)
+        inside[a][b] += (a > 0 ? inside[a - 1][b] : 0) + (b > 0 ? inside[a][b - 1] : 0) -
+                        (a > 0 && b > 0 ? inside[a - 1][b - 1] : 0);
+    for (int a = 0; a < kShifts; ++a) {
+      for (int b = 0; b < kShifts; ++b) {
+        const int score = 2 * inside[a][b] - in_u[a] - in_v[b];
         if (score > best_score) {
           best_score = score;
-          result = shifted;
+          result = centre;
+          result.u0 = u_lo[a];
+          result.v0 = v_lo[b];
+          result.count = inside[a][b];
         }
       }
     }
