@@ -123,6 +123,10 @@ void WindowCoordinates(const ClusterPca& pca, double angle, const Eigen::Vector3
   }
 }
 
+bool ByFirst(const std::pair<float, float>& a, const std::pair<float, float>& b) {
+  return a.first < b.first;
+}
+
 // x within the span [lo, lo + side].
 bool InSpan(float x, float lo, float side) { return x >= lo && x <= lo + side; }
 
@@ -144,7 +148,9 @@ PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* point
       const float side_u = static_cast<float>(turn == 0 ? w : h);
       const float side_v = static_cast<float>(turn == 0 ? h : w);
       WindowCoordinates(pca, angle, points, n, scratch);
-      std::sort(scratch, scratch + n);
+      // By u alone: the window's start and count need only the u order, and the v of the points
+      // it holds are sorted on their own below.
+      std::sort(scratch, scratch + n, ByFirst);
       int count_u = 0;
       const float u0 = BestWindowStart(scratch, n, side_u, &count_u);
       if (count_u <= best.count) continue;  // the second side can only lose points
@@ -152,7 +158,7 @@ PlaneWindow MostPointsWindow(const ClusterPca& pca, const Eigen::Vector3f* point
       int m = 0;
       for (int i = 0; i < n; ++i)
         if (InSpan(scratch[i].first, u0, side_u)) scratch[m++] = {scratch[i].second, 0.0f};
-      std::sort(scratch, scratch + m);
+      std::sort(scratch, scratch + m, ByFirst);
       int count = 0;
       const float v0 = BestWindowStart(scratch, m, side_v, &count);
       if (count > best.count) best = PlaneWindow{angle, side_u, side_v, u0, v0, count};
