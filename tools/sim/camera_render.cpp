@@ -59,23 +59,40 @@ uint32_t Hash2(int64_t x, int64_t y, uint32_t salt) {
   return h;
 }
 
-// Smooth value noise in [0, 1] over square cells of `cell` metres.
-double ValueNoise(double x, double y, double cell, uint32_t salt) {
+// The four corner values of one noise cell, kept for the next lookup: neighbouring pixels of
+// the near floor fall in the same cell, whose hashes then need not be computed again.
+struct NoiseCell {
+  int64_t ix = std::numeric_limits<int64_t>::min(), iy = 0;
+  double v00 = 0.0, v10 = 0.0, v01 = 0.0, v11 = 0.0;
+};
+
+// Smooth value noise in [0, 1] over square cells of `cell` metres; `memo` holds the last cell
+// looked up with this `cell` and `salt`.
+double ValueNoise(double x, double y, double cell, uint32_t salt, NoiseCell* memo) {
   const double gx = x / cell, gy = y / cell;
   const int64_t ix = FastFloor(gx), iy = FastFloor(gy);
   double fx = gx - static_cast<double>(ix), fy = gy - static_cast<double>(iy);
   fx = fx * fx * (3.0 - 2.0 * fx);
   fy = fy * fy * (3.0 - 2.0 * fy);
-  constexpr double kScale = 1.0 / 4294967296.0;
-  const double v00 = Hash2(ix, iy, salt) * kScale, v10 = Hash2(ix + 1, iy, salt) * kScale;
-  const double v01 = Hash2(ix, iy + 1, salt) * kScale, v11 = Hash2(ix + 1, iy + 1, salt) * kScale;
-  return (v00 + (v10 - v00) * fx) * (1.0 - fy) + (v01 + (v11 - v01) * fx) * fy;
+  if (ix != memo->ix || iy != memo->iy) {
+    constexpr double kScale = 1.0 / 4294967296.0;
+    memo->ix = ix;
+    memo->iy = iy;
+    memo->v00 = Hash2(ix, iy, salt) * kScale;
+    memo->v10 = Hash2(ix + 1, iy, salt) * kScale;
+    memo->v01 = Hash2(ix, iy + 1, salt) * kScale;
+    memo->v11 = Hash2(ix + 1, iy + 1, salt) * kScale;
+  }
+  const NoiseCell& c = *memo;
+  return (c.v00 + (c.v10 - c.v00) * fx) * (1.0 - fy) + (c.v01 + (c.v11 - c.v01) * fx) * fy;
 }
 
 // Concrete-like floor albedo (about 0.25..0.45) from the world position: blotches of ~0.2 m and
 // ~1 m, and faint saw-cut joints every 4 m. Gives the detector a realistic, textured background.
 double GroundAlbedo(double x, double y) {
-  const double n = 0.65 * ValueNoise(x, y, 0.2, 17u) + 0.35 * ValueNoise(x, y, 1.0, 91u);
+  thread_local NoiseCell fine, coarse;  // each rendering thread's last cells
+  const double n =
+      0.65 * ValueNoise(x, y, 0.2, 17u, &fine) + 0.35 * ValueNoise(x, y, 1.0, 91u, &coarse);
   double albedo = 0.25 + 0.2 * n;
   const double jx = x * 0.25 - static_cast<double>(FastFloor(x * 0.25 + 0.5));
   const double jy = y * 0.25 - static_cast<double>(FastFloor(y * 0.25 + 0.5));
