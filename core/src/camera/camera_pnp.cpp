@@ -100,6 +100,20 @@ Eigen::Vector3d TranslationForRotation(const Corners3& p_tag, const Corners2& xy
   return AtA.ldlt().solve(Atb);
 }
 
+// The rotation turning the optical axis onto the line of sight through normalised (x, y): the
+// half-way quaternion, as Eigen's Quaterniond::FromTwoVectors computes it. Its branch for
+// opposite vectors (a JacobiSVD, most of this file's compile time) cannot be taken here: the line
+// of sight has z = 1.
+Eigen::Matrix3d TurnOpticalAxisTo(const Eigen::Vector2d& xy) {
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d sight = Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
+  const double s = std::sqrt((1.0 + sight.dot(z)) * 2.0);
+  Eigen::Quaterniond q;
+  q.vec() = z.cross(sight) * (1.0 / s);
+  q.w() = s * 0.5;
+  return q.toRotationMatrix();
+}
+
 // IPPE (Collins & Bartoli, "Infinitesimal Plane-Based Pose Estimation", IJCV 2014, §4): from the
 // homography's Jacobian J at the plane origin and the origin's image v, the two rotations whose
 // first-order projection matches J (they differ by a reflection of the plane's normal about the
@@ -117,9 +131,7 @@ bool SquarePose(const Corners3& p_tag, const Corners2& xy, double half_side, Eig
   // Jacobian [I | -v] R (first two columns) / t_z becomes B R'_2x2 / t_z, B = ([I | -v] R_v)_2x2
   // (the third column vanishes), so A = B^-1 J = R'_2x2 / t_z: its larger singular value is
   // 1 / t_z and R'_2x2 = A t_z (paper eq. 20-26).
-  const Eigen::Matrix3d R_v = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(),
-                                                                 Eigen::Vector3d(v.x(), v.y(), 1.0))
-                                  .toRotationMatrix();
+  const Eigen::Matrix3d R_v = TurnOpticalAxisTo(v);
   Eigen::Matrix<double, 2, 3> projection;
   projection << 1.0, 0.0, -v.x(), 0.0, 1.0, -v.y();
   const Eigen::Matrix2d B = (projection * R_v).leftCols<2>();
