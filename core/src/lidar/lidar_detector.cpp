@@ -141,10 +141,9 @@ struct LidarDetector::Impl {
     double width_m, height_m;
     BoardView view;
   };
-  Eigen::MatrixXf references;  // one standardized descriptor per column
-  int num_references = 0;
-  std::vector<ReferenceTask> tasks;      // the references' build tasks (ReferenceTasks)
-  std::vector<int32_t> reference_views;  // the task of each column of `references`
+  std::vector<ReferenceTask> tasks;  // the references' build tasks (ReferenceTasks)
+  // The standardized reference descriptors (built, or taken from a cache), with their key.
+  LidarReferenceSet reference_set;
   bool references_from_cache = false;
   std::string cache_refusal;
   double min_side_m = 0.0;
@@ -261,8 +260,12 @@ struct LidarDetector::Impl {
     }
   }
 
+  int num_references() const { return static_cast<int>(reference_set.views.size()); }
+
   double BestScore() {
-    if (num_references == 0) return 0.0;
+    if (num_references() == 0) return 0.0;
+    const Eigen::Map<const Eigen::MatrixXf> references(reference_set.descriptors.data(),
+                                                       reference_set.dims, num_references());
     scores.noalias() = references.transpose() * describer.descriptor;
     // Negative correlations are neglected (paper §III-C-2).
     return std::max(0.0, static_cast<double>(scores.maxCoeff()));
@@ -515,7 +518,7 @@ struct LidarDetector::Impl {
       built.views.push_back(static_cast<int32_t>(t));
       built.descriptors.insert(built.descriptors.end(), descs[t].begin(), descs[t].end());
     }
-    TakeReferences(built);
+    TakeReferences(std::move(built));
     return true;
   }
 
@@ -569,12 +572,11 @@ struct LidarDetector::Impl {
     return true;
   }
 
-  void TakeReferences(const LidarReferenceSet& set) {
-    reference_views = set.views;
-    num_references = static_cast<int>(set.views.size());
-    references =
-        Eigen::Map<const Eigen::MatrixXf>(set.descriptors.data(), set.dims, num_references);
-    scores.resize(num_references);
+  // `set` becomes the detector's references (the caller has set reference_set.key).
+  void TakeReferences(LidarReferenceSet set) {
+    set.key = reference_set.key;
+    reference_set = std::move(set);
+    scores.resize(num_references());
   }
 
   // One segment of the range image: evaluated as a board candidate, and where it is not a board
@@ -716,14 +718,14 @@ LidarDetector::LidarDetector(const LidarDetectorConfig& config, const LidarModel
   d.window_scratch.resize(d.cluster_points.size());
   d.describer = Describer(Impl::M2dpOf(config), config.max_descriptor_points);
   d.tasks = Impl::ReferenceTasks(boards);
+  d.reference_set.key = ReferenceKey(config, model, boards);
   if (cached != nullptr)
-    d.references_from_cache =
-        d.TakeCached(*cached, ReferenceKey(config, model, boards), &d.cache_refusal);
+    d.references_from_cache = d.TakeCached(*cached, d.reference_set.key, &d.cache_refusal);
   if (!d.references_from_cache && !d.BuildReferences(cancel)) {
     d.error = "cancelled while its reference descriptors were built";
     return;
   }
-  if (d.num_references == 0) {
+  if (d.num_references() == 0) {
     d.error = "boards: no reference cluster has min_cluster_points points for this LiDAR model";
     return;
   }
@@ -734,19 +736,12 @@ LidarDetector::~LidarDetector() = default;
 
 bool LidarDetector::ok() const { return impl_->ok; }
 const std::string& LidarDetector::error() const { return impl_->error; }
-int LidarDetector::num_references() const { return impl_->num_references; }
+int LidarDetector::num_references() const { return impl_->num_references(); }
 bool LidarDetector::references_from_cache() const { return impl_->references_from_cache; }
 const std::string& LidarDetector::cache_refusal() const { return impl_->cache_refusal; }
 
 LidarReferenceSet LidarDetector::references() const {
-  const Impl& d = *impl_;
-  LidarReferenceSet set;
-  if (!d.ok) return set;
-  set.key = ReferenceKey(d.config, d.model, d.boards);
-  set.dims = static_cast<int>(d.references.rows());
-  set.views = d.reference_views;
-  set.descriptors.assign(d.references.data(), d.references.data() + d.references.size());
-  return set;
+  return impl_->ok ? impl_->reference_set : LidarReferenceSet{};
 }
 
 uint64_t LidarDetector::ReferenceKey(const LidarDetectorConfig& config, const LidarModel& model,
