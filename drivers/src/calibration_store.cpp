@@ -3,7 +3,6 @@
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#include <zlib.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -15,6 +14,7 @@
 #include <tuple>
 
 #include "calibd/drivers/atomic_file.hpp"
+#include "crc32.hpp"
 
 namespace calibd {
 
@@ -115,10 +115,8 @@ std::string CanonicalText(const StoredCalibration& c) {
 }
 
 std::string Crc32Hex(const std::string& text) {
-  uLong crc = crc32_z(0L, Z_NULL, 0);
-  crc = crc32_z(crc, reinterpret_cast<const Bytef*>(text.data()), text.size());
   char hex[9];
-  std::snprintf(hex, sizeof(hex), "%08lx", static_cast<unsigned long>(crc & 0xffffffffUL));
+  std::snprintf(hex, sizeof(hex), "%08lx", static_cast<unsigned long>(Crc32(text)));
   return hex;
 }
 

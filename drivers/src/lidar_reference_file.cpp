@@ -1,10 +1,9 @@
 #include "calibd/drivers/lidar_reference_file.hpp"
 
-#include <zlib.h>
-
 #include <cstring>
 
 #include "calibd/drivers/atomic_file.hpp"
+#include "crc32.hpp"
 
 namespace calibd {
 
@@ -21,12 +20,6 @@ constexpr int32_t kMaxViews = 1 << 20;
 template <typename T>
 void Put(std::string* out, const T& value) {
   out->append(reinterpret_cast<const char*>(&value), sizeof(value));
-}
-
-uint32_t Crc32(std::string_view bytes) {
-  uLong crc = crc32_z(0L, Z_NULL, 0);
-  crc = crc32_z(crc, reinterpret_cast<const Bytef*>(bytes.data()), bytes.size());
-  return static_cast<uint32_t>(crc & 0xffffffffUL);
 }
 
 // Reads fixed-size values off the front of a byte view.
