@@ -22,6 +22,18 @@ std::unique_ptr<testing::RecordedSession> Drive(sim::SessionOptions o) {
   return testing::Record(o, 40, 5);
 }
 
+// That drive with the prior 3 deg off, recorded once per process: the suite
+// CalibrationEngineDefaultDriveTest runs as one ctest entry (tests/CMakeLists.txt), its cases
+// sharing the recording (a copy where they change the observations).
+const testing::RecordedSession& DefaultDrive() {
+  static const std::unique_ptr<testing::RecordedSession> r = [] {
+    sim::SessionOptions o;
+    o.prior_rot_deg = 3.0;
+    return Drive(o);
+  }();
+  return *r;
+}
+
 // `poses` still poses, one every 2 s, of `boards` 0.9 m boards (0.702 m tags), seen by a
 // 1920 x 1200 camera of focal length `f_px` with its principal point in the middle.
 sim::SessionOptions StillPoses(const std::string& lidar, int poses, int boards, double f_px) {
@@ -230,24 +242,24 @@ TEST(CalibrationEngineTest, OnlyFarFramesAreRejectedForTheirPrecision) {
       << out.reason << ": " << out.detail;
 }
 
-TEST(CalibrationEngineTest, ClustersThatAreNotOnTheirBoardAreDroppedBeforeTheFinalSolve) {
+TEST(CalibrationEngineDefaultDriveTest,
+     ClustersThatAreNotOnTheirBoardAreDroppedBeforeTheFinalSolve) {
   // Every tenth LiDAR board of the default drive moved 0.45 m sideways (horizontally, across its
   // line of sight), as furniture beside a board: still overlapping its predicted region (the
   // grid search pairs it), but mostly off the board. The solve drops those correspondences and
   // its answer stays that of the clean drive.
-  sim::SessionOptions o;
-  o.prior_rot_deg = 3.0;
-  auto r = Drive(o);
+  const testing::RecordedSession* r = &DefaultDrive();
   const Pose truth = r->session.T_camera_lidar();
+  SessionObservations obs = r->obs;
   int moved = 0;
-  for (size_t j = 0; j < r->obs.lidar.size(); j += 10, ++moved) {
-    const auto& c = r->obs.lidar[j];
-    const Eigen::Vector3f ray = r->obs.points[static_cast<size_t>(c.first_point)];
+  for (size_t j = 0; j < obs.lidar.size(); j += 10, ++moved) {
+    const auto& c = obs.lidar[j];
+    const Eigen::Vector3f ray = obs.points[static_cast<size_t>(c.first_point)];
     const Eigen::Vector3f across = 0.45f * Eigen::Vector3f(-ray.y(), ray.x(), 0.0f).normalized();
     for (int k = c.first_point; k < c.first_point + c.num_points; ++k)
-      r->obs.points[static_cast<size_t>(k)] += across;
+      obs.points[static_cast<size_t>(k)] += across;
   }
-  const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome out = Calibrate(r->config, obs, r->projection, EngineConfig{});
   ASSERT_TRUE(out.solved) << out.reason << ": " << out.detail;
   std::printf("moved %d clusters: %d correspondences dropped, error %.4f deg, %.4f m\n", moved,
               out.dropped_correspondences,
@@ -260,12 +272,10 @@ TEST(CalibrationEngineTest, ClustersThatAreNotOnTheirBoardAreDroppedBeforeTheFin
   EXPECT_LT((out.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
 }
 
-TEST(CalibrationEngineTest, ARefusalForItsSigmaSaysHowManyBoardsWouldDo) {
+TEST(CalibrationEngineDefaultDriveTest, ARefusalForItsSigmaSaysHowManyBoardsWouldDo) {
   // The default drive, with the rotation sigma gate set to half of what it achieves: four times
   // the boards would halve the sigma, and the refusal says so.
-  sim::SessionOptions o;
-  o.prior_rot_deg = 3.0;
-  auto r = Drive(o);
+  const testing::RecordedSession* r = &DefaultDrive();
   const CalibrationOutcome first = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   ASSERT_TRUE(first.solved) << first.reason << ": " << first.detail;
   EngineConfig strict;
@@ -282,10 +292,8 @@ TEST(CalibrationEngineTest, ARefusalForItsSigmaSaysHowManyBoardsWouldDo) {
 // The start checks solve again from starts 3 deg / 5 cm off the solution: on the default drive
 // they end on it (a few hundredths of a degree apart: half the points each), inside the gate;
 // a gate below that refuses as unstable and says what the solves did; 0 checks skip them.
-TEST(CalibrationEngineTest, SolvesFromOtherStartsEndOnTheSolutionOrTheVerdictRefuses) {
-  sim::SessionOptions o;
-  o.prior_rot_deg = 3.0;
-  auto r = Drive(o);
+TEST(CalibrationEngineDefaultDriveTest, SolvesFromOtherStartsEndOnTheSolutionOrTheVerdictRefuses) {
+  const testing::RecordedSession* r = &DefaultDrive();
   const CalibrationOutcome first = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   ASSERT_EQ(first.verdict, CalibrationOutcome::Verdict::kUpdated) << first.reason << first.detail;
   EXPECT_GT(first.quality.start_rotation_deg, 0.0);
@@ -309,10 +317,8 @@ TEST(CalibrationEngineTest, SolvesFromOtherStartsEndOnTheSolutionOrTheVerdictRef
 // extrinsic explains. The correct session measures well under the gate; 1 % is measured and
 // corrected (the result lands on the truth, and says what was corrected); 2 %, beyond
 // max_camera_scale_error, is refused and says by how much and what to check.
-TEST(CalibrationEngineTest, ACameraScaleErrorIsCorrectedOrRefusedAsAScaleMismatch) {
-  sim::SessionOptions o;
-  o.prior_rot_deg = 3.0;
-  auto r = Drive(o);
+TEST(CalibrationEngineDefaultDriveTest, ACameraScaleErrorIsCorrectedOrRefusedAsAScaleMismatch) {
+  const testing::RecordedSession* r = &DefaultDrive();
   const Pose truth = r->session.T_camera_lidar();
   const CalibrationOutcome good = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   ASSERT_EQ(good.verdict, CalibrationOutcome::Verdict::kUpdated) << good.reason << good.detail;
@@ -356,10 +362,8 @@ TEST(CalibrationEngineTest, ACameraScaleErrorIsCorrectedOrRefusedAsAScaleMismatc
 // The clean drive measures none; every range 3 cm long is refused as a range offset; and a drive
 // that does not measure the offset at all (to kRangeOffsetSigmaTolerances verification
 // tolerances) is refused as poorly observed.
-TEST(CalibrationEngineTest, ALidarRangeOffsetIsMeasuredWhileDriving) {
-  sim::SessionOptions o;
-  o.prior_rot_deg = 3.0;
-  auto r = Drive(o);
+TEST(CalibrationEngineDefaultDriveTest, ALidarRangeOffsetIsMeasuredWhileDriving) {
+  const testing::RecordedSession* r = &DefaultDrive();
   const CalibrationOutcome good = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   ASSERT_EQ(good.verdict, CalibrationOutcome::Verdict::kUpdated) << good.reason << good.detail;
   EXPECT_LT(good.quality.lidar_range_offset_sigma_m,
@@ -411,10 +415,8 @@ TEST(CalibrationEngineTest, ALidarRangeOffsetIsRefusedWhereTheBoardsDirectionsSh
 
 // Calibrate's optional per-correspondence errors (for reports): one per correspondence, and
 // they are the quality figure's own (each board's 4 corners: the mean of the means is the mean).
-TEST(CalibrationEngineTest, PerCorrespondenceReprojectionErrorsAreTheQualityFigures) {
-  sim::SessionOptions o;
-  o.prior_rot_deg = 3.0;
-  auto r = Drive(o);
+TEST(CalibrationEngineDefaultDriveTest, PerCorrespondenceReprojectionErrorsAreTheQualityFigures) {
+  const testing::RecordedSession* r = &DefaultDrive();
   ObservationSet corr;
   std::vector<double> px{1.0, 2.0};  // replaced, not appended to
   const CalibrationOutcome out =
