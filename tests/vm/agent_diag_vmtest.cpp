@@ -1167,6 +1167,10 @@ TEST_F(AgentDiagVm, WorkshopFlowCalibratesCommitsAndStores) {
       [](const StatusFrame& s) { return s.state == StatusFrame::State::kDone; }, 5, before, &done));
   EXPECT_EQ(done.check.status.last_verdict, StatusFrame::Verdict::kUpdated);
   EXPECT_NEAR(done.check.status.rotation_delta_deg, rotation_delta_deg, 0.002);
+  // The lamp: steadily on once the session succeeded.
+  const LampTrace success = SampleLamp(2500);
+  EXPECT_EQ(success.on, success.samples)
+      << "lamp not steady on after success: " << success.edges << " edges";
 
   r = Tester("--secret " + secret() + " commit");
   ASSERT_EQ(r.code, 0) << r.out << r.err;
@@ -1427,8 +1431,10 @@ TEST_F(AgentDiagVm, CanFloodDuringACalibrationLeavesEveryResponseWithinP2) {
 }
 
 // c. The factory line: with the interlock asserted, a start-button press (with contact bounce)
-// starts a session; the lamp is off while idle, blinks at 1 Hz while collecting, and is on
-// steadily once the session succeeded.
+// starts a session; the lamp is off while idle, blinks at 1 Hz while collecting, and at 4 Hz once
+// the session failed: here stopped from a tester (31 02 F0A0), aborted. Steadily on after a
+// success: WorkshopFlowCalibratesCommitsAndStores (one whole session in the emulated guest is
+// 90 s; the lamp follows the session's state, whoever started it).
 TEST_F(AgentDiagVm, StartButtonStartsASessionAndTheLampFollows) {
   StartAgent(Detector::kReady);
   const LampTrace idle = SampleLamp(1500);
@@ -1472,22 +1478,31 @@ TEST_F(AgentDiagVm, StartButtonStartsASessionAndTheLampFollows) {
   EXPECT_LT(running.longest_on_us, 800000);
   EXPECT_LT(running.longest_off_us, 800000);
 
-  SeenFrame done;
+  ToolRun r = Tester("session extended");
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = Tester("--secret " + secret() + " unlock");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const size_t before_stop = monitor_.count();
+  EXPECT_EQ(Uds("31 02 F0 A0").text.substr(0, 11), "71 02 F0 A0") << "agent log:\n"
+                                                                  << ReadFile(agent_log_);
+  SeenFrame ended;
   ASSERT_TRUE(monitor_.WaitFor(
       [](const StatusFrame& s) {
         return s.state != StatusFrame::State::kCollecting &&
-               s.state != StatusFrame::State::kSolving && s.state != StatusFrame::State::kIdle;
+               s.state != StatusFrame::State::kSolving;
       },
-      200, before, &done))
-      << "the session did not end within 200 s; agent log:\n"
+      5, before_stop, &ended))
+      << "the session did not stop; agent log:\n"
       << ReadFile(agent_log_);
-  ASSERT_EQ(done.check.status.state, StatusFrame::State::kDone)
-      << StateName(done.check.status.state) << "; agent log:\n"
-      << ReadFile(agent_log_);
-  EXPECT_EQ(done.check.status.last_verdict, StatusFrame::Verdict::kUpdated);
-  const LampTrace success = SampleLamp(2500);
-  EXPECT_EQ(success.on, success.samples)
-      << "lamp not steady on after success: " << success.edges << " edges";
+  EXPECT_EQ(ended.check.status.state, StatusFrame::State::kAborted)
+      << StateName(ended.check.status.state);
+  // 4 Hz: about 8 edges a second, on about half the time, never on for 0.4 s.
+  const LampTrace failed = SampleLamp(2000);
+  std::printf("lamp after the stop: %d of %d samples on, %d edges, longest on %.2f s\n", failed.on,
+              failed.samples, failed.edges, static_cast<double>(failed.longest_on_us) * 1e-6);
+  EXPECT_GE(failed.edges, 10);
+  EXPECT_NEAR(static_cast<double>(failed.on) / failed.samples, 0.5, 0.2);
+  EXPECT_LT(failed.longest_on_us, 400000);
 }
 
 }  // namespace
