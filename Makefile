@@ -29,7 +29,7 @@ configure: deps
 	@cmake --preset $(PRESET) >/dev/null
 
 build: configure
-	@cmake --build --preset $(PRESET) -j $(JOBS)
+	@cmake --build --preset $(PRESET) -j $(JOBS) $(if $(BUILD_TARGET),--target $(BUILD_TARGET))
 
 check: build
 	@ctest --preset $(PRESET) -j $(JOBS) $(CTEST_ARGS)
@@ -38,13 +38,15 @@ check: build
 PHASE := CALIBD_PHASES=build/phase-times.tsv bash tests/timed_phase.sh
 test: deps
 	@mkdir -p build && rm -f build/phase-times.tsv
-	@$(PHASE) "release: build without the unit suites" $(MAKE) --no-print-directory configure PRESET=release \
-	  && cmake --build --preset release -j $(JOBS) --target calibd_optimised_pass
-	@$(PHASE) "release: suite without unit" ctest --preset release -j $(JOBS) -L 'slow|sim|vm|both|check'
+	@$(PHASE) "release: build without the unit suites" $(MAKE) --no-print-directory build PRESET=release \
+	  BUILD_TARGET=calibd_optimised_pass
+	@$(PHASE) "release: suite without unit (aarch64 build beside)" bash tests/beside.sh \
+	  build/cross-build.log "CALIBD_CROSS_BUILD_ONLY=1 JOBS=$(JOBS) bash toolchains/cross-test.sh" \
+	  ctest --preset release -j $(JOBS) -L 'slow|sim|vm|both|check'
 	@$(PHASE) "asan: build (with the fuzz targets)" $(MAKE) --no-print-directory build PRESET=asan
 	@$(PHASE) "asan: suite without slow, vm, fuzz" ctest --preset asan -j $(JOBS) -LE 'slow|vm|fuzz'
 	@$(PHASE) "fuzz: smoke" ctest --preset asan -j $(FUZZ_JOBS) -L fuzz
-	@$(PHASE) "aarch64: cross build, core suites under qemu" $(MAKE) --no-print-directory cross-test
+	@$(PHASE) "aarch64: rest of the build, core suites (qemu)" $(MAKE) --no-print-directory cross-test
 	@echo "make test: phase times"; $(PHASE) --print
 
 install:
@@ -62,7 +64,7 @@ cross-test:
 	@JOBS=$(JOBS) bash toolchains/cross-test.sh $(CTEST_ARGS)
 
 # libFuzzer targets (tests/fuzz/, in the sanitizer build: preset asan, clang, ASan+UBSan):
-# `make fuzz-smoke` builds only them and runs each for 10 s from its seed corpus (ctest -L fuzz;
+# `make fuzz-smoke` builds only them and runs each for 5 s from its seed corpus (ctest -L fuzz;
 # part of `make test`); `make fuzz FUZZ_SECONDS=600` runs each for FUZZ_SECONDS, FUZZ_JOBS at a
 # time, and prints executions and coverage per target. Both fuzz copies of the corpora in
 # build/asan/tests/fuzz/; crash inputs land in their artifacts/.

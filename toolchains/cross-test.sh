@@ -6,7 +6,8 @@
 # packages in ~/.cache/calibd/aarch64-sysroot (about 1.2 GB, several minutes the first time; kept
 # while the package list below is unchanged). Like the host's packages, the sysroot is installed
 # once per machine, not per checkout: a fresh clone (CI) finds it made. Installing needs root (or
-# sudo). JOBS sets the build's parallelism (default 2); arguments go to ctest (e.g. -R Geometry).
+# sudo). JOBS sets the build's parallelism (default 2); arguments go to ctest (e.g. -R Geometry);
+# CALIBD_CROSS_BUILD_ONLY=1 stops after the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -90,6 +91,8 @@ exec 9>&-
 
 cmake --preset aarch64 >/dev/null
 cmake --build --preset aarch64 -j "$JOBS"
+# CALIBD_CROSS_BUILD_ONLY=1: the build alone (make test runs it beside the release suite).
+[ "${CALIBD_CROSS_BUILD_ONLY:-0}" = 1 ] && exit 0
 
 agent="$BUILD/agent/calibd-agent"
 kind="$(file -b "$agent")"
