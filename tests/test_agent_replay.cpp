@@ -65,6 +65,13 @@ TEST_P(AgentReplayTest, CalibratesCommitsAndThenVerifies) {
               lidar.c_str(), rot_err, trans_err, stored.frames_used, stored.boards_used);
   EXPECT_LT(rot_err, 0.1);
   EXPECT_LT(trans_err, 0.015);
+  // The session's predicted 99 % bound on its own error is stored with it, and holds the truth.
+  std::printf("%s: error bound %.4f deg, %.4f m\n", lidar.c_str(), stored.rotation_bound_deg,
+              stored.translation_bound_m);
+  EXPECT_GT(stored.rotation_bound_deg, 0.0);
+  EXPECT_GT(stored.translation_bound_m, 0.0);
+  EXPECT_LT(rot_err, stored.rotation_bound_deg);
+  EXPECT_LT(trans_err, stored.translation_bound_m);
   EXPECT_EQ(stored.version, 1);
   EXPECT_EQ(stored.verdict, "updated");
   EXPECT_EQ(stored.lidar_serial.rfind("LDR-", 0), 0u) << "serials come from sensor_info";
@@ -87,6 +94,8 @@ TEST_P(AgentReplayTest, CalibratesCommitsAndThenVerifies) {
   EXPECT_EQ(first.last_result.verdict, +calibration_result_t::VERDICT_UPDATED);
   EXPECT_NEAR(first.last_result.delta_rotation_deg, 3.0, 0.2);
   EXPECT_NEAR(first.last_result.T_camera_lidar[3], stored.T_camera_lidar.translation().x(), 1e-9);
+  EXPECT_EQ(first.last_result.rotation_bound_deg, stored.rotation_bound_deg);
+  EXPECT_EQ(first.last_result.translation_bound_m, stored.translation_bound_m);
   EXPECT_EQ(first.last_status.state, +calibration_status_t::STATE_DONE);
   EXPECT_FLOAT_EQ(first.last_status.progress, 1.0f);
   EXPECT_GE(first.last_status.frames_used, 50);

@@ -44,6 +44,8 @@ StoredCalibration Example(int i) {
   c.residual_rms_m = 0.0123 + 1e-4 * i;
   c.rotation_sigma_deg = 0.021 + 1e-3 * i;
   c.translation_sigma_m = 0.0034;
+  c.rotation_bound_deg = 0.08 + 1e-3 * i;
+  c.translation_bound_m = 0.011;
   c.frames_used = 40 + i;
   c.boards_used = 120 + 3 * i;
   return c;
@@ -81,6 +83,8 @@ void ExpectSameInput(const StoredCalibration& a, const StoredCalibration& b) {
   EXPECT_EQ(a.residual_rms_m, b.residual_rms_m);
   EXPECT_EQ(a.rotation_sigma_deg, b.rotation_sigma_deg);
   EXPECT_EQ(a.translation_sigma_m, b.translation_sigma_m);
+  EXPECT_EQ(a.rotation_bound_deg, b.rotation_bound_deg);
+  EXPECT_EQ(a.translation_bound_m, b.translation_bound_m);
   EXPECT_EQ(a.frames_used, b.frames_used);
   EXPECT_EQ(a.boards_used, b.boards_used);
 }
@@ -562,15 +566,84 @@ TEST(CalibrationStoreTest, FileFromAFutureFormatIsSkippedWithAClearWarning) {
   CommitExamples(Config(dir), 2);
   const std::string path = dir.file("store/current.json");
   auto file = nlohmann::ordered_json::parse(ReadBytes(path));
-  file["format_version"] = 2;
+  file["format_version"] = 3;
   WriteBytes(path, file.dump(2));
   CalibrationStore store;
   std::string error;
   ASSERT_TRUE(store.Open(Config(dir), &error)) << error;
   ASSERT_NE(store.current(), nullptr);
   EXPECT_EQ(store.current()->version, 2);
-  EXPECT_TRUE(AnyWarningHas(store, "current.json: format version 2 is newer", "using version 2"))
+  EXPECT_TRUE(AnyWarningHas(store, "current.json: format version 3 is newer", "using version 2"))
       << JoinWarnings(store);
+}
+
+// A store written before the error bound (format 1, as calibd wrote it then, checksum and all)
+// is read with the bound unknown (0), and a damaged one is still refused; a format-1 file with
+// the bound's fields is not a file any calibd wrote.
+TEST(CalibrationStoreTest, FilesOfFormatOneAreReadWithTheBoundUnknown) {
+  const std::string v1 = R"({
+  "format": "calibd.calibration",
+  "format_version": 1,
+  "calibration": {
+    "version": 1,
+    "replaced_version": 0,
+    "created_unix_s": 1700000000,
+    "verified_unix_s": 0,
+    "T_camera_lidar": [
+      [0.9950041652780258, -0.09983341664682815, 0.0, 0.05],
+      [0.09983341664682815, 0.9950041652780258, 0.0, -0.48],
+      [0.0, 0.0, 1.0, -0.42],
+      [0.0, 0.0, 0.0, 1.0]
+    ],
+    "lidar_serial": "LIDAR-1",
+    "camera_serial": "CAM-1",
+    "source": "workshop",
+    "verdict": "updated",
+    "reprojection_mean_px": 0.42,
+    "residual_rms_m": 0.0123,
+    "rotation_sigma_deg": 0.015,
+    "translation_sigma_m": 0.0021,
+    "frames_used": 60,
+    "boards_used": 165,
+    "delta_rotation_deg": 0.0,
+    "delta_translation_m": 0.0
+  },
+  "crc32": "02b579a7"
+}
+)";
+  StoredCalibration c;
+  std::string error;
+  ASSERT_TRUE(ParseCalibrationFile(v1, &c, &error)) << error;
+  EXPECT_EQ(c.boards_used, 165);
+  EXPECT_EQ(c.rotation_sigma_deg, 0.015);
+  EXPECT_EQ(c.rotation_bound_deg, 0.0);
+  EXPECT_EQ(c.translation_bound_m, 0.0);
+  std::string damaged = v1;
+  damaged.replace(damaged.find("0.0123"), 6, "0.0124");
+  EXPECT_FALSE(ParseCalibrationFile(damaged, &c, &error));
+  EXPECT_NE(error.find("checksum mismatch"), std::string::npos) << error;
+  std::string with_bound = v1;
+  with_bound.replace(with_bound.find("\"delta_rotation_deg\""), 0,
+                     "\"rotation_bound_deg\": 0.1,\n    ");
+  EXPECT_FALSE(ParseCalibrationFile(with_bound, &c, &error));
+  EXPECT_NE(error.find("rotation_bound_deg"), std::string::npos) << error;
+
+  // Written again, it is of format 2 and keeps its figures.
+  testing::TempDir dir;
+  CalibrationStore store;
+  ASSERT_TRUE(store.Open(Config(dir), &error)) << error;
+  WriteBytes(dir.file("store/current.json"), v1);
+  ASSERT_TRUE(store.Open(Config(dir), &error)) << error;
+  ASSERT_NE(store.current(), nullptr) << JoinWarnings(store);
+  StoredCalibration next = Example(1);
+  ASSERT_TRUE(store.Commit(next, &error)) << error;
+  CalibrationStore reopened;
+  ASSERT_TRUE(reopened.Open(Config(dir), &error)) << error;
+  EXPECT_TRUE(reopened.load_warnings().empty()) << JoinWarnings(reopened);
+  ASSERT_NE(reopened.current(), nullptr);
+  ExpectSameInput(*reopened.current(), next);
+  EXPECT_NE(ReadBytes(dir.file("store/current.json")).find("\"format_version\": 2"),
+            std::string::npos);
 }
 
 TEST(CalibrationStoreTest, CorruptReferenceIsReportedAndTheCurrentKept) {

@@ -100,10 +100,21 @@ TEST(TesterDid, TextDateQualityStateAndUnknown) {
   q.frames_used = 180;
   q.boards_used = 3;
   uint8_t quality[uds::kQualitySize];
-  uds::EncodeQuality(q, quality);
+  EXPECT_EQ(uds::EncodeQuality(q, quality), sizeof(quality));
   EXPECT_EQ(DecodeDid(0xFD02, quality, sizeof(quality)),
             "reprojection mean 0.42 px, LiDAR residual RMS 12.3 mm, rotation sigma 0.015 deg, "
-            "translation sigma 2.1 mm, frames 180, boards 3");
+            "translation sigma 2.1 mm, frames 180, boards 3, error bound (99 %) not known");
+  q.rotation_bound_deg = 0.1234;
+  q.translation_bound_m = 0.0125;
+  uds::EncodeQuality(q, quality);
+  EXPECT_EQ(quality[12], 0x00);  // 123 x 0.001 deg
+  EXPECT_EQ(quality[13], 123);
+  EXPECT_EQ(quality[14], 0x00);  // 125 x 0.1 mm
+  EXPECT_EQ(quality[15], 125);
+  EXPECT_EQ(DecodeDid(0xFD02, quality, sizeof(quality)),
+            "reprojection mean 0.42 px, LiDAR residual RMS 12.3 mm, rotation sigma 0.015 deg, "
+            "translation sigma 2.1 mm, frames 180, boards 3, error bound (99 %) 0.123 deg / 12.5 "
+            "mm");
   const uint8_t state[2] = {2, 1};
   EXPECT_EQ(DecodeDid(0xFD05, state, 2), "recalibration required, calibrate routine active");
   const uint8_t other[3] = {0xAB, 0x01, 0x02};

@@ -327,6 +327,11 @@ uds::BackendReply Agent::Commit() {
   c.residual_rms_m = o.quality.residual_rms_m;
   c.rotation_sigma_deg = o.quality.rotation_sigma_deg;
   c.translation_sigma_m = o.quality.translation_sigma_m;
+  // Infinite when the session could not bound its error: stored as unknown.
+  if (std::isfinite(o.quality.rotation_bound_deg) && std::isfinite(o.quality.translation_bound_m)) {
+    c.rotation_bound_deg = o.quality.rotation_bound_deg;
+    c.translation_bound_m = o.quality.translation_bound_m;
+  }
   c.frames_used = o.quality.frames_used;
   c.boards_used = o.quality.boards_used;
   std::string error;

@@ -191,6 +191,8 @@ uds::QualityFigures Agent::Quality() const {
   q.residual_rms_m = c->residual_rms_m;
   q.rotation_sigma_deg = c->rotation_sigma_deg;
   q.translation_sigma_m = c->translation_sigma_m;
+  q.rotation_bound_deg = c->rotation_bound_deg;
+  q.translation_bound_m = c->translation_bound_m;
   q.frames_used = c->frames_used;
   q.boards_used = c->boards_used;
   return q;

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <tuple>
+#include <vector>
 
 #include "calibd/drivers/atomic_file.hpp"
 #include "crc32.hpp"
@@ -23,7 +24,8 @@ namespace {
 using Json = nlohmann::ordered_json;  // keeps the fields in the order written, for people reading
 
 constexpr const char* kFormatName = "calibd.calibration";
-constexpr int64_t kFormatVersion = 1;
+// 2: adds rotation_bound_deg and translation_bound_m; files of version 1 are read with both 0.
+constexpr int64_t kFormatVersion = 2;
 constexpr const char* kCurrentName = "current.json";
 constexpr const char* kReferenceName = "reference.json";
 constexpr const char* kHistoryDir = "history";
@@ -65,9 +67,10 @@ bool IsPrintableAscii(const std::string& s) {
 
 // The text the checksum covers: every field, written by this file rather than by the JSON
 // library, so a library upgrade that spells numbers differently cannot invalidate stored files.
-// Doubles as their IEEE-754 bit patterns (exact), strings length-prefixed (unambiguous).
-std::string CanonicalText(const StoredCalibration& c) {
-  std::string out = std::string(kFormatName) + "/" + std::to_string(kFormatVersion) + "\n";
+// Doubles as their IEEE-754 bit patterns (exact), strings length-prefixed (unambiguous). The
+// fields of `format_version` (a file keeps the checksum its own version wrote).
+std::string CanonicalText(const StoredCalibration& c, int64_t format_version = kFormatVersion) {
+  std::string out = std::string(kFormatName) + "/" + std::to_string(format_version) + "\n";
   auto add_int = [&](const char* key, int64_t v) {
     out += key;
     out += '=';
@@ -111,6 +114,10 @@ std::string CanonicalText(const StoredCalibration& c) {
   add_int("boards_used", c.boards_used);
   add_double("delta_rotation_deg", c.delta_rotation_deg);
   add_double("delta_translation_m", c.delta_translation_m);
+  if (format_version >= 2) {
+    add_double("rotation_bound_deg", c.rotation_bound_deg);
+    add_double("translation_bound_m", c.translation_bound_m);
+  }
   return out;
 }
 
@@ -149,6 +156,8 @@ std::string ToFileText(const StoredCalibration& c) {
   body["boards_used"] = c.boards_used;
   body["delta_rotation_deg"] = c.delta_rotation_deg;
   body["delta_translation_m"] = c.delta_translation_m;
+  body["rotation_bound_deg"] = c.rotation_bound_deg;
+  body["translation_bound_m"] = c.translation_bound_m;
   Json file;
   file["format"] = kFormatName;
   file["format_version"] = kFormatVersion;
@@ -193,7 +202,7 @@ int GetSmallInt(const Json& object, const char* key) {
   return static_cast<int>(v);
 }
 
-void CheckKeys(const Json& object, std::initializer_list<const char*> known, const char* where) {
+void CheckKeys(const Json& object, const std::vector<const char*>& known, const char* where) {
   for (const auto& kv : object.items()) {
     bool ok = false;
     for (const char* k : known) ok = ok || kv.key() == k;
@@ -225,12 +234,25 @@ void ParseOrThrow(const std::string& text, StoredCalibration* out) {
   CheckKeys(file, {"format", "format_version", "calibration", "crc32"}, "the file");
   const Json& body = Field(file, "calibration");
   if (!body.is_object()) throw FileError{"field 'calibration' is not an object"};
-  CheckKeys(body,
-            {"version", "replaced_version", "created_unix_s", "verified_unix_s", "T_camera_lidar",
-             "lidar_serial", "camera_serial", "source", "verdict", "reprojection_mean_px",
-             "residual_rms_m", "rotation_sigma_deg", "translation_sigma_m", "frames_used",
-             "boards_used", "delta_rotation_deg", "delta_translation_m"},
-            "'calibration'");
+  std::vector<const char*> keys = {"version",
+                                   "replaced_version",
+                                   "created_unix_s",
+                                   "verified_unix_s",
+                                   "T_camera_lidar",
+                                   "lidar_serial",
+                                   "camera_serial",
+                                   "source",
+                                   "verdict",
+                                   "reprojection_mean_px",
+                                   "residual_rms_m",
+                                   "rotation_sigma_deg",
+                                   "translation_sigma_m",
+                                   "frames_used",
+                                   "boards_used",
+                                   "delta_rotation_deg",
+                                   "delta_translation_m"};
+  if (format_version >= 2) keys.insert(keys.end(), {"rotation_bound_deg", "translation_bound_m"});
+  CheckKeys(body, keys, "'calibration'");
   StoredCalibration c;
   c.version = GetInt(body, "version");
   c.replaced_version = GetInt(body, "replaced_version");
@@ -259,7 +281,11 @@ void ParseOrThrow(const std::string& text, StoredCalibration* out) {
   c.boards_used = GetSmallInt(body, "boards_used");
   c.delta_rotation_deg = GetDouble(body, "delta_rotation_deg");
   c.delta_translation_m = GetDouble(body, "delta_translation_m");
-  if (GetString(file, "crc32") != Crc32Hex(CanonicalText(c)))
+  if (format_version >= 2) {
+    c.rotation_bound_deg = GetDouble(body, "rotation_bound_deg");
+    c.translation_bound_m = GetDouble(body, "translation_bound_m");
+  }
+  if (GetString(file, "crc32") != Crc32Hex(CanonicalText(c, format_version)))
     throw FileError{"checksum mismatch (file corrupt or truncated)"};
   // The checksum matched, so what follows can only be a file written by a faulty writer.
   std::string why;
@@ -413,10 +439,10 @@ bool StoredCalibration::IsValid(std::string* error) const {
   if (verdict == "rejected") return fail("verdict", "a rejected calibration is never stored");
   if (created_unix_s < 0) return fail("created_unix_s", "must be >= 0");
   if (verified_unix_s < 0) return fail("verified_unix_s", "must be >= 0");
-  const std::pair<const char*, double> figures[] = {{"reprojection_mean_px", reprojection_mean_px},
-                                                    {"residual_rms_m", residual_rms_m},
-                                                    {"rotation_sigma_deg", rotation_sigma_deg},
-                                                    {"translation_sigma_m", translation_sigma_m}};
+  const std::pair<const char*, double> figures[] = {
+      {"reprojection_mean_px", reprojection_mean_px}, {"residual_rms_m", residual_rms_m},
+      {"rotation_sigma_deg", rotation_sigma_deg},     {"translation_sigma_m", translation_sigma_m},
+      {"rotation_bound_deg", rotation_bound_deg},     {"translation_bound_m", translation_bound_m}};
   for (const auto& [key, value] : figures)
     if (!std::isfinite(value) || value < 0.0) return fail(key, "must be finite and >= 0");
   if (frames_used < 0) return fail("frames_used", "must be >= 0");

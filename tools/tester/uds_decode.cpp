@@ -93,12 +93,21 @@ std::string DecodeExtrinsic(const uint8_t* p) {
          Format(", pitch %.6f deg", v[4] * deg) + Format(", yaw %.6f deg", v[5] * deg);
 }
 
+// The predicted 99 % error bound of DID 0xFD02 (did_codec.hpp).
+std::string DecodeBound(const uint8_t* p) {
+  if (GetU16(p) == uds::kBoundNotAvailable || GetU16(p + 2) == uds::kBoundNotAvailable)
+    return ", error bound (99 %) not known";
+  return Format(", error bound (99 %%) %.3f deg", GetU16(p) * uds::kRotationFigureLsbDeg) +
+         Format(" / %.1f mm", GetU16(p + 2) * uds::kLengthFigureLsbM * 1000);
+}
+
 std::string DecodeQuality(const uint8_t* p) {
   return Format("reprojection mean %.2f px", GetU16(p) * uds::kReprojectionLsbPx) +
          Format(", LiDAR residual RMS %.1f mm", GetU16(p + 2) * uds::kLengthFigureLsbM * 1000) +
          Format(", rotation sigma %.3f deg", GetU16(p + 4) * uds::kRotationFigureLsbDeg) +
          Format(", translation sigma %.1f mm", GetU16(p + 6) * uds::kLengthFigureLsbM * 1000) +
-         ", frames " + std::to_string(GetU16(p + 8)) + ", boards " + std::to_string(GetU16(p + 10));
+         ", frames " + std::to_string(GetU16(p + 8)) + ", boards " +
+         std::to_string(GetU16(p + 10)) + DecodeBound(p + 12);
 }
 
 std::string DecodeBcdDate(const uint8_t* p) {

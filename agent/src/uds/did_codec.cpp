@@ -70,6 +70,11 @@ size_t EncodeQuality(const QualityFigures& q, uint8_t* out) {
   n += PutU16(out + n, ScaleToUint16(q.translation_sigma_m, kLengthFigureLsbM));
   n += PutU16(out + n, ScaleToUint16(q.frames_used, 1.0));
   n += PutU16(out + n, ScaleToUint16(q.boards_used, 1.0));
+  auto bound = [](double value, double lsb) {
+    return value > 0.0 ? ScaleToUint16(value, lsb) : kBoundNotAvailable;
+  };
+  n += PutU16(out + n, bound(q.rotation_bound_deg, kRotationFigureLsbDeg));
+  n += PutU16(out + n, bound(q.translation_bound_m, kLengthFigureLsbM));
   return n;
 }
 

@@ -53,6 +53,9 @@ struct StoredCalibration {
   double residual_rms_m = 0.0;        ///< LiDAR board points to their boards
   double rotation_sigma_deg = 0.0;    ///< formal standard deviations
   double translation_sigma_m = 0.0;
+  /// The session's predicted 99 % bound on this result's own error (QualityFigures: clustered
+  /// covariance plus the systematic terms); 0 when unknown (a factory value, a file of format 1).
+  double rotation_bound_deg = 0.0, translation_bound_m = 0.0;
   int frames_used = 0, boards_used = 0;
   /// Change from the calibration it replaced (see replaced_version), computed by the store.
   double delta_rotation_deg = 0.0, delta_translation_m = 0.0;

@@ -12,7 +12,7 @@
 /// Supplier DIDs (0xFD00-0xFEFF: system-supplier-specific in Annex C.1):
 /// - 0xFD00 current T_camera_lidar, 24 bytes: ExtrinsicFigures, 6 x int32
 /// - 0xFD01 factory / end-of-line reference T_camera_lidar, 24 bytes: ExtrinsicFigures
-/// - 0xFD02 quality figures of the current calibration, 12 bytes: QualityFigures, 6 x uint16
+/// - 0xFD02 quality figures of the current calibration, 16 bytes: QualityFigures, 8 x uint16
 /// - 0xFD03 LiDAR serial number, 32 bytes ASCII
 /// - 0xFD04 camera serial number, 32 bytes ASCII
 /// - 0xFD05 calibration state, 2 bytes: CalibrationState, then the calibrate routine's
@@ -27,7 +27,9 @@
 /// roll, pitch, yaw in micro-degrees (R = Rz(yaw) * Ry(pitch) * Rx(roll)), each int32 rounded to
 /// nearest and saturated; all six 0x7FFFFFFF when there is no such calibration.
 /// QualityFigures: reprojection mean in 0.01 px, LiDAR residual RMS in 0.1 mm, rotation sigma in
-/// 0.001 deg, translation sigma in 0.1 mm, frames used, boards used; each saturated at 0xFFFF.
+/// 0.001 deg, translation sigma in 0.1 mm, frames used, boards used, then the predicted 99 % bound
+/// on the calibration's own error: rotation in 0.001 deg, translation in 0.1 mm (0xFFFF: none
+/// known, e.g. a factory value); each saturated at 0xFFFF.
 
 #include <cstddef>
 #include <cstdint>
@@ -56,7 +58,7 @@ inline constexpr size_t kEcuSerialSize = 16;
 inline constexpr size_t kSoftwareVersionSize = 16;
 inline constexpr size_t kSensorSerialSize = 32;
 inline constexpr size_t kExtrinsicSize = 24;
-inline constexpr size_t kQualitySize = 12;
+inline constexpr size_t kQualitySize = 16;
 inline constexpr size_t kCoverageSize = 16;
 inline constexpr int32_t kExtrinsicNotAvailable = 0x7FFFFFFF;
 
@@ -78,7 +80,10 @@ struct QualityFigures {
   double reprojection_mean_px = 0, residual_rms_m = 0;
   double rotation_sigma_deg = 0, translation_sigma_m = 0;
   int frames_used = 0, boards_used = 0;
+  double rotation_bound_deg = 0, translation_bound_m = 0;  ///< 0: none known
 };
+/// The bounds' "none known" in DID 0xFD02.
+inline constexpr uint16_t kBoundNotAvailable = 0xFFFF;
 
 /// health_t.calibration_state as one byte (DID 0xFD05 byte 0).
 enum class CalibrationState : uint8_t { kValid = 0, kNotPerformed = 1, kRecalibrationRequired = 2 };
