@@ -152,7 +152,14 @@ TEST(HtmlReportTest, DemoSizedReportIsFast) {
     best_ms = std::min(best_ms, MsSince(t0));
   }
   std::cout << "demo-sized report: " << size / 1000 << " kB in " << best_ms << " ms\n";
-#if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)
+  // The bound holds in an optimised build only: not under the sanitizers (GCC says so with
+  // __SANITIZE_ADDRESS__, clang with __has_feature), where the same report took 210 ms.
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define CALIBD_TEST_UNDER_ASAN 1
+#endif
+#endif
+#if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__) && !defined(CALIBD_TEST_UNDER_ASAN)
   EXPECT_LT(best_ms, 200.0);
 #endif
 }
