@@ -327,8 +327,8 @@ uds::BackendReply Agent::Commit() {
   c.residual_rms_m = o.quality.residual_rms_m;
   c.rotation_sigma_deg = o.quality.rotation_sigma_deg;
   c.translation_sigma_m = o.quality.translation_sigma_m;
-  // Infinite when the session could not bound its error: stored as unknown.
-  if (std::isfinite(o.quality.rotation_bound_deg) && std::isfinite(o.quality.translation_bound_m)) {
+  // No bound (the session could not bound its error): stored as unknown.
+  if (o.quality.has_error_bound()) {
     c.rotation_bound_deg = o.quality.rotation_bound_deg;
     c.translation_bound_m = o.quality.translation_bound_m;
   }

@@ -1,7 +1,6 @@
 #include "calibd/agent/lcm_reports.hpp"
 
 #include <algorithm>
-#include <cmath>
 
 #include "calibd/channels.hpp"
 #include "calibd/core/common/geometry.hpp"
@@ -163,10 +162,8 @@ void LcmReports::PublishResult(const CalibrationOutcome& o, const CalibConfig& c
   r.frames_used = o.quality.frames_used;
   r.boards_used = o.quality.boards_used;
   r.min_information_eigenvalue = o.quality.min_information_eigenvalue;
-  const bool bounded =
-      std::isfinite(o.quality.rotation_bound_deg) && std::isfinite(o.quality.translation_bound_m);
-  r.rotation_bound_deg = bounded ? o.quality.rotation_bound_deg : -1.0;
-  r.translation_bound_m = bounded ? o.quality.translation_bound_m : -1.0;
+  r.rotation_bound_deg = o.quality.has_error_bound() ? o.quality.rotation_bound_deg : -1.0;
+  r.translation_bound_m = o.quality.has_error_bound() ? o.quality.translation_bound_m : -1.0;
   Publish(channels::kResult.name, r);
 }
 

@@ -5,6 +5,7 @@
 /// beyond the paper), each documented where it is declared.
 
 #include <Eigen/Core>
+#include <cmath>
 #include <limits>
 
 namespace calibd {
@@ -37,6 +38,10 @@ struct QualityFigures {
   /// direction at the 99 % quantile of a 3-D error's norm, plus the systematic terms.
   double rotation_bound_deg = std::numeric_limits<double>::infinity();
   double translation_bound_m = std::numeric_limits<double>::infinity();
+  /// Whether the session bounded its error at all (both bounds finite).
+  bool has_error_bound() const {
+    return std::isfinite(rotation_bound_deg) && std::isfinite(translation_bound_m);
+  }
   double plane_conditioning = 0.0;  ///< see VerdictConfig::min_plane_conditioning
   double rotation_spread_deg = 0.0, translation_spread_m = 0.0;  ///< half-data re-solves
   double start_rotation_deg = 0.0, start_translation_m = 0.0;    ///< solves from other starts
