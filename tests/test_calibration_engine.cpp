@@ -25,12 +25,13 @@ std::unique_ptr<testing::RecordedSession> Drive(sim::SessionOptions o) {
 // That drive with the prior 3 deg off, recorded once per process: the suite
 // CalibrationEngineDefaultDriveTest runs as one ctest entry (tests/CMakeLists.txt), its cases
 // sharing the recording (a copy where they change the observations).
+sim::SessionOptions DefaultDriveOptions() {
+  sim::SessionOptions o;
+  o.prior_rot_deg = 3.0;
+  return o;
+}
 const testing::RecordedSession& DefaultDrive() {
-  static const std::unique_ptr<testing::RecordedSession> r = [] {
-    sim::SessionOptions o;
-    o.prior_rot_deg = 3.0;
-    return Drive(o);
-  }();
+  static const std::unique_ptr<testing::RecordedSession> r = Drive(DefaultDriveOptions());
   return *r;
 }
 
@@ -88,17 +89,15 @@ TEST(CalibrationEngineTest, BoardIdsSwappedBetweenBoardsOfDifferentSizesAreNamed
 // The default drive with its three boards each bent 15 mm (towards the sensors, away, towards):
 // refused as not flat, naming the most bent board; the same drive with flat boards calibrates,
 // its boards measured flat within 2 mm (board_flatness.hpp).
-TEST(CalibrationEngineTest, ABentBoardIsNamedAndFlatOnesPass) {
-  sim::SessionOptions o;
-  o.prior_rot_deg = 3.0;
-  o.prior_trans_m = 0.03;
-  auto flat = Drive(o);
+TEST(CalibrationEngineDefaultDriveTest, ABentBoardIsNamedAndFlatOnesPass) {
+  const testing::RecordedSession* flat = &DefaultDrive();
   const CalibrationOutcome updated =
       Calibrate(flat->config, flat->obs, flat->projection, EngineConfig{});
   EXPECT_EQ(updated.verdict, CalibrationOutcome::Verdict::kUpdated)
       << updated.reason << ": " << updated.detail;
   ASSERT_GE(updated.quality.board_bend_id, 0);
   EXPECT_LT(std::fabs(updated.quality.board_bend_m), 0.002);
+  sim::SessionOptions o = DefaultDriveOptions();
   o.workshop.board_bows_m = {0.015, -0.015, 0.015};
   auto bent = Drive(o);
   const CalibrationOutcome refused =
@@ -109,11 +108,8 @@ TEST(CalibrationEngineTest, ABentBoardIsNamedAndFlatOnesPass) {
   EXPECT_NE(refused.detail.find("flatten or replace the board"), std::string::npos);
 }
 
-TEST(CalibrationEngineTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
-  sim::SessionOptions o;
-  o.prior_rot_deg = 3.0;
-  o.prior_trans_m = 0.03;
-  auto r = Drive(o);
+TEST(CalibrationEngineDefaultDriveTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
+  const testing::RecordedSession* r = &DefaultDrive();
   const CalibrationOutcome updated = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   std::printf("good session: plane conditioning %.2e, sigma %.4f deg\n",
               updated.quality.plane_conditioning, updated.quality.rotation_sigma_deg);
@@ -501,9 +497,8 @@ TEST(CalibrationEngineTest, PairsOutOfOrderOrRepeatedAreTakenInCaptureOrderOnce)
   }
 }
 
-TEST(CalibrationEngineTest, NoLidarBoardsOrNoCameraBoardsAreExplicit) {
-  sim::SessionOptions o;
-  auto r = Drive(o);
+TEST(CalibrationEngineDefaultDriveTest, NoLidarBoardsOrNoCameraBoardsAreExplicit) {
+  const testing::RecordedSession* r = &DefaultDrive();
   SessionObservations camera_only = r->obs;
   camera_only.lidar.clear();
   const CalibrationOutcome no_lidar = Calibrate(r->config, camera_only, r->projection, {});

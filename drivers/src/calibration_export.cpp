@@ -20,8 +20,6 @@ namespace {
 
 constexpr int kExportFormatVersion = 1;
 
-std::string Num(double v) { return ShortestDecimal(v); }
-
 // KITTI's calib_time text ("15-Mar-2012 11:37:16"), UTC, month names in English whatever the
 // locale (strftime's %b is not).
 std::string KittiTime(int64_t unix_s) {
@@ -121,18 +119,20 @@ std::string FormatOpenCvYaml(const CalibrationExport& e) {
 std::string FormatRos1StaticTransformCommand(const CalibrationExport& e) {
   const Eigen::Vector3d t = e.T_camera_lidar.translation();
   const Eigen::Vector4d q = QuaternionXyzw(e.T_camera_lidar.linear());
-  return "rosrun tf2_ros static_transform_publisher " + Num(t.x()) + " " + Num(t.y()) + " " +
-         Num(t.z()) + " " + Num(q.x()) + " " + Num(q.y()) + " " + Num(q.z()) + " " + Num(q.w()) +
-         " " + e.camera_frame + " " + e.lidar_frame;
+  return "rosrun tf2_ros static_transform_publisher " + ShortestDecimal(t.x()) + " " +
+         ShortestDecimal(t.y()) + " " + ShortestDecimal(t.z()) + " " + ShortestDecimal(q.x()) +
+         " " + ShortestDecimal(q.y()) + " " + ShortestDecimal(q.z()) + " " +
+         ShortestDecimal(q.w()) + " " + e.camera_frame + " " + e.lidar_frame;
 }
 
 std::string FormatRos2StaticTransformCommand(const CalibrationExport& e) {
   const Eigen::Vector3d t = e.T_camera_lidar.translation();
   const Eigen::Vector4d q = QuaternionXyzw(e.T_camera_lidar.linear());
-  return "ros2 run tf2_ros static_transform_publisher --x " + Num(t.x()) + " --y " + Num(t.y()) +
-         " --z " + Num(t.z()) + " --qx " + Num(q.x()) + " --qy " + Num(q.y()) + " --qz " +
-         Num(q.z()) + " --qw " + Num(q.w()) + " --frame-id " + e.camera_frame +
-         " --child-frame-id " + e.lidar_frame;
+  return "ros2 run tf2_ros static_transform_publisher --x " + ShortestDecimal(t.x()) + " --y " +
+         ShortestDecimal(t.y()) + " --z " + ShortestDecimal(t.z()) + " --qx " +
+         ShortestDecimal(q.x()) + " --qy " + ShortestDecimal(q.y()) + " --qz " +
+         ShortestDecimal(q.z()) + " --qw " + ShortestDecimal(q.w()) + " --frame-id " +
+         e.camera_frame + " --child-frame-id " + e.lidar_frame;
 }
 
 std::string FormatRosStaticTransformFile(const CalibrationExport& e) {
@@ -147,9 +147,10 @@ std::string FormatTfYaml(const CalibrationExport& e) {
   std::ostringstream o;
   o << Header(e, "calibd: T_camera_lidar as a geometry_msgs/TransformStamped (tf)")
     << "header:\n  frame_id: \"" << e.camera_frame << "\"\nchild_frame_id: \"" << e.lidar_frame
-    << "\"\ntransform:\n  translation:\n    x: " << Num(t.x()) << "\n    y: " << Num(t.y())
-    << "\n    z: " << Num(t.z()) << "\n  rotation:\n    x: " << Num(q.x())
-    << "\n    y: " << Num(q.y()) << "\n    z: " << Num(q.z()) << "\n    w: " << Num(q.w()) << "\n";
+    << "\"\ntransform:\n  translation:\n    x: " << ShortestDecimal(t.x())
+    << "\n    y: " << ShortestDecimal(t.y()) << "\n    z: " << ShortestDecimal(t.z())
+    << "\n  rotation:\n    x: " << ShortestDecimal(q.x()) << "\n    y: " << ShortestDecimal(q.y())
+    << "\n    z: " << ShortestDecimal(q.z()) << "\n    w: " << ShortestDecimal(q.w()) << "\n";
   return o.str();
 }
 
@@ -160,9 +161,11 @@ std::string FormatAutowareSensorKitYaml(const CalibrationExport& e) {
   o << Header(e, "calibd: Autoware sensor_kit_calibration.yaml layout")
     << "# <parent>: <child>: the child's pose in the parent frame; x y z in m, roll pitch yaw in\n"
     << "# rad with R = Rz(yaw) Ry(pitch) Rx(roll) (tf2 setRPY)\n"
-    << "\"" << e.camera_frame << "\":\n  \"" << e.lidar_frame << "\":\n    x: " << Num(t.x())
-    << "\n    y: " << Num(t.y()) << "\n    z: " << Num(t.z()) << "\n    roll: " << Num(rpy.x())
-    << "\n    pitch: " << Num(rpy.y()) << "\n    yaw: " << Num(rpy.z()) << "\n";
+    << "\"" << e.camera_frame << "\":\n  \"" << e.lidar_frame
+    << "\":\n    x: " << ShortestDecimal(t.x()) << "\n    y: " << ShortestDecimal(t.y())
+    << "\n    z: " << ShortestDecimal(t.z()) << "\n    roll: " << ShortestDecimal(rpy.x())
+    << "\n    pitch: " << ShortestDecimal(rpy.y()) << "\n    yaw: " << ShortestDecimal(rpy.z())
+    << "\n";
   return o.str();
 }
 
@@ -171,8 +174,9 @@ std::string FormatKittiVeloToCam(const CalibrationExport& e) {
   const Eigen::Vector3d t = e.T_camera_lidar.translation();
   std::string s = "calib_time: " + KittiTime(e.calibrated_unix_s) + "\nR:";
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) s += " " + Num(R(r, c));
-  s += "\nT: " + Num(t.x()) + " " + Num(t.y()) + " " + Num(t.z());
+    for (int c = 0; c < 3; ++c) s += " " + ShortestDecimal(R(r, c));
+  s += "\nT: " + ShortestDecimal(t.x()) + " " + ShortestDecimal(t.y()) + " " +
+       ShortestDecimal(t.z());
   // KITTI's files end with these two (zero in every released sequence).
   s += "\ndelta_f: 0 0\ndelta_c: 0 0\n";
   return s;

@@ -219,8 +219,6 @@ void ParseOrThrow(const YAML::Node& root, const ConfigParseOptions& options, Cal
   c->prior_T_camera_lidar = pose;
 }
 
-std::string Num(double v) { return ShortestDecimal(v); }
-
 }  // namespace
 
 std::string ShortestDecimal(double v) {
@@ -261,28 +259,31 @@ std::string ConfigToYaml(const CalibConfig& c) {
   const auto& k = c.camera;
   o << "# calibd calibration config: sensors, intrinsics, boards and the prior extrinsic.\n";
   o << "camera:\n  id: " << c.camera_id << "\n  frame_id: " << c.camera_frame
-    << "\n  width: " << k.width << "\n  height: " << k.height << "\n  fx: " << Num(k.fx)
-    << "\n  fy: " << Num(k.fy) << "\n  cx: " << Num(k.cx) << "\n  cy: " << Num(k.cy);
+    << "\n  width: " << k.width << "\n  height: " << k.height << "\n  fx: " << ShortestDecimal(k.fx)
+    << "\n  fy: " << ShortestDecimal(k.fy) << "\n  cx: " << ShortestDecimal(k.cx)
+    << "\n  cy: " << ShortestDecimal(k.cy);
   if (k.model == DistortionModel::kKannalaBrandt) {
-    o << "\n  model: kannala_brandt\n  distortion: [" << Num(k.k1) << ", " << Num(k.k2) << ", "
-      << Num(k.k3) << ", " << Num(k.k4) << "]  # k1, k2, k3, k4 (OpenCV fisheye)\n";
+    o << "\n  model: kannala_brandt\n  distortion: [" << ShortestDecimal(k.k1) << ", "
+      << ShortestDecimal(k.k2) << ", " << ShortestDecimal(k.k3) << ", " << ShortestDecimal(k.k4)
+      << "]  # k1, k2, k3, k4 (OpenCV fisheye)\n";
   } else {
-    o << "\n  model: radtan\n  distortion: [" << Num(k.k1) << ", " << Num(k.k2) << ", " << Num(k.p1)
-      << ", " << Num(k.p2) << ", " << Num(k.k3)
-      << "]  # k1, k2, p1, p2, k3 (OpenCV radial-tangential)\n";
+    o << "\n  model: radtan\n  distortion: [" << ShortestDecimal(k.k1) << ", "
+      << ShortestDecimal(k.k2) << ", " << ShortestDecimal(k.p1) << ", " << ShortestDecimal(k.p2)
+      << ", " << ShortestDecimal(k.k3) << "]  # k1, k2, p1, p2, k3 (OpenCV radial-tangential)\n";
   }
   o << "lidar:\n  id: " << c.lidar_id << "\n  frame_id: " << c.lidar_frame
     << "\n  model: " << c.lidar_model << "\n";
   if (c.lidar_model == "generic") {
     const GenericLidarConfig& g = c.lidar_generic;
     o << "  generic:  # 0: estimated from the first frames\n    azimuth_resolution_deg: "
-      << Num(g.azimuth_resolution_deg)
-      << "\n    elevation_resolution_deg: " << Num(g.elevation_resolution_deg)
-      << "\n    azimuth_min_deg: " << Num(g.azimuth_min_deg)
-      << "\n    azimuth_max_deg: " << Num(g.azimuth_max_deg)
-      << "\n    elevation_min_deg: " << Num(g.elevation_min_deg)
-      << "\n    elevation_max_deg: " << Num(g.elevation_max_deg)
-      << "\n    max_points: " << g.max_points << "\n    frame_rate_hz: " << Num(g.frame_rate_hz)
+      << ShortestDecimal(g.azimuth_resolution_deg)
+      << "\n    elevation_resolution_deg: " << ShortestDecimal(g.elevation_resolution_deg)
+      << "\n    azimuth_min_deg: " << ShortestDecimal(g.azimuth_min_deg)
+      << "\n    azimuth_max_deg: " << ShortestDecimal(g.azimuth_max_deg)
+      << "\n    elevation_min_deg: " << ShortestDecimal(g.elevation_min_deg)
+      << "\n    elevation_max_deg: " << ShortestDecimal(g.elevation_max_deg)
+      << "\n    max_points: " << g.max_points
+      << "\n    frame_rate_hz: " << ShortestDecimal(g.frame_rate_hz)
       << "\n    estimation_frames: " << g.estimation_frames << "\n    pattern: "
       << std::find_if(std::begin(kGenericPatterns), std::end(kGenericPatterns),
                       [&](const auto& p) { return g.pattern == p.first; })
@@ -291,25 +292,25 @@ std::string ConfigToYaml(const CalibConfig& c) {
   }
   o << "boards:\n";
   for (const auto& b : c.boards) {
-    o << "  - id: " << b.board_id << "\n    width_m: " << Num(b.width_m)
-      << "\n    height_m: " << Num(b.height_m);
+    o << "  - id: " << b.board_id << "\n    width_m: " << ShortestDecimal(b.width_m)
+      << "\n    height_m: " << ShortestDecimal(b.height_m);
     if (b.pattern == BoardGeometry::PatternKind::kCheckerboard) {
       o << "\n    pattern: checkerboard\n    checker_inner_rows: " << b.checker_inner_rows
         << "\n    checker_inner_cols: " << b.checker_inner_cols
-        << "\n    checker_square_size_m: " << Num(b.checker_square_size_m);
+        << "\n    checker_square_size_m: " << ShortestDecimal(b.checker_square_size_m);
     } else {
       o << "\n    pattern: apriltag\n    tag_family: " << b.tag_family
-        << "\n    tag_id: " << b.tag_id << "\n    tag_size_m: " << Num(b.tag_size_m);
+        << "\n    tag_id: " << b.tag_id << "\n    tag_size_m: " << ShortestDecimal(b.tag_size_m);
     }
-    o << "\n    tag_offset_m: [" << Num(b.tag_offset_m.x()) << ", " << Num(b.tag_offset_m.y())
-      << "]  # pattern centre on the board\n";
+    o << "\n    tag_offset_m: [" << ShortestDecimal(b.tag_offset_m.x()) << ", "
+      << ShortestDecimal(b.tag_offset_m.y()) << "]  # pattern centre on the board\n";
   }
   o << "prior:\n  # maps LiDAR points into the camera frame (camera: x right, y down, z forward)\n";
   o << "  T_camera_lidar:\n";
   for (int r = 0; r < 4; ++r) {
     o << "    - [";
     for (int col = 0; col < 4; ++col)
-      o << Num(c.prior_T_camera_lidar.matrix()(r, col)) << (col < 3 ? ", " : "]\n");
+      o << ShortestDecimal(c.prior_T_camera_lidar.matrix()(r, col)) << (col < 3 ? ", " : "]\n");
   }
   return o.str();
 }

@@ -2,6 +2,7 @@
 
 #include <cstring>
 
+#include "calibd/core/common/validation.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "crc32.hpp"
 
@@ -45,11 +46,6 @@ class Reader {
   std::string_view rest_;
 };
 
-bool Fail(std::string* error, const std::string& what) {
-  if (error) *error = what;
-  return false;
-}
-
 }  // namespace
 
 std::string EncodeReferenceSet(const LidarReferenceSet& set) {
@@ -68,33 +64,33 @@ std::string EncodeReferenceSet(const LidarReferenceSet& set) {
 
 bool DecodeReferenceSet(std::string_view bytes, LidarReferenceSet* set, std::string* error) {
   if (bytes.size() < sizeof(uint32_t))
-    return Fail(error,
-                "too short for a reference file (" + std::to_string(bytes.size()) + " bytes)");
+    return Invalid(error,
+                   "too short for a reference file (" + std::to_string(bytes.size()) + " bytes)");
   const std::string_view body = bytes.substr(0, bytes.size() - sizeof(uint32_t));
   Reader in(bytes);
   char magic[sizeof(kMagic)];
   if (!in.TakeArray(magic, sizeof(magic)) || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
-    return Fail(error, "not a calibd reference file (no CALIBDLR magic)");
+    return Invalid(error, "not a calibd reference file (no CALIBDLR magic)");
   uint32_t version = 0, mark = 0;
   if (!in.Take(&version) || version != kVersion)
-    return Fail(error, "layout version " + std::to_string(version) + ", this build reads " +
-                           std::to_string(kVersion));
+    return Invalid(error, "layout version " + std::to_string(version) + ", this build reads " +
+                              std::to_string(kVersion));
   if (!in.Take(&mark) || mark != kByteOrderMark)
-    return Fail(error, "written on a machine of another byte order");
+    return Invalid(error, "written on a machine of another byte order");
   LidarReferenceSet s;
   int32_t dims = 0, count = 0;
   if (!in.Take(&s.key) || !in.Take(&dims) || !in.Take(&count))
-    return Fail(error, "truncated header");
+    return Invalid(error, "truncated header");
   if (dims < 1 || dims > kMaxDims || count < 0 || count > kMaxViews)
-    return Fail(error, "implausible sizes: " + std::to_string(count) + " views of " +
-                           std::to_string(dims) + " values");
+    return Invalid(error, "implausible sizes: " + std::to_string(count) + " views of " +
+                              std::to_string(dims) + " values");
   const size_t values = static_cast<size_t>(dims) * static_cast<size_t>(count);
   const size_t expected =
       sizeof(int32_t) * static_cast<size_t>(count) + sizeof(float) * values + sizeof(uint32_t);
   if (in.left() != expected)
-    return Fail(error, std::to_string(in.left()) + " bytes after the header, " +
-                           std::to_string(expected) + " expected for " + std::to_string(count) +
-                           " views of " + std::to_string(dims) + " values");
+    return Invalid(error, std::to_string(in.left()) + " bytes after the header, " +
+                              std::to_string(expected) + " expected for " + std::to_string(count) +
+                              " views of " + std::to_string(dims) + " values");
   s.dims = dims;
   s.views.resize(static_cast<size_t>(count));
   s.descriptors.resize(values);
@@ -102,7 +98,7 @@ bool DecodeReferenceSet(std::string_view bytes, LidarReferenceSet* set, std::str
   in.TakeArray(s.views.data(), s.views.size() * sizeof(int32_t));
   in.TakeArray(s.descriptors.data(), s.descriptors.size() * sizeof(float));
   in.Take(&crc);
-  if (crc != Crc32(body)) return Fail(error, "CRC-32 mismatch (a damaged file)");
+  if (crc != Crc32(body)) return Invalid(error, "CRC-32 mismatch (a damaged file)");
   *set = std::move(s);
   return true;
 }
@@ -111,7 +107,7 @@ bool ReadReferenceFile(const std::string& path, LidarReferenceSet* set, std::str
   std::string bytes;
   if (!ReadWholeFile(path, &bytes, error)) return false;
   std::string why;
-  if (!DecodeReferenceSet(bytes, set, &why)) return Fail(error, "'" + path + "': " + why);
+  if (!DecodeReferenceSet(bytes, set, &why)) return Invalid(error, "'" + path + "': " + why);
   return true;
 }
 

@@ -9,6 +9,7 @@
 #include <limits>
 #include <sstream>
 
+#include "calibd/core/common/validation.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 
 namespace calibd {
@@ -32,11 +33,6 @@ struct PcdHeader {
   int tokens = 0, tokens_no_pad = 0;
   size_t data_offset = 0;  ///< first byte after the DATA line
 };
-
-bool Fail(std::string* error, const std::string& m) {
-  if (error) *error = m;
-  return false;
-}
 
 std::vector<std::string> Split(const std::string& line) {
   std::vector<std::string> out;
@@ -119,7 +115,7 @@ double ReadValue(const uint8_t* p, char type, int size) {
 bool ParseHeader(const std::string& bytes, const std::string& name, const PcdReadOptions& options,
                  PcdHeader* h, PcdInfo* info, std::string* error) {
   auto fail = [&](int line, const std::string& m) {
-    return Fail(error, name + ": line " + std::to_string(line) + ": " + m);
+    return Invalid(error, name + ": line " + std::to_string(line) + ": " + m);
   };
   std::vector<std::string> sizes, types, counts;
   int sizes_line = 0, types_line = 0, counts_line = 0, fields_line = 0;
@@ -128,11 +124,11 @@ bool ParseHeader(const std::string& bytes, const std::string& name, const PcdRea
   int line_no = 0;
   while (true) {
     if (pos >= bytes.size())
-      return Fail(error, name + ": no DATA line (the header ends after line " +
-                             std::to_string(line_no) + ")");
+      return Invalid(error, name + ": no DATA line (the header ends after line " +
+                                std::to_string(line_no) + ")");
     if (pos > options.max_header_bytes)
-      return Fail(error, name + ": no DATA line within the first " +
-                             std::to_string(options.max_header_bytes) + " bytes");
+      return Invalid(error, name + ": no DATA line within the first " +
+                                std::to_string(options.max_header_bytes) + " bytes");
     size_t eol = bytes.find('\n', pos);
     const size_t next = eol == std::string::npos ? bytes.size() : eol + 1;
     if (eol == std::string::npos) eol = bytes.size();
@@ -274,13 +270,13 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
   for (int k = 0; k < 3; ++k) {
     const char* axis = k == 0 ? "x" : k == 1 ? "y" : "z";
     if (!xyz[k])
-      return Fail(error, name + ": field '" + axis + "' is missing (FIELDS must include x y z)");
+      return Invalid(error, name + ": field '" + axis + "' is missing (FIELDS must include x y z)");
     if (xyz[k]->type != 'F')
-      return Fail(error, name + ": line " + std::to_string(xyz[k]->line) + ": field '" + axis +
-                             "' has TYPE " + xyz[k]->type + " (x y z must be F: float32/64)");
+      return Invalid(error, name + ": line " + std::to_string(xyz[k]->line) + ": field '" + axis +
+                                "' has TYPE " + xyz[k]->type + " (x y z must be F: float32/64)");
     if (xyz[k]->count != 1)
-      return Fail(error, name + ": line " + std::to_string(xyz[k]->line) + ": field '" + axis +
-                             "' has COUNT " + std::to_string(xyz[k]->count) + " (must be 1)");
+      return Invalid(error, name + ": line " + std::to_string(xyz[k]->line) + ": field '" + axis +
+                                "' has COUNT " + std::to_string(xyz[k]->count) + " (must be 1)");
   }
   const PcdField* intensity = FindField(h, "intensity");
   const PcdField* ring = FindField(h, "ring");
@@ -295,8 +291,8 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
   const size_t n = static_cast<size_t>(points);
   const size_t data_bytes = n * h.point_step;
   if (data_bytes > (size_t{1} << 31))
-    return Fail(error, name + ": POINTS " + std::to_string(points) + " x point size " +
-                           std::to_string(h.point_step) + " bytes exceeds 2 GiB");
+    return Invalid(error, name + ": POINTS " + std::to_string(points) + " x point size " +
+                              std::to_string(h.point_step) + " bytes exceeds 2 GiB");
   const size_t available = bytes.size() - h.data_offset;
   const auto* data = reinterpret_cast<const uint8_t*>(bytes.data()) + h.data_offset;
   std::string decompressed;
@@ -309,10 +305,10 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
 
   if (info->data == "binary") {
     if (available < data_bytes)
-      return Fail(error, name + ": binary data truncated: " + std::to_string(available) +
-                             " bytes, expected " + std::to_string(data_bytes) + " (POINTS " +
-                             std::to_string(points) + " x point size " +
-                             std::to_string(h.point_step) + " bytes)");
+      return Invalid(error, name + ": binary data truncated: " + std::to_string(available) +
+                                " bytes, expected " + std::to_string(data_bytes) + " (POINTS " +
+                                std::to_string(points) + " x point size " +
+                                std::to_string(h.point_step) + " bytes)");
     // Bytes after the last point (MATLAB's pcwrite pads the file): PCL reads the points and
     // ignores the rest; so do we, and say so.
     if (available > data_bytes) info->trailing_bytes = static_cast<int64_t>(available - data_bytes);
@@ -320,35 +316,36 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
     // PCL's layout: uint32 compressed size, uint32 uncompressed size, then the LZF stream of
     // the fields one after the other (all x, then all y, ...).
     if (available < 8)
-      return Fail(error, name + ": binary_compressed data truncated: " + std::to_string(available) +
-                             " bytes, the 8-byte size header is missing");
+      return Invalid(error, name +
+                                ": binary_compressed data truncated: " + std::to_string(available) +
+                                " bytes, the 8-byte size header is missing");
     uint32_t compressed_size = 0, uncompressed_size = 0;
     std::memcpy(&compressed_size, data, 4);
     std::memcpy(&uncompressed_size, data + 4, 4);
     if (uncompressed_size != data_bytes)
-      return Fail(error, name + ": binary_compressed uncompressed size " +
-                             std::to_string(uncompressed_size) + " does not match POINTS " +
-                             std::to_string(points) + " x point size " +
-                             std::to_string(h.point_step) + " = " + std::to_string(data_bytes));
+      return Invalid(error, name + ": binary_compressed uncompressed size " +
+                                std::to_string(uncompressed_size) + " does not match POINTS " +
+                                std::to_string(points) + " x point size " +
+                                std::to_string(h.point_step) + " = " + std::to_string(data_bytes));
     if (compressed_size > available - 8)
-      return Fail(error, name + ": binary_compressed compressed size " +
-                             std::to_string(compressed_size) + " exceeds the " +
-                             std::to_string(available - 8) + " bytes after the size header");
+      return Invalid(error, name + ": binary_compressed compressed size " +
+                                std::to_string(compressed_size) + " exceeds the " +
+                                std::to_string(available - 8) + " bytes after the size header");
     if (compressed_size < available - 8)
-      return Fail(error, name + ": binary_compressed size mismatch: " +
-                             std::to_string(available - 8) + " bytes after the size header, " +
-                             "the compressed size says " + std::to_string(compressed_size));
+      return Invalid(error, name + ": binary_compressed size mismatch: " +
+                                std::to_string(available - 8) + " bytes after the size header, " +
+                                "the compressed size says " + std::to_string(compressed_size));
     if (data_bytes > 0) {
       if (compressed_size == 0)
-        return Fail(error, name + ": binary_compressed compressed size is 0 for " +
-                               std::to_string(data_bytes) + " bytes of points");
+        return Invalid(error, name + ": binary_compressed compressed size is 0 for " +
+                                  std::to_string(data_bytes) + " bytes of points");
       decompressed.resize(data_bytes);
       const unsigned got = lzf_decompress(data + 8, compressed_size, decompressed.data(),
                                           static_cast<unsigned>(data_bytes));
       if (got != data_bytes)
-        return Fail(error, name + ": binary_compressed LZF data is corrupt or sizes lie: " +
-                               std::to_string(got) + " of " + std::to_string(data_bytes) +
-                               " bytes decompressed");
+        return Invalid(error, name + ": binary_compressed LZF data is corrupt or sizes lie: " +
+                                  std::to_string(got) + " of " + std::to_string(data_bytes) +
+                                  " bytes decompressed");
     }
     base = reinterpret_cast<const uint8_t*>(decompressed.data());
     soa = true;
@@ -373,14 +370,14 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
       p = eol < end ? eol + 1 : end;
       if (tok.empty()) continue;
       if (seen == points)
-        return Fail(error, name + ": line " + std::to_string(line_no) +
-                               ": more points than POINTS (" + std::to_string(points) + ")");
+        return Invalid(error, name + ": line " + std::to_string(line_no) +
+                                  ": more points than POINTS (" + std::to_string(points) + ")");
       const int count = static_cast<int>(tok.size());
       if (layout == 0 && (count == h.tokens || count == h.tokens_no_pad)) layout = count;
       if (count != layout)
-        return Fail(error, name + ": line " + std::to_string(line_no) + ": " +
-                               std::to_string(count) + " values, expected " +
-                               std::to_string(layout ? layout : h.tokens));
+        return Invalid(error, name + ": line " + std::to_string(line_no) + ": " +
+                                  std::to_string(count) + " values, expected " +
+                                  std::to_string(layout ? layout : h.tokens));
       std::vector<double> row(static_cast<size_t>(h.tokens), 0.0);
       for (const auto& f : h.fields) {
         const int first = layout == h.tokens ? f.token : f.token_no_pad;
@@ -390,8 +387,8 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
           char* stop = nullptr;
           const double v = std::strtod(s.c_str(), &stop);
           if (*stop != '\0')
-            return Fail(error, name + ": line " + std::to_string(line_no) + ": '" + s +
-                                   "' is not a number (field '" + f.name + "')");
+            return Invalid(error, name + ": line " + std::to_string(line_no) + ": '" + s +
+                                      "' is not a number (field '" + f.name + "')");
           row[static_cast<size_t>(f.token + e)] = v;
         }
       }
@@ -399,8 +396,8 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
       ++seen;
     }
     if (seen != points)
-      return Fail(error, name + ": ascii data truncated: " + std::to_string(seen) +
-                             " points, POINTS says " + std::to_string(points));
+      return Invalid(error, name + ": ascii data truncated: " + std::to_string(seen) +
+                                " points, POINTS says " + std::to_string(points));
   }
 
   auto value = [&](const PcdField& f, size_t i) -> double {
@@ -447,16 +444,16 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
       // -1: no ring for this point, as lidar_frame_t says (some drivers write it for returns
       // they cannot attribute).
       if (!(v >= -1.0 && v <= 32767.0) || v != std::floor(v))
-        return Fail(error, name + ": field 'ring': point " + std::to_string(i) + " has ring " +
-                               std::to_string(v) + " (an integer in [-1, 32767] expected)");
+        return Invalid(error, name + ": field 'ring': point " + std::to_string(i) + " has ring " +
+                                  std::to_string(v) + " (an integer in [-1, 32767] expected)");
       r = static_cast<int16_t>(v);
     }
     cloud->ring.push_back(r);
     if (time) {
       const double t = value(*time, i);
       if (!std::isfinite(t))
-        return Fail(error, name + ": field '" + time->name + "': point " + std::to_string(i) +
-                               " has a non-finite time");
+        return Invalid(error, name + ": field '" + time->name + "': point " + std::to_string(i) +
+                                  " has a non-finite time");
       times.push_back(t);
     }
   }
@@ -476,9 +473,9 @@ bool ParsePcd(const std::string& bytes, const std::string& name, const PcdReadOp
       const double us = time->type == 'F' && base_us != 0.0 ? (times[k] - *lo) * to_us
                                                             : times[k] * to_us - base_us;
       if (!(std::abs(us) <= static_cast<double>(std::numeric_limits<int32_t>::max())))
-        return Fail(error, name + ": field '" + time->name + "': point time " +
-                               std::to_string(times[k]) + " is too far from the others to be " +
-                               "an offset within one sweep");
+        return Invalid(error, name + ": field '" + time->name + "': point time " +
+                                  std::to_string(times[k]) + " is too far from the others to be " +
+                                  "an offset within one sweep");
       cloud->time_offset_us[k] = static_cast<int32_t>(std::llround(us));
     }
   }

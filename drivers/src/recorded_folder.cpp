@@ -9,6 +9,7 @@
 #include <map>
 #include <sstream>
 
+#include "calibd/core/common/validation.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "jpeg_decoder.hpp"
 
@@ -17,11 +18,6 @@ namespace calibd {
 namespace fs = std::filesystem;
 
 namespace {
-
-bool Fail(std::string* error, const std::string& m) {
-  if (error) *error = m;
-  return false;
-}
 
 std::string Lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -71,18 +67,19 @@ bool ReadCsv(const std::string& dir, const fs::path& csv, const RecordedFolderOp
     while (std::getline(ls, col, ',')) cols.push_back(Trim(col));
     if (!header) {
       if (cols != std::vector<std::string>{"time_us", "sensor", "file"})
-        return Fail(error, where + "the header must be `time_us,sensor,file` (got `" + line + "`)");
+        return Invalid(error,
+                       where + "the header must be `time_us,sensor,file` (got `" + line + "`)");
       header = true;
       continue;
     }
     if (cols.size() != 3)
-      return Fail(error, where + std::to_string(cols.size()) +
-                             " columns, expected 3 (time_us,sensor,file)");
+      return Invalid(error, where + std::to_string(cols.size()) +
+                                " columns, expected 3 (time_us,sensor,file)");
     char* end = nullptr;
     errno = 0;
     const long long t = std::strtoll(cols[0].c_str(), &end, 10);
     if (cols[0].empty() || *end != '\0' || errno != 0)
-      return Fail(error, where + "time_us '" + cols[0] + "' is not an integer (microseconds)");
+      return Invalid(error, where + "time_us '" + cols[0] + "' is not an integer (microseconds)");
     RecordedEntry e;
     e.utime = t;
     if (cols[1] == "lidar")
@@ -90,17 +87,18 @@ bool ReadCsv(const std::string& dir, const fs::path& csv, const RecordedFolderOp
     else if (cols[1] == "camera")
       e.sensor = RecordedEntry::Sensor::kCamera;
     else
-      return Fail(error, where + "sensor must be lidar or camera (got '" + cols[1] + "')");
-    if (cols[2].empty()) return Fail(error, where + "file is empty");
+      return Invalid(error, where + "sensor must be lidar or camera (got '" + cols[1] + "')");
+    if (cols[2].empty()) return Invalid(error, where + "file is empty");
     e.path = (fs::path(dir) / cols[2]).string();
     std::error_code ec;
     if (!fs::is_regular_file(e.path, ec))
-      return Fail(error, where + "file '" + cols[2] + "' does not exist in " + dir);
+      return Invalid(error, where + "file '" + cols[2] + "' does not exist in " + dir);
     const int64_t delivered = e.sensor == RecordedEntry::Sensor::kLidar ? t + options.sweep_us : t;
     keyed.emplace_back(delivered, std::move(e));
   }
-  if (!header) return Fail(error, csv.string() + ": empty (header `time_us,sensor,file` expected)");
-  if (keyed.empty()) return Fail(error, csv.string() + ": lists no files");
+  if (!header)
+    return Invalid(error, csv.string() + ": empty (header `time_us,sensor,file` expected)");
+  if (keyed.empty()) return Invalid(error, csv.string() + ": lists no files");
   // Delivery order; at equal times the camera first (it waits for its sweep).
   std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
     if (a.first != b.first) return a.first < b.first;
@@ -119,7 +117,7 @@ bool ScanRecordedFolder(const std::string& dir, const RecordedFolderOptions& opt
   *folder = RecordedFolder{};
   std::error_code ec;
   if (!fs::is_directory(dir, ec))
-    return Fail(error, "folder '" + dir + "' does not exist or is not a directory");
+    return Invalid(error, "folder '" + dir + "' does not exist or is not a directory");
   const fs::path csv = fs::path(dir) / "frames.csv";
   if (fs::exists(csv, ec)) return ReadCsv(dir, csv, options, folder, error);
 
@@ -132,11 +130,11 @@ bool ScanRecordedFolder(const std::string& dir, const RecordedFolderOptions& opt
     auto& into = ext == ".pcd" ? clouds : images;
     if (ext != ".pcd" && !IsImage(ext)) continue;
     if (!into.emplace(stem, p.string()).second)
-      return Fail(error, "folder '" + dir + "': two " + (ext == ".pcd" ? "clouds" : "images") +
-                             " with the stem '" + stem + "' (" + into[stem] + ", " + p.string() +
-                             ")");
+      return Invalid(error, "folder '" + dir + "': two " + (ext == ".pcd" ? "clouds" : "images") +
+                                " with the stem '" + stem + "' (" + into[stem] + ", " + p.string() +
+                                ")");
   }
-  if (ec) return Fail(error, "folder '" + dir + "': cannot list it: " + ec.message());
+  if (ec) return Invalid(error, "folder '" + dir + "': cannot list it: " + ec.message());
   std::vector<std::string> stems;
   for (const auto& [stem, path] : clouds) {
     if (images.count(stem))
@@ -146,10 +144,10 @@ bool ScanRecordedFolder(const std::string& dir, const RecordedFolderOptions& opt
   }
   folder->unmatched_images = static_cast<int>(images.size() - stems.size());
   if (stems.empty())
-    return Fail(error, "folder '" + dir + "': no frames: no frames.csv and no .pcd file with an " +
-                           "image of the same name stem (.png, .jpg) (" +
-                           std::to_string(clouds.size()) + " clouds, " +
-                           std::to_string(images.size()) + " images)");
+    return Invalid(
+        error, "folder '" + dir + "': no frames: no frames.csv and no .pcd file with an " +
+                   "image of the same name stem (.png, .jpg) (" + std::to_string(clouds.size()) +
+                   " clouds, " + std::to_string(images.size()) + " images)");
   std::sort(stems.begin(), stems.end(), StemLess);
   for (size_t k = 0; k < stems.size(); ++k) {
     const int64_t t = static_cast<int64_t>(k + 1) * options.stem_spacing_us;
@@ -231,14 +229,14 @@ bool DecodeGrey(const std::string& bytes, std::vector<uint8_t>* pixels, int* wid
     png_image image{};
     image.version = PNG_IMAGE_VERSION;
     if (!png_image_begin_read_from_memory(&image, bytes.data(), bytes.size()))
-      return Fail(error, std::string("cannot decode the PNG: ") + image.message);
+      return Invalid(error, std::string("cannot decode the PNG: ") + image.message);
     image.format = PNG_FORMAT_GRAY;
     pixels->resize(PNG_IMAGE_SIZE(image));
     // Without a background, libpng composites any alpha onto black.
     if (!png_image_finish_read(&image, nullptr, pixels->data(), 0, nullptr)) {
       const std::string why = image.message;
       png_image_free(&image);
-      return Fail(error, "cannot decode the PNG: " + why);
+      return Invalid(error, "cannot decode the PNG: " + why);
     }
     *width = static_cast<int>(image.width);
     *height = static_cast<int>(image.height);
@@ -248,13 +246,13 @@ bool DecodeGrey(const std::string& bytes, std::vector<uint8_t>* pixels, int* wid
     JpegDecoder jpeg;
     const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
     if (!jpeg.ReadHeader(data, bytes.size(), width, height))
-      return Fail(error, std::string("cannot decode the JPEG: ") + jpeg.message());
+      return Invalid(error, std::string("cannot decode the JPEG: ") + jpeg.message());
     pixels->resize(static_cast<size_t>(*width) * static_cast<size_t>(*height));
     if (!jpeg.Decode(pixels->data(), static_cast<size_t>(*width)))
-      return Fail(error, std::string("cannot decode the JPEG: ") + jpeg.message());
+      return Invalid(error, std::string("cannot decode the JPEG: ") + jpeg.message());
     return true;
   }
-  return Fail(error, "not a PNG or a JPEG image (by its first bytes): only those are read");
+  return Invalid(error, "not a PNG or a JPEG image (by its first bytes): only those are read");
 }
 
 }  // namespace
@@ -267,9 +265,9 @@ bool LoadRecordedImage(const RecordedEntry& entry, const std::string& camera_id,
   // Each side first: a PNG header holds sides up to 2^32 - 1, whose product overflows.
   if (DeclaredSize(bytes, &width, &height) &&
       (width > kMaxImagePixels || height > kMaxImagePixels || width * height > kMaxImagePixels))
-    return Fail(error, entry.path + ": the image declares " + std::to_string(width) + "x" +
-                           std::to_string(height) + " px, more than a camera frame's " +
-                           std::to_string(kMaxImagePixels / 1'000'000) + " MP");
+    return Invalid(error, entry.path + ": the image declares " + std::to_string(width) + "x" +
+                              std::to_string(height) + " px, more than a camera frame's " +
+                              std::to_string(kMaxImagePixels / 1'000'000) + " MP");
   int image_width = 0, image_height = 0;
   std::vector<uint8_t> grey;
   if (!DecodeGrey(bytes, &grey, &image_width, &image_height, error)) {
