@@ -63,7 +63,9 @@ TEST(CalibrationEngineTest, BoardIdsSwappedBetweenBoardsOfDifferentSizesAreNamed
   o.workshop.board_scales = {1.0, 0.7};
   o.prior_rot_deg = 3.0;
   o.prior_trans_m = 0.03;
-  auto swapped = testing::Record(o, 40, 5, 0, nullptr, [](CalibConfig* c) {
+  // The swap is named from the drive's span at half its frames; the right ids take all 40 for
+  // an update within 0.1 deg (20 frames of two boards end short of it).
+  auto swapped = testing::Record(o, 20, 10, 0, nullptr, [](CalibConfig* c) {
     std::swap(c->boards[0].board_id, c->boards[1].board_id);
     std::swap(c->boards[0].tag_id, c->boards[1].tag_id);
   });
@@ -196,7 +198,7 @@ TEST(CalibrationEngineTest, TheReprojectionGateFollowsTheLidarsPointSpacing) {
 TEST(CalibrationEngineTest, OneBoardIsRejectedForObservability) {
   sim::SessionOptions o;
   o.workshop.num_boards = 1;
-  auto r = Drive(o);
+  auto r = testing::Record(o, 20, 10);  // the drive's span, half its frames
   const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
   EXPECT_EQ(out.reason, Reason::kPoorObservability) << out.detail;
@@ -208,7 +210,7 @@ TEST(CalibrationEngineTest, ParallelCoplanarBoardsAreRejectedForObservability) {
   o.workshop.layout = "line";  // side by side, all facing the vehicle: one plane
   o.trajectory.mode = "static";
   o.trajectory.static_distance_m = 8.0;
-  auto r = Drive(o);
+  auto r = testing::Record(o, 12, 5);  // a still view: more frames see the same plane
   const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
   EXPECT_EQ(out.reason, Reason::kPoorObservability) << out.detail;
