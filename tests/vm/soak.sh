@@ -1,8 +1,7 @@
 #!/usr/bin/env bash
 # The soak in the test VM: calibd-bench soak for MINUTES on the guest's vcan0 (UDS on
 # the kernel's can-isotp) and its loopback multicast (LCM udpm), on the drive agent_diag_vmtest
-# uses (100 pairs at 5 Hz, m1, 960x480 JPEG), replayed at a fifth of real time for the emulated guest;
-# sessions of 40 pairs, as agent_diag_vmtest's that only need a verdict (kSessionPairs there).
+# uses (100 pairs at 5 Hz, m1, 960x480 JPEG), replayed at a fifth of real time for the emulated guest.
 #   tests/vm/soak.sh BUILD_DIR MINUTES [SHARED_DIR]
 # BUILD_DIR: a release build. SHARED_DIR (default BUILD_DIR/tests/tmp/soak) receives the
 # programs (tests/vm/agent_job.sh), the job, the console log, soak.txt (the table and checks),
@@ -26,7 +25,7 @@ ip link set lo multicast on && ip route replace 224.0.0.0/4 dev lo &&
   sysctl -q -w net.core.rmem_max=33554432 net.core.rmem_default=4194304 || exit 3
 cd "$shared" || exit 3
 ./calibd-bench soak --minutes $minutes --agent ./calibd-agent --sim ./calibd-sim \\
-  --drive session.lcmlog --calib-yaml calib.yaml --interface vcan0 --speed 0.2 --min-frames 40 --min-distance-bins 1 \\
+  --drive session.lcmlog --calib-yaml calib.yaml --interface vcan0 --speed 0.2 --min-distance-bins 1 \\
   --work-dir /tmp/soak --json soak.json >soak.txt 2>soak-progress.txt
 code=\$?
 cp /tmp/soak/agent.log soak-agent.log 2>/dev/null

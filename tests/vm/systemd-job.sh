@@ -74,7 +74,7 @@ agent:
   store:
     directory: /var/lib/calibd
   cache_dir: /var/cache/calibd
-  min_frames: 40 # a verdict is all this job needs (agent_diag_vmtest.cpp: kSessionPairs)
+  min_frames: 60
   min_distance_bins: 1
   max_duration_s: 150
   can:
