@@ -162,8 +162,9 @@ void LcmReports::PublishResult(const CalibrationOutcome& o, const CalibConfig& c
   r.frames_used = o.quality.frames_used;
   r.boards_used = o.quality.boards_used;
   r.min_information_eigenvalue = o.quality.min_information_eigenvalue;
-  r.rotation_bound_deg = o.quality.has_error_bound() ? o.quality.rotation_bound_deg : -1.0;
-  r.translation_bound_m = o.quality.has_error_bound() ? o.quality.translation_bound_m : -1.0;
+  const bool bounded = o.quality.has_error_bound();
+  r.rotation_bound_deg = bounded ? o.quality.rotation_bound_deg : -1.0;
+  r.translation_bound_m = bounded ? o.quality.translation_bound_m : -1.0;
   Publish(channels::kResult.name, r);
 }
 
