@@ -21,6 +21,7 @@
 #include "calibd/drivers/calibration_store.hpp"
 #include "calibd/health_t.hpp"
 #include "run_command.hpp"
+#include "short_session.hpp"
 #include "temp_dir.hpp"
 
 namespace calibd::testing {
@@ -82,6 +83,7 @@ inline void MakeAgentWithStore(const TempDir& dir, const std::string& store_dir,
   yaml += "agent:\n  auto_commit: true\n  min_frames: 30\n  store:\n    directory: " + store_dir +
           "\n  can:\n    enabled: true\n    interface: calibdnone0\n  uds:\n    secret_file: " +
           dir.file("secret") + "\n    state_dir: " + out->uds_dir + "\n";
+  yaml += ShortSessionEngineYaml();
   std::string error;
   ASSERT_TRUE(WriteFileAtomic(out->config, yaml, &error)) << error;
 

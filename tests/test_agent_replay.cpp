@@ -14,6 +14,7 @@
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_store.hpp"
 #include "run_command.hpp"
+#include "short_session.hpp"
 #include "temp_dir.hpp"
 
 namespace calibd {
@@ -41,6 +42,7 @@ TEST_P(AgentReplayTest, CalibratesCommitsAndThenVerifies) {
     std::string yaml, error;
     ASSERT_TRUE(ReadWholeFile(dir.file("agent.yaml"), &yaml, &error)) << error;
     yaml += "agent:\n  auto_commit: true\n  store:\n    directory: " + dir.file("store") + "\n";
+    yaml += testing::ShortSessionEngineYaml();  // 80 pairs of boards ahead at up to 30 m
     ASSERT_TRUE(WriteFileAtomic(dir.file("agent.yaml"), yaml, &error)) << error;
   }
   auto agent = [&](const std::string& out) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -11,6 +12,7 @@
 #include "calibd/drivers/config_file.hpp"
 #include "json_file.hpp"
 #include "run_command.hpp"
+#include "short_session.hpp"
 #include "temp_dir.hpp"
 
 namespace calibd {
@@ -30,6 +32,7 @@ TEST(CalibrateCliTest, ShortDriveIsCalibratedNearTheTruth) {
                        dir.file("s.lcmlog") + " --truth " + dir.file("truth.json") +
                        " --config-out " + dir.file("calib.yaml")),
             0);
+  std::ofstream(dir.file("calib.yaml"), std::ios::app) << testing::ShortSessionEngineYaml();
   const int code =
       RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --log " + dir.file("s.lcmlog") +
                  " --config " + dir.file("calib.yaml") + " --truth " + dir.file("truth.json") +

@@ -12,6 +12,7 @@
 
 #include "calibd/core/engine/calibration_engine.hpp"
 #include "recorded_session.hpp"
+#include "short_session.hpp"
 #include "small_camera.hpp"
 
 namespace calibd {
@@ -70,7 +71,7 @@ TEST(CalibrationEngineTest, BoardIdsSwappedBetweenBoardsOfDifferentSizesAreNamed
     std::swap(c->boards[0].tag_id, c->boards[1].tag_id);
   });
   const CalibrationOutcome refused =
-      Calibrate(swapped->config, swapped->obs, swapped->projection, EngineConfig{});
+      Calibrate(swapped->config, swapped->obs, swapped->projection, testing::ShortSessionEngine());
   EXPECT_EQ(refused.verdict, CalibrationOutcome::Verdict::kRejected);
   EXPECT_EQ(refused.reason, Reason::kBoardIdsSwapped) << refused.detail;
   EXPECT_NE(refused.detail.find("boards 1 (tag id 1, 0.600 x 0.600 m) and 0 (tag id 0, 0.420 x "
@@ -79,7 +80,7 @@ TEST(CalibrationEngineTest, BoardIdsSwappedBetweenBoardsOfDifferentSizesAreNamed
       << refused.detail;
   auto right = testing::Record(o, 40, 5);
   const CalibrationOutcome updated =
-      Calibrate(right->config, right->obs, right->projection, EngineConfig{});
+      Calibrate(right->config, right->obs, right->projection, testing::ShortSessionEngine());
   EXPECT_EQ(updated.verdict, CalibrationOutcome::Verdict::kUpdated)
       << updated.reason << ": " << updated.detail;
   EXPECT_LT(
@@ -94,7 +95,7 @@ TEST(CalibrationEngineTest, BoardIdsSwappedBetweenBoardsOfDifferentSizesAreNamed
 TEST(CalibrationEngineDefaultDriveTest, ABentBoardIsNamedAndFlatOnesPass) {
   const testing::RecordedSession* flat = &DefaultDrive();
   const CalibrationOutcome updated =
-      Calibrate(flat->config, flat->obs, flat->projection, EngineConfig{});
+      Calibrate(flat->config, flat->obs, flat->projection, testing::ShortSessionEngine());
   EXPECT_EQ(updated.verdict, CalibrationOutcome::Verdict::kUpdated)
       << updated.reason << ": " << updated.detail;
   ASSERT_GE(updated.quality.board_bend_id, 0);
@@ -103,7 +104,7 @@ TEST(CalibrationEngineDefaultDriveTest, ABentBoardIsNamedAndFlatOnesPass) {
   o.workshop.board_bows_m = {0.015, -0.015, 0.015};
   auto bent = Drive(o);
   const CalibrationOutcome refused =
-      Calibrate(bent->config, bent->obs, bent->projection, EngineConfig{});
+      Calibrate(bent->config, bent->obs, bent->projection, testing::ShortSessionEngine());
   EXPECT_EQ(refused.verdict, CalibrationOutcome::Verdict::kRejected);
   EXPECT_EQ(refused.reason, Reason::kBoardNotFlat) << refused.detail;
   EXPECT_NEAR(std::fabs(refused.quality.board_bend_m), 0.015, 0.003) << refused.detail;
@@ -112,7 +113,8 @@ TEST(CalibrationEngineDefaultDriveTest, ABentBoardIsNamedAndFlatOnesPass) {
 
 TEST(CalibrationEngineDefaultDriveTest, UpdatedWhenThePriorIsOffAndVerifiedWhenItIsRight) {
   const testing::RecordedSession* r = &DefaultDrive();
-  const CalibrationOutcome updated = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome updated =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   std::printf("good session: plane conditioning %.2e, sigma %.4f deg\n",
               updated.quality.plane_conditioning, updated.quality.rotation_sigma_deg);
   ASSERT_EQ(updated.verdict, CalibrationOutcome::Verdict::kUpdated)
@@ -125,7 +127,8 @@ TEST(CalibrationEngineDefaultDriveTest, UpdatedWhenThePriorIsOffAndVerifiedWhenI
   // The same observations with the truth as the prior: the prior is confirmed, not replaced.
   CalibConfig right = r->config;
   right.prior_T_camera_lidar = truth;
-  const CalibrationOutcome verified = Calibrate(right, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome verified =
+      Calibrate(right, r->obs, r->projection, testing::ShortSessionEngine());
   EXPECT_EQ(verified.verdict, CalibrationOutcome::Verdict::kVerified)
       << verified.reason << ": " << verified.detail << " delta " << verified.delta_rotation_deg;
 }
@@ -141,7 +144,8 @@ TEST(CalibrationEngineTest, SmallFarTagsAreRefusedNotTrusted) {
   o.prior_rot_deg = 3.0;
   o.prior_trans_m = 0.08;
   auto far = testing::Record(o, 60, 3);
-  const CalibrationOutcome refused = Calibrate(far->config, far->obs, far->projection, {});
+  const CalibrationOutcome refused =
+      Calibrate(far->config, far->obs, far->projection, testing::ShortSessionEngine());
   std::printf("small far tags: %s (%s), +-%.1f cm from the scale\n", VerdictName(refused.verdict),
               std::string(NameOf(refused.reason)).c_str(),
               refused.quality.camera_scale_translation_m * 100.0);
@@ -151,7 +155,8 @@ TEST(CalibrationEngineTest, SmallFarTagsAreRefusedNotTrusted) {
   o.trajectory.min_distance_m = 2.5;
   o.trajectory.max_distance_m = 7.0;
   auto near = testing::Record(o, 60, 3);
-  const CalibrationOutcome updated = Calibrate(near->config, near->obs, near->projection, {});
+  const CalibrationOutcome updated =
+      Calibrate(near->config, near->obs, near->projection, testing::ShortSessionEngine());
   ASSERT_EQ(updated.verdict, CalibrationOutcome::Verdict::kUpdated)
       << updated.reason << ": " << updated.detail;
   const Pose truth = near->session.T_camera_lidar();
@@ -176,7 +181,7 @@ TEST(CalibrationEngineTest, TheReprojectionGateFollowsTheLidarsPointSpacing) {
   auto sparse = testing::Record(o, 120, 1);
   // 40 poses of one board measure the extrinsic to about 0.12 deg (formal): the precision gates
   // are widened so that the verdict is the reprojection gate's.
-  EngineConfig engine;
+  EngineConfig engine = testing::ShortSessionEngine();
   engine.verdict.max_rotation_sigma_deg = 0.15;
   engine.verdict.max_translation_sigma_m = 0.02;
   const CalibrationOutcome out = Calibrate(sparse->config, sparse->obs, sparse->projection, engine);
@@ -199,7 +204,8 @@ TEST(CalibrationEngineTest, OneBoardIsRejectedForObservability) {
   sim::SessionOptions o;
   o.workshop.num_boards = 1;
   auto r = testing::Record(o, 20, 10);  // the drive's span, half its frames
-  const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome out =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
   EXPECT_EQ(out.reason, Reason::kPoorObservability) << out.detail;
   std::printf("one board: plane conditioning %.2e\n", out.quality.plane_conditioning);
@@ -211,7 +217,8 @@ TEST(CalibrationEngineTest, ParallelCoplanarBoardsAreRejectedForObservability) {
   o.trajectory.mode = "static";
   o.trajectory.static_distance_m = 8.0;
   auto r = testing::Record(o, 12, 5);  // a still view: more frames see the same plane
-  const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome out =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kRejected);
   EXPECT_EQ(out.reason, Reason::kPoorObservability) << out.detail;
   std::printf("parallel boards: plane conditioning %.2e\n", out.quality.plane_conditioning);
@@ -226,7 +233,8 @@ TEST(CalibrationEngineTest, OnlyFarFramesAreRejectedForTheirPrecision) {
   o.prior_rot_deg = 3.0;
   o.prior_trans_m = 0.03;
   auto r = Drive(o);
-  const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome out =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   std::printf("only far: %s (%s) sigma %.4f deg / %.4f m, spread %.4f deg / %.4f m, %.2f-%.2f m\n",
               VerdictName(out.verdict), NameOf(out.reason).data(), out.quality.rotation_sigma_deg,
               out.quality.translation_sigma_m, out.quality.rotation_spread_deg,
@@ -257,7 +265,8 @@ TEST(CalibrationEngineDefaultDriveTest,
     for (int k = c.first_point; k < c.first_point + c.num_points; ++k)
       obs.points[static_cast<size_t>(k)] += across;
   }
-  const CalibrationOutcome out = Calibrate(r->config, obs, r->projection, EngineConfig{});
+  const CalibrationOutcome out =
+      Calibrate(r->config, obs, r->projection, testing::ShortSessionEngine());
   ASSERT_TRUE(out.solved) << out.reason << ": " << out.detail;
   std::printf("moved %d clusters: %d correspondences dropped, error %.4f deg, %.4f m\n", moved,
               out.dropped_correspondences,
@@ -274,9 +283,10 @@ TEST(CalibrationEngineDefaultDriveTest, ARefusalForItsSigmaSaysHowManyBoardsWoul
   // The default drive, with the rotation sigma gate set to half of what it achieves: four times
   // the boards would halve the sigma, and the refusal says so.
   const testing::RecordedSession* r = &DefaultDrive();
-  const CalibrationOutcome first = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome first =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   ASSERT_TRUE(first.solved) << first.reason << ": " << first.detail;
-  EngineConfig strict;
+  EngineConfig strict = testing::ShortSessionEngine();
   strict.verdict.max_rotation_sigma_deg = first.quality.rotation_sigma_deg / 2.0;
   const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, strict);
   EXPECT_EQ(out.reason, Reason::kPoorObservability) << out.detail;
@@ -292,18 +302,19 @@ TEST(CalibrationEngineDefaultDriveTest, ARefusalForItsSigmaSaysHowManyBoardsWoul
 // a gate below that refuses as unstable and says what the solves did; 0 checks skip them.
 TEST(CalibrationEngineDefaultDriveTest, SolvesFromOtherStartsEndOnTheSolutionOrTheVerdictRefuses) {
   const testing::RecordedSession* r = &DefaultDrive();
-  const CalibrationOutcome first = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome first =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   ASSERT_EQ(first.verdict, CalibrationOutcome::Verdict::kUpdated) << first.reason << first.detail;
   EXPECT_GT(first.quality.start_rotation_deg, 0.0);
   EXPECT_LT(first.quality.start_rotation_deg, 0.5 * VerdictConfig{}.max_start_rotation_deg);
   EXPECT_LT(first.quality.start_translation_m, 0.5 * VerdictConfig{}.max_start_translation_m);
-  EngineConfig strict;
+  EngineConfig strict = testing::ShortSessionEngine();
   strict.verdict.max_start_rotation_deg = first.quality.start_rotation_deg / 2.0;
   const CalibrationOutcome out = Calibrate(r->config, r->obs, r->projection, strict);
   EXPECT_EQ(out.reason, Reason::kUnstableSolution) << out.detail;
   EXPECT_NE(out.detail.find("solves started 3 deg / 0.05 m away end"), std::string::npos)
       << out.detail;
-  EngineConfig none;
+  EngineConfig none = testing::ShortSessionEngine();
   none.start_checks = 0;
   const CalibrationOutcome skipped = Calibrate(r->config, r->obs, r->projection, none);
   EXPECT_EQ(skipped.verdict, CalibrationOutcome::Verdict::kUpdated) << skipped.detail;
@@ -318,7 +329,8 @@ TEST(CalibrationEngineDefaultDriveTest, SolvesFromOtherStartsEndOnTheSolutionOrT
 TEST(CalibrationEngineDefaultDriveTest, ACameraScaleErrorIsCorrectedOrRefusedAsAScaleMismatch) {
   const testing::RecordedSession* r = &DefaultDrive();
   const Pose truth = r->session.T_camera_lidar();
-  const CalibrationOutcome good = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome good =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   ASSERT_EQ(good.verdict, CalibrationOutcome::Verdict::kUpdated) << good.reason << good.detail;
   ASSERT_TRUE(std::isfinite(good.quality.camera_scale_error));
   EXPECT_LT(std::fabs(good.quality.camera_scale_error),
@@ -335,7 +347,8 @@ TEST(CalibrationEngineDefaultDriveTest, ACameraScaleErrorIsCorrectedOrRefusedAsA
   };
   CalibConfig one_percent = r->config;
   const SessionObservations one = tags_configured_larger(1.01, &one_percent);
-  const CalibrationOutcome corrected = Calibrate(one_percent, one, r->projection, EngineConfig{});
+  const CalibrationOutcome corrected =
+      Calibrate(one_percent, one, r->projection, testing::ShortSessionEngine());
   ASSERT_EQ(corrected.verdict, CalibrationOutcome::Verdict::kUpdated)
       << corrected.reason << ": " << corrected.detail;
   EXPECT_NEAR(corrected.quality.camera_scale_corrected, 0.01, 0.003);
@@ -347,7 +360,8 @@ TEST(CalibrationEngineDefaultDriveTest, ACameraScaleErrorIsCorrectedOrRefusedAsA
       << corrected.detail;
   CalibConfig two_percent = r->config;
   const SessionObservations two = tags_configured_larger(1.02, &two_percent);
-  const CalibrationOutcome out = Calibrate(two_percent, two, r->projection, EngineConfig{});
+  const CalibrationOutcome out =
+      Calibrate(two_percent, two, r->projection, testing::ShortSessionEngine());
   EXPECT_EQ(out.reason, Reason::kCameraScaleMismatch) << out.detail;
   EXPECT_NEAR(out.quality.camera_scale_error, good.quality.camera_scale_error + 0.02, 0.003);
   EXPECT_EQ(out.quality.camera_scale_corrected, 0.0);
@@ -362,21 +376,23 @@ TEST(CalibrationEngineDefaultDriveTest, ACameraScaleErrorIsCorrectedOrRefusedAsA
 // tolerances) is refused as poorly observed.
 TEST(CalibrationEngineDefaultDriveTest, ALidarRangeOffsetIsMeasuredWhileDriving) {
   const testing::RecordedSession* r = &DefaultDrive();
-  const CalibrationOutcome good = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome good =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   ASSERT_EQ(good.verdict, CalibrationOutcome::Verdict::kUpdated) << good.reason << good.detail;
   EXPECT_LT(good.quality.lidar_range_offset_sigma_m,
             kMeasuredRangeOffsetShare * VerdictConfig{}.max_lidar_range_offset_m);
   EXPECT_LT(std::fabs(good.quality.lidar_range_offset_m), VerdictConfig{}.max_lidar_range_offset_m);
   SessionObservations biased = r->obs;
   for (auto& p : biased.points) p += 0.03f * p.normalized();
-  const CalibrationOutcome out = Calibrate(r->config, biased, r->projection, EngineConfig{});
+  const CalibrationOutcome out =
+      Calibrate(r->config, biased, r->projection, testing::ShortSessionEngine());
   std::printf("range offset while driving: clean %.4f +- %.4f m, 3 cm long %.4f +- %.4f m\n",
               good.quality.lidar_range_offset_m, good.quality.lidar_range_offset_sigma_m,
               out.quality.lidar_range_offset_m, out.quality.lidar_range_offset_sigma_m);
   EXPECT_EQ(out.reason, Reason::kLidarRangeOffset) << out.detail;
   EXPECT_NEAR(out.quality.lidar_range_offset_m, 0.03, 0.01);
   // A verification tolerance so strict that the clean drive does not measure the offset to it.
-  EngineConfig strict;
+  EngineConfig strict = testing::ShortSessionEngine();
   strict.verdict.verify_translation_m =
       good.quality.lidar_range_offset_sigma_m / kRangeOffsetSigmaTolerances / 1.5;
   const CalibrationOutcome unsure = Calibrate(r->config, r->obs, r->projection, strict);
@@ -392,7 +408,8 @@ TEST(CalibrationEngineTest, ALidarRangeOffsetIsRefusedWhereTheBoardsDirectionsSh
   sim::SessionOptions o = StillPoses("m1", 24, 2, 1100.0);
   o.prior_rot_deg = 3.0;
   auto r = testing::Record(o, 24, 1);
-  const CalibrationOutcome good = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome good =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   ASSERT_TRUE(good.solved) << good.reason << ": " << good.detail;
   EXPECT_NE(good.reason, Reason::kLidarRangeOffset) << good.detail;
   ASSERT_TRUE(std::isfinite(good.quality.lidar_range_offset_m));
@@ -400,7 +417,8 @@ TEST(CalibrationEngineTest, ALidarRangeOffsetIsRefusedWhereTheBoardsDirectionsSh
   EXPECT_LT(std::fabs(good.quality.lidar_range_offset_m), 0.01);
   SessionObservations biased = r->obs;
   for (auto& p : biased.points) p += 0.04f * p.normalized();
-  const CalibrationOutcome out = Calibrate(r->config, biased, r->projection, EngineConfig{});
+  const CalibrationOutcome out =
+      Calibrate(r->config, biased, r->projection, testing::ShortSessionEngine());
   std::printf("range offset: clean %.4f +- %.4f m (%s), 4 cm long %.4f +- %.4f m\n",
               good.quality.lidar_range_offset_m, good.quality.lidar_range_offset_sigma_m,
               VerdictName(good.verdict), out.quality.lidar_range_offset_m,
@@ -418,7 +436,7 @@ TEST(CalibrationEngineDefaultDriveTest, PerCorrespondenceReprojectionErrorsAreTh
   ObservationSet corr;
   std::vector<double> px{1.0, 2.0};  // replaced, not appended to
   const CalibrationOutcome out =
-      Calibrate(r->config, r->obs, r->projection, EngineConfig{}, &corr, &px);
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine(), &corr, &px);
   ASSERT_TRUE(out.solved) << out.reason << ": " << out.detail;
   ASSERT_EQ(px.size(), corr.observations.size());
   double sum = 0.0;
@@ -438,7 +456,7 @@ TEST(CalibrationEngineDefaultDriveTest, PerCorrespondenceReprojectionErrorsAreTh
   // Stopped before the solve: none.
   SessionObservations camera_only = r->obs;
   camera_only.lidar.clear();
-  Calibrate(r->config, camera_only, r->projection, EngineConfig{}, &corr, &px);
+  Calibrate(r->config, camera_only, r->projection, testing::ShortSessionEngine(), &corr, &px);
   EXPECT_TRUE(px.empty());
 }
 
@@ -452,7 +470,8 @@ TEST(CalibrationEngineTest, CloudsFromAnotherLidarModelAreRefused) {
   ASSERT_TRUE(LidarKindFromName("mid360", &kind, nullptr));
   const LidarModel mid360 = MakeLidarModel(kind);
   auto wrong = testing::Record(o, 8, 20, 0, &mid360);
-  const CalibrationOutcome out = Calibrate(wrong->config, wrong->obs, wrong->projection, {});
+  const CalibrationOutcome out =
+      Calibrate(wrong->config, wrong->obs, wrong->projection, testing::ShortSessionEngine());
   EXPECT_EQ(out.reason, Reason::kLidarModelMismatch) << out.detail;
   EXPECT_NE(out.detail.find("(mid360)"), std::string::npos) << out.detail;
   EXPECT_GT(wrong->obs.lidar_outside_points, wrong->obs.lidar_valid_points / 5);
@@ -468,7 +487,8 @@ TEST(CalibrationEngineTest, PairsOutOfOrderOrRepeatedAreTakenInCaptureOrderOnce)
   sim::SessionOptions o;
   o.prior_rot_deg = 3.0;
   auto r = testing::Record(o, 20, 10);
-  const CalibrationOutcome recorded = Calibrate(r->config, r->obs, r->projection, EngineConfig{});
+  const CalibrationOutcome recorded =
+      Calibrate(r->config, r->obs, r->projection, testing::ShortSessionEngine());
   ASSERT_TRUE(recorded.solved) << recorded.reason << ": " << recorded.detail;
   EXPECT_EQ(recorded.frames_out_of_order, 0);
   EXPECT_EQ(recorded.duplicate_frames, 0);
@@ -482,7 +502,7 @@ TEST(CalibrationEngineTest, PairsOutOfOrderOrRepeatedAreTakenInCaptureOrderOnce)
                    std::vector<char>(r->obs.lidar.size(), 1));
   ObservationSet corr;
   const CalibrationOutcome out =
-      Calibrate(r->config, arrived, r->projection, EngineConfig{}, &corr);
+      Calibrate(r->config, arrived, r->projection, testing::ShortSessionEngine(), &corr);
   EXPECT_EQ(out.verdict, recorded.verdict) << out.reason << ": " << out.detail;
   EXPECT_GT(out.frames_out_of_order, 5);
   EXPECT_EQ(out.duplicate_frames, 3);
@@ -503,12 +523,13 @@ TEST(CalibrationEngineDefaultDriveTest, NoLidarBoardsOrNoCameraBoardsAreExplicit
   const testing::RecordedSession* r = &DefaultDrive();
   SessionObservations camera_only = r->obs;
   camera_only.lidar.clear();
-  const CalibrationOutcome no_lidar = Calibrate(r->config, camera_only, r->projection, {});
+  const CalibrationOutcome no_lidar =
+      Calibrate(r->config, camera_only, r->projection, testing::ShortSessionEngine());
   EXPECT_EQ(no_lidar.reason, Reason::kNoLidarBoards);
   EXPECT_FALSE(no_lidar.solved);
   SessionObservations lidar_only = r->obs;
   lidar_only.camera.clear();
-  EXPECT_EQ(Calibrate(r->config, lidar_only, r->projection, EngineConfig{}).reason,
+  EXPECT_EQ(Calibrate(r->config, lidar_only, r->projection, testing::ShortSessionEngine()).reason,
             Reason::kNoCameraBoards);
 }
 

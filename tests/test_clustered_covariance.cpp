@@ -6,10 +6,14 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
 #include "calibd/core/solve/clustered_covariance.hpp"
+#include "calibd/core/verdict/measure_quality.hpp"
 
 namespace calibd {
 namespace {
@@ -88,6 +92,30 @@ TEST(ClusteredCovarianceTest, NeedsTwoStretchesAndAnInvertibleInformation) {
   const ClusteredCovariance c = ClusterRobustCovariance(Matrix6d::Identity(), two, 8);
   EXPECT_TRUE(c.valid);
   EXPECT_EQ(c.stretches, 2);
+}
+
+// The error bound's quantile of a 3-D Gaussian error's norm: chi-square's for one, two and three
+// equal directions, and Monte Carlo's for an unequal covariance.
+TEST(ClusteredCovarianceTest, TheNormQuantileOfAGaussianErrorMatchesItsDistribution) {
+  const auto quantile = [](const Eigen::Vector3d& variances) {
+    return GaussianNormQuantile99(variances.asDiagonal().toDenseMatrix());
+  };
+  EXPECT_NEAR(quantile({4.0, 0.0, 0.0}), 2.0 * 2.5758, 0.01);  // sqrt chi2(1, 0.99)
+  EXPECT_NEAR(quantile({4.0, 4.0, 0.0}), 2.0 * 3.0349, 0.01);  // sqrt chi2(2, 0.99)
+  EXPECT_NEAR(quantile({4.0, 4.0, 4.0}), 2.0 * kBoundNormQuantile3d, 0.01);
+  EXPECT_EQ(quantile({0.0, 0.0, 0.0}), 0.0);
+  EXPECT_TRUE(std::isinf(quantile({1.0, std::numeric_limits<double>::infinity(), 1.0})));
+  // A turned, unequal covariance against 200000 draws.
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d cov = R * Eigen::Vector3d(9.0, 2.0, 0.25).asDiagonal() * R.transpose();
+  const Eigen::Matrix3d L = cov.llt().matrixL();
+  std::mt19937 rng(7);
+  std::normal_distribution<double> z;
+  std::vector<double> norms(200000);
+  for (double& n : norms) n = (L * Eigen::Vector3d(z(rng), z(rng), z(rng))).norm();
+  std::nth_element(norms.begin(), norms.begin() + 198000, norms.end());
+  EXPECT_NEAR(GaussianNormQuantile99(cov), norms[198000], 0.01 * norms[198000]);
 }
 
 }  // namespace

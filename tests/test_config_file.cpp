@@ -37,6 +37,25 @@ TEST(ConfigFileTest, RoundTripsThroughYaml) {
   EXPECT_DOUBLE_EQ(back.boards[1].tag_size_m, 0.48);
   EXPECT_DOUBLE_EQ(back.camera.k3, c.camera.k3);
   EXPECT_TRUE(back.prior_T_camera_lidar.isApprox(c.prior_T_camera_lidar, 1e-15));
+  EXPECT_EQ(back.principal_point_sigma_px, 0.0);  // not stated: not written
+}
+
+// The intrinsic calibration's stated principal point sigma: written when stated, read back, and
+// refused when negative.
+TEST(ConfigFileTest, PrincipalPointSigmaRoundTripsAndANegativeIsRefused) {
+  CalibConfig c = Example();
+  c.principal_point_sigma_px = 0.8;
+  const std::string yaml = ConfigToYaml(c);
+  CalibConfig back;
+  std::string error;
+  ASSERT_TRUE(ParseConfigYaml(yaml, &back, &error)) << error;
+  EXPECT_EQ(back.principal_point_sigma_px, 0.8);
+  std::string negative = yaml;
+  negative.replace(negative.find("principal_point_sigma_px: 0.8"),
+                   std::string("principal_point_sigma_px: 0.8").size(),
+                   "principal_point_sigma_px: -1");
+  EXPECT_FALSE(ParseConfigYaml(negative, &back, &error));
+  EXPECT_EQ(error.rfind("camera.principal_point_sigma_px", 0), 0u) << error;
 }
 
 // A checkerboard carries no tag: beside a tag with id 0 it round-trips (its tag_id, not

@@ -17,6 +17,7 @@
 #include "calibd/core/lidar/range_image.hpp"
 #include "calibd/core/session/session_observations.hpp"
 #include "session.hpp"
+#include "short_session.hpp"
 
 namespace calibd {
 namespace {
@@ -91,7 +92,8 @@ TEST_P(GenericLidarTest, DriveCalibratedAsGenericMatchesTheNamedModel) {
     }
     *lidar_boards = static_cast<int>(obs.lidar.size());
     const RangeImage projection = SessionProjection(model);
-    const CalibrationOutcome out = Calibrate(config, obs, projection, EngineConfig{});
+    const CalibrationOutcome out =
+        Calibrate(config, obs, projection, testing::ShortSessionEngine());
     EXPECT_EQ(out.verdict, CalibrationOutcome::Verdict::kUpdated)
         << model.name << ": " << out.reason << ": " << out.detail;
     Errors e;

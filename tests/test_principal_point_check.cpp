@@ -151,5 +151,34 @@ TEST(PrincipalPointCheckTest, ACornerBiasCommonToEveryTagMovesTheShiftWithinTheS
               far.systematic_px.y());
 }
 
+// The principal point as the error bound knows it: the tags (their sigma and blind spot in
+// quadrature) weighed against the intrinsic calibration's stated sigma, axis by axis.
+TEST(PrincipalPointCheckTest, TheTagsAndTheStatedSigmaCombineByTheirVariances) {
+  PrincipalPointEstimate tags;
+  tags.fitted = true;
+  tags.shift_px = {6.0, -2.0};
+  tags.sigma_px = {3.0, 1.0};
+  tags.systematic_px = {4.0, 0.0};  // x: 5 px in all
+  // Nothing stated: the tags alone, blind spot included.
+  PrincipalPointBelief b = CombinePrincipalPoint(tags, 0.0);
+  EXPECT_DOUBLE_EQ(b.shift_px.x(), 6.0);
+  EXPECT_DOUBLE_EQ(b.sigma_px.x(), 5.0);
+  EXPECT_DOUBLE_EQ(b.sigma_px.y(), 1.0);
+  EXPECT_DOUBLE_EQ(StatedPrincipalPointChiSquare(tags, 0.0), 0.0);
+  // 1 px stated: x weighs the tags 1/26, y 1/2.
+  b = CombinePrincipalPoint(tags, 1.0);
+  EXPECT_NEAR(b.shift_px.x(), 6.0 / 26.0, 1e-12);
+  EXPECT_NEAR(b.sigma_px.x(), std::sqrt(25.0 / 26.0), 1e-12);
+  EXPECT_NEAR(b.shift_px.y(), -1.0, 1e-12);
+  EXPECT_NEAR(b.sigma_px.y(), std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(StatedPrincipalPointChiSquare(tags, 1.0), 36.0 / 26.0 + 4.0 / 2.0, 1e-12);
+  // Tags that could not fit: the stated sigma alone, or nothing known.
+  tags.fitted = false;
+  b = CombinePrincipalPoint(tags, 1.5);
+  EXPECT_EQ(b.shift_px, Eigen::Vector2d::Zero());
+  EXPECT_DOUBLE_EQ(b.sigma_px.y(), 1.5);
+  EXPECT_TRUE(std::isinf(CombinePrincipalPoint(tags, 0.0).sigma_px.x()));
+}
+
 }  // namespace
 }  // namespace calibd

@@ -26,6 +26,7 @@
 #include "json_file.hpp"
 #include "pcd_writer.hpp"
 #include "run_command.hpp"
+#include "short_session.hpp"
 #include "temp_dir.hpp"
 
 namespace calibd {
@@ -112,6 +113,8 @@ TEST(RecordedFolderCliTest, FolderAndImportedLogCalibrateNearTheTruth) {
   CalibConfig spoilt = config;
   spoilt.camera.fx *= 1.05;
   ASSERT_TRUE(SaveConfigFile(dir.file("spoilt.yaml"), spoilt, &error)) << error;
+  // 40 pairs of boards ahead at up to 30 m: the short session's translation tolerance.
+  std::ofstream(dir.file("spoilt.yaml"), std::ios::app) << testing::ShortSessionEngineYaml();
 
   const std::string calibrate =
       std::string(CALIBD_CALIBRATE_EXE) + " --truth " + dir.file("truth.json") + " --intrinsics " +
@@ -184,6 +187,7 @@ TEST(RecordedFolderCliTest, FolderAndImportedLogCalibrateNearTheTruth) {
   CalibConfig imported;
   ASSERT_TRUE(LoadConfigFile(dir.file("imported.yaml"), &imported, &error)) << error;
   EXPECT_EQ(imported.camera.fx, config.camera.fx);  // --config-out carries the intrinsics
+  std::ofstream(dir.file("imported.yaml"), std::ios::app) << testing::ShortSessionEngineYaml();
   EXPECT_EQ(RunCommand(std::string(CALIBD_CALIBRATE_EXE) + " --truth " + dir.file("truth.json") +
                        " --config " + dir.file("imported.yaml") + " --log " +
                        dir.file("imported.lcmlog") + " --report " + dir.file("log.json")),

@@ -49,6 +49,15 @@ QualityFigures Clean() {
   q.ring_elevation_rings = 40;
   q.ring_elevation_chi2 = 2.0;
   q.ring_elevation_rms_deg = 0.05;
+  q.principal_point_stated_sigma_px = 1.0;
+  q.principal_point_stated_chi2 = 0.5;
+  q.rotation_clustered_sigma_deg = 0.01;
+  q.translation_clustered_sigma_m = 0.001;
+  q.rotation_systematic_deg = 0.1;
+  q.translation_systematic_m = 0.01;
+  q.translation_bound_range_offset_m = 0.008;
+  q.rotation_bound_deg = 0.15;
+  q.translation_bound_m = 0.012;
   return q;
 }
 
@@ -78,6 +87,7 @@ struct Fault {
 
 TEST(VerdictTest, EachGateRefusesTheFigureItJudges) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
   const Fault faults[] = {
       {"bent board", [](Session* s) { s->q.board_bend_m = 0.008; }, Reason::kBoardNotFlat,
        "bends 8.0 mm"},
@@ -129,6 +139,36 @@ TEST(VerdictTest, EachGateRefusesTheFigureItJudges) {
        Reason::kHighReprojectionError, "mean 9.00 px above 8.00 px"},
       {"residual", [](Session* s) { s->q.residual_rms_m = 0.06; }, Reason::kHighResidual,
        "point-to-board RMS 0.0600 m"},
+      {"intrinsics less precise than stated",
+       [](Session* s) { s->q.principal_point_stated_chi2 = 12.0; }, Reason::kPrincipalPointMismatch,
+       "beyond the +-1.0 px its intrinsic calibration states"},
+      {"principal point known to no one",
+       [](Session* s) {
+         s->q.principal_point_stated_sigma_px = 0.0;
+         s->q.rotation_systematic_deg = 0.5;
+         s->q.rotation_bound_deg = 0.52;
+       },
+       Reason::kPoorObservability, "set camera.principal_point_sigma_px"},
+      {"principal point less precise than the tolerance",
+       [](Session* s) {
+         s->q.rotation_systematic_deg = 0.4;
+         s->q.rotation_bound_deg = 0.41;
+       },
+       Reason::kPoorObservability, "a more precise intrinsic calibration"},
+      {"range offset not told from the position",
+       [](Session* s) {
+         s->q.translation_bound_range_offset_m = 0.035;
+         s->q.translation_bound_m = 0.04;
+       },
+       Reason::kPoorObservability, "boards to the sides as well"},
+      {"scattered boards",
+       [](Session* s) {
+         s->q.rotation_clustered_sigma_deg = 0.1;
+         s->q.rotation_bound_deg = 0.35;
+       },
+       Reason::kPoorObservability, "the boards' own scatter (+-0.100 deg)"},
+      {"no bound", [inf](Session* s) { s->q.rotation_bound_deg = s->q.translation_bound_m = inf; },
+       Reason::kPoorObservability, "error could reach unknown deg"},
       {"beyond the mechanical tolerance", [](Session* s) { s->delta_translation_m = 0.3; },
        Reason::kDeltaBeyondTolerance, "exceeds 10.000 deg / 0.200 m"},
   };
@@ -160,6 +200,16 @@ TEST(VerdictTest, TheGateThatNamesTheCauseIsAskedFirst) {
   far.q.residual_rms_m = 0.06;
   far.delta_rotation_deg = 20.0;
   EXPECT_EQ(far.Verdict(&detail), Reason::kHighResidual) << detail;
+  // A fault the gates name widens the error bound too: the gate that names it answers.
+  Session biased;
+  biased.q.lidar_range_offset_m = -0.03;
+  biased.q.lidar_range_offset_sigma_m = 0.003;
+  biased.q.translation_bound_m = 0.05;
+  EXPECT_EQ(biased.Verdict(&detail), Reason::kLidarRangeOffset) << detail;
+  Session shifted;
+  shifted.q.principal_point_stated_chi2 = 12.0;
+  shifted.q.rotation_bound_deg = 0.5;
+  EXPECT_EQ(shifted.Verdict(&detail), Reason::kPrincipalPointMismatch) << detail;
 }
 
 TEST(VerdictTest, AFigureAtItsGatePasses) {
@@ -169,6 +219,8 @@ TEST(VerdictTest, AFigureAtItsGatePasses) {
   s.q.residual_rms_m = s.config.max_residual_rms_m;
   s.q.rotation_sigma_deg = s.config.max_rotation_sigma_deg;
   s.delta_rotation_deg = s.config.max_rotation_deg;
+  s.q.rotation_bound_deg = s.config.max_rotation_bound_deg;
+  s.q.translation_bound_m = s.config.max_translation_bound_m;
   EXPECT_EQ(s.Verdict(&detail), Reason::kNone) << detail;
 }
 

@@ -213,6 +213,10 @@ bool EngineKeysValid(const EngineConfig& e, std::string* error) {
   if (!PositiveUpTo(k + "max_time_offset_s", v.max_time_offset_s, 1.0, error)) return false;
   if (!PositiveUpTo(k + "max_reprojection_mean_px", v.max_reprojection_mean_px, 1000.0, error))
     return false;
+  if (!PositiveUpTo(k + "max_rotation_bound_deg", v.max_rotation_bound_deg, 180.0, error))
+    return false;
+  if (!PositiveUpTo(k + "max_translation_bound_m", v.max_translation_bound_m, 10.0, error))
+    return false;
   if (!PositiveUpTo(k + "max_residual_rms_m", v.max_residual_rms_m, 1.0, error)) return false;
 
   // The fields the file does not expose keep the core's own checks (a config built in code).
@@ -476,6 +480,8 @@ void ParseEngineSection(const YAML::Node& node, EngineConfig* e) {
   v.Read("max_time_offset_s", &e->verdict.max_time_offset_s);
   v.Read("max_reprojection_mean_px", &e->verdict.max_reprojection_mean_px);
   v.Read("max_residual_rms_m", &e->verdict.max_residual_rms_m);
+  v.Read("max_rotation_bound_deg", &e->verdict.max_rotation_bound_deg);
+  v.Read("max_translation_bound_m", &e->verdict.max_translation_bound_m);
   v.RejectUnknown();
   s.RejectUnknown();
 }

@@ -69,6 +69,12 @@ std::string Name(const std::string& value, const std::string& key) {
   return value;
 }
 
+// camera.principal_point_sigma_px, with the intrinsics or beside intrinsics given elsewhere.
+void ParsePrincipalPointSigma(const YAML::Node& cam, CalibConfig* c) {
+  c->principal_point_sigma_px =
+      GetOr<double>(cam, "principal_point_sigma_px", "camera.principal_point_sigma_px", 0.0);
+}
+
 // The `camera:` section: its ids, and its intrinsics unless given elsewhere.
 void ParseCamera(const YAML::Node& root, const CameraIntrinsics* intrinsics, CalibConfig* c) {
   const YAML::Node cam = intrinsics ? root["camera"] : Child(root, "camera", "camera");
@@ -76,15 +82,18 @@ void ParseCamera(const YAML::Node& root, const CameraIntrinsics* intrinsics, Cal
     // Intrinsics given elsewhere and none here: the section is optional, its ids are.
     c->camera = *intrinsics;
     if (!cam) return;
-    CheckKnown(cam, {"id", "frame_id"}, "camera");
+    CheckKnown(cam, {"id", "frame_id", "principal_point_sigma_px"}, "camera");
+    ParsePrincipalPointSigma(cam, c);
     c->camera_id = Name(GetOr<std::string>(cam, "id", "camera.id", c->camera_id), "camera.id");
     c->camera_frame = Name(GetOr<std::string>(cam, "frame_id", "camera.frame_id", c->camera_frame),
                            "camera.frame_id");
     return;
   }
   CheckKnown(cam,
-             {"id", "frame_id", "width", "height", "fx", "fy", "cx", "cy", "model", "distortion"},
+             {"id", "frame_id", "width", "height", "fx", "fy", "cx", "cy", "model", "distortion",
+              "principal_point_sigma_px"},
              "camera");
+  ParsePrincipalPointSigma(cam, c);
   c->camera_id = Name(Get<std::string>(cam, "id", "camera.id"), "camera.id");
   c->camera_frame = Name(GetOr<std::string>(cam, "frame_id", "camera.frame_id", c->camera_frame),
                          "camera.frame_id");
@@ -262,6 +271,9 @@ std::string ConfigToYaml(const CalibConfig& c) {
     << "\n  width: " << k.width << "\n  height: " << k.height << "\n  fx: " << ShortestDecimal(k.fx)
     << "\n  fy: " << ShortestDecimal(k.fy) << "\n  cx: " << ShortestDecimal(k.cx)
     << "\n  cy: " << ShortestDecimal(k.cy);
+  if (c.principal_point_sigma_px > 0.0)
+    o << "\n  principal_point_sigma_px: " << ShortestDecimal(c.principal_point_sigma_px)
+      << "  # the intrinsic calibration's stated sigma of cx, cy";
   if (k.model == DistortionModel::kKannalaBrandt) {
     o << "\n  model: kannala_brandt\n  distortion: [" << ShortestDecimal(k.k1) << ", "
       << ShortestDecimal(k.k2) << ", " << ShortestDecimal(k.k3) << ", " << ShortestDecimal(k.k4)

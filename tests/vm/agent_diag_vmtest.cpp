@@ -60,6 +60,7 @@
 #include "calibd/drivers/calibration_store.hpp"
 #include "calibd/drivers/can_raw_socket.hpp"
 #include "run_command.hpp"
+#include "short_session.hpp"
 #include "temp_dir.hpp"
 #include "uds_client.hpp"
 
@@ -514,7 +515,9 @@ class AgentDiagVm : public ::testing::Test {
             "    ecu_serial: " + kEcuSerial + "\n" +
             "    lockout_delay_s: " + std::to_string(kLockoutDelayS) + "\n" + "  gpio:\n" +
             GpioLine("interlock") + GpioLine("start_button") + GpioLine("status_lamp") +
-            "    start_button_debounce_ms: 30\n";
+            "    start_button_debounce_ms: 30\n" +
+            // 60 pairs of small tags: the short session's translation tolerance.
+            testing::ShortSessionEngineYaml();
     std::string error;
     ASSERT_TRUE(WriteFileAtomic(dir_.file("agent.yaml"), yaml, &error)) << error;
     agent_log_ = InShared(

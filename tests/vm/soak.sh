@@ -26,6 +26,7 @@ ip link set lo multicast on && ip route replace 224.0.0.0/4 dev lo &&
 cd "$shared" || exit 3
 ./calibd-bench soak --minutes $minutes --agent ./calibd-agent --sim ./calibd-sim \\
   --drive session.lcmlog --calib-yaml calib.yaml --interface vcan0 --speed 0.2 --min-distance-bins 1 \\
+  --max-translation-bound-m 0.1 \\
   --work-dir /tmp/soak --json soak.json >soak.txt 2>soak-progress.txt
 code=\$?
 cp /tmp/soak/agent.log soak-agent.log 2>/dev/null

@@ -113,6 +113,8 @@ soak     one calibd-agent through back-to-back workshop sessions for N minutes: 
   --min-frames N      the agent's min_frames (default 60)
   --min-distance-bins N
                       the agent's min_distance_bins (default: the agent's; 1 for a drive within 8.5 m)
+  --max-translation-bound-m M
+                      the agent's engine.verdict.max_translation_bound_m (default: the agent's)
   --p2-ms MS          the tester's P2 (default 2000, for an emulated guest)
   --max-rss-growth-mb X
                       allowed RSS growth after the first session (default 16)
@@ -154,7 +156,7 @@ verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-
          when its collection ends (short of 50 pairs with boards or 20 boards when the drive or
          the 120 s of still poses end: counted apart, not judged);
          per fault and overall: accepted within tolerance, false accepts (`updated` or `verified`
-         beyond twice the verification tolerance, 0.3 deg or 3 cm), false rejects (clean
+         beyond the accuracy a result must be known to, 0.3 deg or 3 cm), false rejects (clean
          sessions refused), refusals and their reason codes. Deterministic per seed. Fails on
          any false accept.
   --sessions N        sessions (default 400; 2000 for the full campaign)

@@ -205,7 +205,10 @@ class Soak {
              : std::string()) +
         "\n  max_duration_s: " + std::to_string(o_.max_duration_s) +
         "\n  can:\n    enabled: true\n    interface: " + o_.interface +
-        "\n  uds:\n    secret_file: " + Path("secret") + "\n    state_dir: " + Path("uds") + "\n";
+        "\n  uds:\n    secret_file: " + Path("secret") + "\n    state_dir: " + Path("uds") + "\n" +
+        (o_.max_translation_bound_m > 0.0 ? "engine:\n  verdict:\n    max_translation_bound_m: " +
+                                                std::to_string(o_.max_translation_bound_m) + "\n"
+                                          : std::string());
     return WriteFileAtomic(Path("agent.yaml"), yaml, error);
   }
 

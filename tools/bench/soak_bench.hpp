@@ -34,7 +34,9 @@ struct SoakBenchOptions {
   int min_frames = 60;         ///< the agent's agent.min_frames
   int min_distance_bins = -1;  ///< the agent's agent.min_distance_bins (-1: the agent's default)
   int max_duration_s = 150;    ///< the agent's agent.max_duration_s, and the tester's limit
-  int p2_ms = 2000;            ///< the tester's P2 (an emulated guest answers slowly)
+  /// The agent's engine.verdict.max_translation_bound_m (0: the agent's default).
+  double max_translation_bound_m = 0.0;
+  int p2_ms = 2000;  ///< the tester's P2 (an emulated guest answers slowly)
   /// Allowed RSS growth after the first session: the heap settles over the first sessions
   /// (+7.7 MB in the first 8 of a 30-minute run in the VM, then flat).
   double max_rss_growth_mb = 16.0;

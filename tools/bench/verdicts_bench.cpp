@@ -505,9 +505,10 @@ std::string VerdictFaultNames() {
 
 bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ostream* progress,
                       std::string* error) {
-  const VerdictConfig tolerance;  // a false accept: beyond twice the verification tolerance
-  const double max_deg = 2.0 * tolerance.verify_rotation_deg;
-  const double max_m = 2.0 * tolerance.verify_translation_m;
+  // A false accept: beyond the accuracy a result must be known to (the error bound's gate).
+  const VerdictConfig tolerance;
+  const double max_deg = tolerance.max_rotation_bound_deg;
+  const double max_m = tolerance.max_translation_bound_m;
   std::vector<int> indices = o.only;
   if (indices.empty())
     for (int i = 0; i < o.sessions; ++i) indices.push_back(i);
@@ -595,7 +596,8 @@ bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ost
   out << "; drives at 4-14 m and still poses at 1.5-8 m, 1-3 boards, a 1920 x 1200 camera.\n"
       << "A false accept is `updated` or `verified` with an error above " << Num(max_deg, 2)
       << " deg or " << Num(max_m * 100.0, 1)
-      << " cm (twice the verification tolerance); a false reject, a clean session refused.\n\n"
+      << " cm (the accuracy a result must be known to: engine.verdict.max_rotation_bound_deg, "
+         "max_translation_bound_m); a false reject, a clean session refused.\n\n"
       << "| fault | what | sessions | accepted within tolerance | false accepts | false rejects | "
          "refused (faulty) | short of the agent's minimum | worst accepted error | error inside "
          "its bound (solved) | reasons of the refusals |\n"

@@ -516,6 +516,12 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += at_most("reprojection error mean [px] (p95 " + Num(q.reprojection_p95_px, 2) + ")",
                q.reprojection_mean_px, 2, ReprojectionGate(in), 2);
   s += at_most("LiDAR residual RMS [m]", q.residual_rms_m, 4, v.max_residual_rms_m, 4);
+  // The result's own predicted error bound (ErrorBound), which the verdict accepts only inside
+  // the accuracy it must be known to (error_bound_gate.hpp).
+  s += at_most("error bound, 99 %, rotation [deg]", q.rotation_bound_deg, 3,
+               v.max_rotation_bound_deg, 2);
+  s += at_most("error bound, 99 %, translation [m]", q.translation_bound_m, 4,
+               v.max_translation_bound_m, 3);
   s += at_most("change vs prior, rotation [deg]", out.delta_rotation_deg, 4, v.max_rotation_deg, 2);
   s += at_most("change vs prior, translation [m]", out.delta_translation_m, 4, v.max_translation_m,
                3);
@@ -525,14 +531,15 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += InfoRow("image coverage (4x4 cells holding a board centre)",
                Num(q.image_coverage * 100.0, 0) + " %");
   s += InfoRow("smallest information eigenvalue", Sci(q.min_information_eigenvalue));
-  // The result's own predicted error bound (ErrorBound); reported, not yet a gate.
   if (std::isfinite(q.rotation_bound_deg))
-    s += InfoRow("predicted error bound, 99 % (rotation, translation)",
-                 Num(q.rotation_bound_deg, 3) + " deg, " + Num(q.translation_bound_m, 4) +
-                     " m (clustered sigma " + Num(q.rotation_clustered_sigma_deg, 4) + " deg, " +
+    s += InfoRow("error bound's parts (rotation, translation)",
+                 "clustered sigma " + Num(q.rotation_clustered_sigma_deg, 4) + " deg, " +
                      Num(q.translation_clustered_sigma_m, 4) + " m; systematic " +
-                     Num(q.rotation_systematic_deg, 3) + " deg, " +
-                     Num(q.translation_systematic_m, 4) + " m)");
+                     Num(q.rotation_systematic_deg, 3) + " deg (the principal point), " +
+                     Num(q.translation_systematic_m, 4) + " m (range offset " +
+                     Num(q.translation_bound_range_offset_m, 4) + ", scale " +
+                     Num(q.translation_bound_scale_m, 4) + ", time offset " +
+                     Num(q.translation_bound_time_offset_m, 4) + ")");
   s += InfoRow("grid search: perturbation of the prior (roll, pitch, yaw) [deg]",
                Num(out.grid.perturbation_rpy_deg.x(), 2) + ", " +
                    Num(out.grid.perturbation_rpy_deg.y(), 2) + ", " +
@@ -573,6 +580,8 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
       Num(v.max_start_rotation_deg, 4) + " deg, " + Num(v.max_start_translation_m, 4) + " m");
   s += InfoRow("max reprojection error mean", Num(v.max_reprojection_mean_px, 2) + " px");
   s += InfoRow("max LiDAR residual RMS", Num(v.max_residual_rms_m, 4) + " m");
+  s += InfoRow("max error bound, 99 %", Num(v.max_rotation_bound_deg, 3) + " deg, " +
+                                            Num(v.max_translation_bound_m, 4) + " m");
   s += "</table></section>\n";
 
   s += "<section id=\"per-board\"><h2>Reprojection error per board</h2>\n";

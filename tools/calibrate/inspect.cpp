@@ -199,7 +199,12 @@ int RunInspect(const InspectOptions& options, std::ostream& out, std::ostream& e
   yaml << "# Starter config written by calibd-calibrate --inspect from " << options.folder
        << ".\n# Replace every TODO before calibrating: calibd-calibrate refuses a config that "
           "still holds one.\n";
-  yaml << "camera:\n  id: camera\n";
+  yaml << "camera:\n  id: camera\n"
+          "  # principal_point_sigma_px: 1.0  # the sigma of cx, cy (px) your intrinsic "
+          "calibration\n"
+          "  #   states: uncomment and set it. Left out, only the tags measure the principal "
+          "point,\n"
+          "  #   and a result is accepted only from boards close and slanted enough to.\n";
   if (!have_intrinsics) {
     yaml << "  width: " << width << "\n  height: " << height
          << "\n  fx: TODO  # focal lengths and principal point, px (or give --intrinsics FILE)\n"

@@ -62,14 +62,24 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["principal_point_turn_deg"] = q.principal_point_turn_deg;
   j["principal_point_turn_sigma_deg"] =
       q.principal_point_fitted ? nlohmann::json(q.principal_point_turn_sigma_deg) : nullptr;
+  j["principal_point_stated_sigma_px"] = q.principal_point_stated_sigma_px;
+  j["principal_point_stated_chi2"] = q.principal_point_stated_chi2;
+  j["principal_point_belief_turn_deg"] = q.principal_point_belief_turn_deg;
+  j["principal_point_belief_turn_sigma_deg"] =
+      std::isfinite(q.principal_point_belief_turn_sigma_deg)
+          ? nlohmann::json(q.principal_point_belief_turn_sigma_deg)
+          : nullptr;
   j["principal_point_ms"] = q.principal_point_ms;
   // The predicted 99 % bound on the result's own error and its parts (ErrorBound); null where
   // the clustered covariance could not be estimated.
   const auto finite = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nullptr; };
   j["rotation_clustered_sigma_deg"] = finite(q.rotation_clustered_sigma_deg);
   j["translation_clustered_sigma_m"] = finite(q.translation_clustered_sigma_m);
-  j["rotation_systematic_deg"] = q.rotation_systematic_deg;
+  j["rotation_systematic_deg"] = finite(q.rotation_systematic_deg);
   j["translation_systematic_m"] = q.translation_systematic_m;
+  j["translation_bound_range_offset_m"] = q.translation_bound_range_offset_m;
+  j["translation_bound_scale_m"] = q.translation_bound_scale_m;
+  j["translation_bound_time_offset_m"] = q.translation_bound_time_offset_m;
   j["rotation_bound_deg"] = finite(q.rotation_bound_deg);
   j["translation_bound_m"] = finite(q.translation_bound_m);
   return j;

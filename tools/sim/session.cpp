@@ -298,6 +298,7 @@ CalibConfig SessionSimulator::UserConfig() const {
   CalibConfig c;
   c.camera_id = options_.camera_id;
   c.camera = options_.camera;
+  c.principal_point_sigma_px = options_.stated_principal_point_sigma_px;
   c.lidar_id = options_.lidar_id;
   c.lidar_model = options_.lidar_model;
   c.boards = workshop().geometries;

@@ -29,6 +29,10 @@ struct SessionOptions {
   std::string lidar_model = "ot128";
   LidarNoise lidar_noise;
   CameraIntrinsics camera;
+  /// What the user's config states of the principal point's precision
+  /// (camera.principal_point_sigma_px): a good intrinsic calibration's figure, which holds, since
+  /// the simulated camera's intrinsics are exact.
+  double stated_principal_point_sigma_px = 1.0;
   CameraImaging imaging;
   std::string image_encoding = "mono8";  ///< "mono8" (raw) or "jpeg" in the log
   int jpeg_quality = 95;

@@ -45,6 +45,8 @@ bool CalibConfig::IsValid(std::string* error) const {
   };
   if (camera_id.empty()) return fail("camera.id", "must not be empty");
   if (!camera.IsValid(&why)) return fail("camera.intrinsics", why);
+  if (!(principal_point_sigma_px >= 0.0 && std::isfinite(principal_point_sigma_px)))
+    return fail("camera.principal_point_sigma_px", "must be 0 (not stated) or a positive number");
   if (lidar_id.empty()) return fail("lidar.id", "must not be empty");
   if (!FrameIdValid(camera_frame, &why)) return fail("camera.frame_id", why);
   if (!FrameIdValid(lidar_frame, &why)) return fail("lidar.frame_id", why);

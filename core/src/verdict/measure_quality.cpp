@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <set>
@@ -126,6 +127,14 @@ void PrincipalPointFigures(const CalibConfig& config, const SessionObservations&
   q.principal_point_residual_px = pp.residual_rms_px;
   q.principal_point_turn_deg = PrincipalPointTurnDeg(pp.shift_px, config.camera);
   q.principal_point_turn_sigma_deg = PrincipalPointTurnDeg(pp.sigma_px, config.camera);
+  q.principal_point_stated_sigma_px = config.principal_point_sigma_px;
+  q.principal_point_stated_chi2 =
+      StatedPrincipalPointChiSquare(pp, config.principal_point_sigma_px);
+  const PrincipalPointBelief belief = CombinePrincipalPoint(pp, config.principal_point_sigma_px);
+  q.principal_point_belief_turn_deg = PrincipalPointTurnDeg(belief.shift_px, config.camera);
+  q.principal_point_belief_turn_sigma_deg = PrincipalPointTurnDeg(belief.sigma_px, config.camera);
+  q.principal_point_belief_sigma_rad = {belief.sigma_px.x() / config.camera.fx,
+                                        belief.sigma_px.y() / config.camera.fy};
   q.principal_point_ms = MsSince(t_pp);
 }
 
@@ -155,7 +164,60 @@ double PlaneConditioning(const DirectResult& direct) {
   return top > 0.0 ? std::max(0.0, es.eigenvalues()(0)) / top : 0.0;
 }
 
+// The normalised mean of the unit directions from the camera to the boards' centres.
+Eigen::Vector3d BoardDirection(const ObservationSet& corr) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const BoardObservation& o : corr.observations)
+    sum += o.T_camera_board.translation().normalized();
+  return sum.norm() > 0.0 ? Eigen::Vector3d(sum.normalized()) : Eigen::Vector3d::UnitZ();
+}
+
 }  // namespace
+
+double FewClustersVarianceFactor(int clusters) {
+  // F(3, nu; 0.99) for nu = 1 .. 15 (beyond: chi2(3; 0.99) / 3 = 3.782 at infinity, the last
+  // entry a little above it); numerical inversions of the regularised incomplete beta.
+  constexpr std::array<double, 15> kF3 = {5403.0, 99.17, 29.46, 16.69, 12.06, 9.780, 8.451, 7.591,
+                                          6.992,  6.552, 6.217, 5.953, 5.739, 5.564, 5.417};
+  constexpr double kChi2_3 = kBoundNormQuantile3d * kBoundNormQuantile3d;
+  if (clusters < 2) return std::numeric_limits<double>::infinity();
+  const size_t nu = static_cast<size_t>(std::min(clusters - 1, static_cast<int>(kF3.size())));
+  return 3.0 * kF3[nu - 1] / kChi2_3;
+}
+
+double GaussianNormQuantile99(const Eigen::Matrix3d& covariance) {
+  if (!covariance.allFinite()) return std::numeric_limits<double>::infinity();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(covariance);
+  const Eigen::Vector3d lambda = es.eigenvalues().cwiseMax(0.0);
+  if (!(lambda(2) > 0.0)) return 0.0;
+  // e = r u, u uniform on the sphere and r^2 chi-square(3) apart from it: P(|e|^2 <= s) is the
+  // sphere's mean of F3(s / u' cov u), F3 the chi-square(3) distribution function; the mean
+  // over a Fibonacci lattice of directions, solved for s by bisection between 0 and the worst
+  // direction's quantile.
+  constexpr int kDirections = 256;
+  constexpr double kGolden = 2.39996322972865332;  // rad: pi (3 - sqrt 5)
+  std::array<double, kDirections> spread;          // u' diag(lambda) u
+  for (int i = 0; i < kDirections; ++i) {
+    const double z = 1.0 - (2.0 * i + 1.0) / kDirections;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double x = r * std::cos(kGolden * i), y = r * std::sin(kGolden * i);
+    spread[static_cast<size_t>(i)] = lambda(0) * x * x + lambda(1) * y * y + lambda(2) * z * z;
+  }
+  const auto cdf = [&](double s) {
+    double sum = 0.0;
+    for (const double g : spread) {
+      const double x = s / std::max(g, 1e-300);
+      sum += std::erf(std::sqrt(0.5 * x)) - std::sqrt(2.0 * x / M_PI) * std::exp(-0.5 * x);
+    }
+    return sum / kDirections;
+  };
+  double lo = 0.0, hi = lambda(2) * kBoundNormQuantile3d * kBoundNormQuantile3d;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (cdf(mid) < 0.99 ? lo : hi) = mid;
+  }
+  return std::sqrt(hi);
+}
 
 int ImageCell(double u_px, double v_px, int width, int height) {
   if (!(u_px >= 0.0 && u_px < width && v_px >= 0.0 && v_px < height)) return -1;
@@ -215,49 +277,64 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
   PrincipalPointFigures(config, session, q);
   TimeOffsetFigures(corr, distances, q);
   q->plane_conditioning = PlaneConditioning(direct);
+  q->board_direction = BoardDirection(corr);
   ErrorBound(direct, q);
 }
 
 void ErrorBound(const DirectResult& direct, QualityFigures* q) {
   const auto finite = [](double x) { return std::isfinite(x) ? x : 0.0; };
-  // The systematic terms: what the checks estimated (left uncorrected: a bias, added as it is)
-  // and how uncertain each estimate is (added in quadrature to the statistical part).
-  double rotation_bias_deg = 0.0, rotation_var = 0.0;  // deg, deg^2
-  if (q->principal_point_fitted) {
-    rotation_bias_deg = q->principal_point_turn_deg;
-    rotation_var = std::pow(finite(q->principal_point_turn_sigma_deg), 2);
-  }
-  double translation_bias_m = 0.0, translation_var = 0.0;  // m, m^2
-  if (std::isfinite(q->lidar_range_offset_m)) {
-    translation_bias_m = std::fabs(q->lidar_range_offset_m);
-    translation_var += std::pow(finite(q->lidar_range_offset_sigma_m), 2);
-  }
-  // The scale: what is left of its error after the correction moves the translation by that
-  // share of the boards' distance (camera_scale_translation_m is its sigma times the distance).
+  // What a check estimated and left uncorrected is a bias, added as it is; how uncertain each
+  // estimate is joins the statistical part's covariance.
+  // The rotation: the principal point, which the LiDAR cannot see, as the tags and the
+  // intrinsic calibration know it (infinite when neither does: no bound); a shift along u turns
+  // the camera frame about its y axis, along v about its x axis.
+  const double rotation_bias_deg = q->principal_point_belief_turn_deg;
+  const Eigen::Vector2d pp_rad = q->principal_point_belief_sigma_rad;
+  const Eigen::Matrix3d pp_cov =
+      Eigen::Vector3d(pp_rad.y() * pp_rad.y(), pp_rad.x() * pp_rad.x(), 0.0).asDiagonal();
+  q->rotation_systematic_deg = rotation_bias_deg + GaussianNormQuantile99(pp_cov) * kRad2Deg;
+  // The translation: the range offset (moves it by about itself), the scale error left after
+  // its correction and its sigma (by themselves times the boards' distance), the time offset's
+  // sigma (times the boards' speed along their normals); each along the boards' direction.
+  struct Term {
+    double bias_m = 0.0, sigma_m = 0.0;
+  };
+  Term range, scale, time;
+  if (std::isfinite(q->lidar_range_offset_m))
+    range = {std::fabs(q->lidar_range_offset_m), finite(q->lidar_range_offset_sigma_m)};
   if (std::isfinite(q->camera_scale_error) && q->camera_scale_sigma > 0.0 &&
       std::isfinite(q->camera_scale_translation_m)) {
     const double distance_m = q->camera_scale_translation_m / q->camera_scale_sigma;
     const double left = (1.0 + q->camera_scale_error) / (1.0 + q->camera_scale_corrected) - 1.0;
-    translation_bias_m += std::fabs(left) * distance_m;
+    scale.bias_m = std::fabs(left) * distance_m;
   }
-  translation_var += std::pow(finite(q->camera_scale_translation_m), 2);
+  scale.sigma_m = finite(q->camera_scale_translation_m);
   if (q->time_offset_fitted)
-    translation_var += std::pow(finite(q->time_offset_sigma_s) * q->board_normal_speed_mps, 2);
-  const double k = kBoundNormQuantile3d;
-  q->rotation_systematic_deg = rotation_bias_deg + k * std::sqrt(rotation_var);
-  q->translation_systematic_m = translation_bias_m + k * std::sqrt(translation_var);
+    time.sigma_m = finite(q->time_offset_sigma_s) * q->board_normal_speed_mps;
+  const double k1 = kBoundQuantile1d;
+  q->translation_bound_range_offset_m = range.bias_m + k1 * range.sigma_m;
+  q->translation_bound_scale_m = scale.bias_m + k1 * scale.sigma_m;
+  q->translation_bound_time_offset_m = time.bias_m + k1 * time.sigma_m;
+  const double translation_bias_m = range.bias_m + scale.bias_m + time.bias_m;
+  const double translation_var =
+      range.sigma_m * range.sigma_m + scale.sigma_m * scale.sigma_m + time.sigma_m * time.sigma_m;
+  q->translation_systematic_m = translation_bias_m + k1 * std::sqrt(translation_var);
   if (!direct.clustered.valid) {
     q->rotation_bound_deg = q->translation_bound_m = std::numeric_limits<double>::infinity();
     return;
   }
-  WorstSigmas(direct.clustered.covariance, &q->translation_clustered_sigma_m,
-              &q->rotation_clustered_sigma_deg);
+  // The statistical part: the clustered covariance, widened for the few stretches it rests on.
+  const Eigen::Matrix<double, 6, 6> clustered =
+      direct.clustered.covariance * FewClustersVarianceFactor(direct.clustered.stretches);
+  WorstSigmas(clustered, &q->translation_clustered_sigma_m, &q->rotation_clustered_sigma_deg);
+  // Each bound: the biases, plus the 99 % quantile of the norm of the whole covariance's error.
   q->rotation_bound_deg =
       rotation_bias_deg +
-      k * std::sqrt(std::pow(q->rotation_clustered_sigma_deg, 2) + rotation_var);
+      GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>() + pp_cov) * kRad2Deg;
   q->translation_bound_m =
       translation_bias_m +
-      k * std::sqrt(std::pow(q->translation_clustered_sigma_m, 2) + translation_var);
+      GaussianNormQuantile99(clustered.topLeftCorner<3, 3>() +
+                             translation_var * q->board_direction * q->board_direction.transpose());
 }
 
 }  // namespace calibd

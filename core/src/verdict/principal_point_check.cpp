@@ -200,6 +200,48 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
   return est;
 }
 
+namespace {
+
+// The tags' variance of the shift on axis a, blind spot included; infinite when not fitted.
+double TagsVariance(const PrincipalPointEstimate& tags, int a) {
+  if (!tags.fitted) return std::numeric_limits<double>::infinity();
+  return tags.sigma_px(a) * tags.sigma_px(a) + tags.systematic_px(a) * tags.systematic_px(a);
+}
+
+}  // namespace
+
+PrincipalPointBelief CombinePrincipalPoint(const PrincipalPointEstimate& tags,
+                                           double stated_sigma_px) {
+  PrincipalPointBelief out;
+  const double stated_var = stated_sigma_px > 0.0 ? stated_sigma_px * stated_sigma_px
+                                                  : std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 2; ++a) {
+    const double tags_var = TagsVariance(tags, a);
+    if (!std::isfinite(tags_var)) {
+      out.sigma_px(a) = std::sqrt(stated_var);  // the prior alone (infinite when none)
+      continue;
+    }
+    if (!std::isfinite(stated_var)) {
+      out.shift_px(a) = tags.shift_px(a);
+      out.sigma_px(a) = std::sqrt(tags_var);
+      continue;
+    }
+    const double w = stated_var / (stated_var + tags_var);  // the tags' weight
+    out.shift_px(a) = w * tags.shift_px(a);
+    out.sigma_px(a) = std::sqrt(w * tags_var);
+  }
+  return out;
+}
+
+double StatedPrincipalPointChiSquare(const PrincipalPointEstimate& tags, double stated_sigma_px) {
+  if (!tags.fitted || !(stated_sigma_px > 0.0)) return 0.0;
+  double chi2 = 0.0;
+  for (int a = 0; a < 2; ++a)
+    chi2 += tags.shift_px(a) * tags.shift_px(a) /
+            (TagsVariance(tags, a) + stated_sigma_px * stated_sigma_px);
+  return std::isfinite(chi2) ? chi2 : 0.0;
+}
+
 double PrincipalPointTurnDeg(const Eigen::Vector2d& shift_px, const CameraIntrinsics& camera) {
   return std::hypot(shift_px.x() / camera.fx, shift_px.y() / camera.fy) * kRad2Deg;
 }

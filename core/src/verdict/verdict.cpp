@@ -13,6 +13,7 @@ constexpr Gate kGates[] = {
     CheckFormalSigmas,           //
     CheckLensModel,              // principal_point_gate.hpp
     CheckPrincipalPoint,         //
+    CheckStatedPrincipalPoint,   //
     CheckCameraScale,            // camera_scale_gate.hpp
     CheckRangeOffset,            // range_offset_gate.hpp
     CheckRingElevations,         // ring_elevation_gate.hpp
@@ -23,6 +24,7 @@ constexpr Gate kGates[] = {
     CheckStartChecks,            //
     CheckReprojection,           // reprojection_gate.hpp
     CheckResidual,               // residual_gate.hpp
+    CheckErrorBound,             // error_bound_gate.hpp
     CheckDeltaFromPrior,         // prior_tolerance_gate.hpp
 };
 

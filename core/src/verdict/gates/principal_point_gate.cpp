@@ -69,4 +69,21 @@ Reason CheckPrincipalPoint(const GateInput& in, std::string* detail) {
                     "intrinsics again");
 }
 
+Reason CheckStatedPrincipalPoint(const GateInput& in, std::string* detail) {
+  const QualityFigures& q = in.quality;
+  if (!(q.principal_point_stated_chi2 > kStatedPrincipalPointChiSquare)) return Reason::kNone;
+  const Eigen::Vector2d d = q.principal_point_shift_px;
+  return Refuse(detail, Reason::kPrincipalPointMismatch,
+                "the tags put the camera's principal point " + FixedDecimal(d.x(), 1) +
+                    " px right and " + FixedDecimal(d.y(), 1) +
+                    " px down of the configured one, beyond the +-" +
+                    FixedDecimal(q.principal_point_stated_sigma_px, 1) +
+                    " px its intrinsic calibration states (camera.principal_point_sigma_px; "
+                    "chi-square " +
+                    FixedDecimal(q.principal_point_stated_chi2, 1) + " against " +
+                    FixedDecimal(kStatedPrincipalPointChiSquare, 2) +
+                    "): the intrinsics are wrong, belong to another camera, or are less precise "
+                    "than stated; calibrate the camera's intrinsics again");
+}
+
 }  // namespace calibd

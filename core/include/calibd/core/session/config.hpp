@@ -16,6 +16,12 @@ namespace calibd {
 struct CalibConfig {
   std::string camera_id = "front";
   CameraIntrinsics camera;
+  /// camera.principal_point_sigma_px: how well the intrinsic calibration knows the principal
+  /// point, px (one standard deviation per axis, as its report states: OpenCV's
+  /// stdDeviationsIntrinsics, Kalibr's or the supplier's figure; 0.5-2 px is usual). 0: not
+  /// stated, and then only the tags' own measurement of it counts (principal_point_check.hpp),
+  /// which boards far off or seen head-on leave too loose for a result to be accepted.
+  double principal_point_sigma_px = 0.0;
   std::string lidar_id = "roof";
   std::string lidar_model = "ot128";  ///< LidarKindFromName() names
   /// lidar.generic.*: overrides of the estimated scan geometry when lidar_model is "generic"

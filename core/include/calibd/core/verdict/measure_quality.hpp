@@ -31,21 +31,47 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
                     const std::vector<BoardGeometry>& boards, const DirectResult& direct,
                     QualityFigures* q);
 
+/// How much wider the clustered covariance is taken for the bound, as a variance factor, when it
+/// rests on `clusters` stretches of frames: a covariance estimated from G clusters has G - 1
+/// degrees of freedom, so its 3-D Wald statistic is referred to 3 F(3, G - 1) instead of
+/// chi-square(3) (Cameron & Miller, "A practitioner's guide to cluster-robust inference", 2015):
+/// 3 F(3, G - 1; 0.99) / chi2(3; 0.99), 2.24 for the direct solve's 8 stretches.
+double FewClustersVarianceFactor(int clusters);
+
 /// The 99 % quantile of the norm of a 3-D Gaussian error along its worst direction (the square
 /// root of chi-square with 3 degrees of freedom at 0.99), which the error bound scales its
 /// standard deviations by.
 inline constexpr double kBoundNormQuantile3d = 3.368;
+/// The two-sided 99 % quantile of a 1-D Gaussian: a systematic term's share of the bound
+/// (QualityFigures::translation_bound_range_offset_m and the like).
+inline constexpr double kBoundQuantile1d = 2.576;
+
+/// How much wider the clustered covariance is taken for the bound, as a variance factor, when it
+/// rests on `clusters` stretches of frames: a covariance estimated from G clusters has G - 1
+/// degrees of freedom, so its 3-D Wald statistic is referred to 3 F(3, G - 1) instead of
+/// chi-square(3) (Cameron & Miller, "A practitioner's guide to cluster-robust inference", 2015):
+/// 3 F(3, G - 1; 0.99) / chi2(3; 0.99), 2.24 for the direct solve's 8 stretches.
+double FewClustersVarianceFactor(int clusters);
+
+/// The 99 % quantile of the norm of a 3-D Gaussian error of `covariance` (zero mean): between
+/// the square root of its largest eigenvalue times 2.576 (one direction) and times
+/// kBoundNormQuantile3d (three alike). Infinite for a covariance that is not finite.
+double GaussianNormQuantile99(const Eigen::Matrix3d& covariance);
 
 /// The predicted 99 % bound on the result's own error (QualityFigures::rotation_bound_deg,
-/// translation_bound_m and their parts), from `direct`'s clustered covariance and the systematic
-/// figures MeasureQuality set in `q`: the principal point's turn (rotation), the LiDAR's range
-/// offset, the camera's scale and the time offset left (translation: the first moves it by about
-/// itself, the scale error left after its correction, and its sigma, by themselves times the
-/// boards' distance, the time offset by its sigma times the boards' speed along their normals).
-/// What a check estimated and left uncorrected is a bias, added as it is; the estimates' sigmas
-/// join the clustered sigma in quadrature, and the sum is scaled by kBoundNormQuantile3d. A term
-/// not measured adds nothing: its own gate decides about it. Reported, not yet a gate: its coverage
-/// is measured by `calibd-bench verdicts`.
+/// translation_bound_m and their parts), from `direct`'s clustered covariance (widened by
+/// FewClustersVarianceFactor) and the systematic figures MeasureQuality set in `q`. Rotation: the
+/// principal point as the tags and the intrinsic calibration know it together
+/// (principal_point_belief_*), which the LiDAR cannot see. Translation, each along the boards'
+/// direction: the LiDAR's range offset (moves it by about itself), the camera's scale error left
+/// after its correction and its sigma (by themselves times the boards' distance), the time
+/// offset's sigma (times the boards' speed along their normals). What a check estimated and left
+/// uncorrected is a bias, added as it is; the estimates' variances join the clustered covariance,
+/// and the bound adds the 99 % quantile of that error's norm (GaussianNormQuantile99). The
+/// principal point known neither way, or no clustered covariance: the bound is infinite. A
+/// translation term not measured adds nothing: its own gate decides about it. The verdict
+/// accepts a result only inside its tolerance (error_bound_gate.hpp); `calibd-bench verdicts`
+/// measures how often the true error lies inside it.
 void ErrorBound(const DirectResult& direct, QualityFigures* q);
 
 /// How many re-solves the stability figures take.

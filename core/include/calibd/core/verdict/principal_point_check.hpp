@@ -49,6 +49,24 @@ inline constexpr double kCornerNoisePx = 0.1;
 /// (blur and the pixel grid; real lenses, demosaicing and compression add to it).
 inline constexpr double kCornerBiasPx = 0.05;
 
+/// What is known of the principal point's shift from the configured one, per axis, px: the
+/// error bound's figure (measure_quality.hpp).
+struct PrincipalPointBelief {
+  Eigen::Vector2d shift_px = Eigen::Vector2d::Zero();
+  Eigen::Vector2d sigma_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+};
+
+/// The tags' estimate (its sigma and its blind spot in quadrature: the blind spot is a bias that
+/// no resampling shows) combined, axis by axis and weighted by inverse variances, with the
+/// intrinsic calibration's stated sigma (a prior centred on the configured principal point;
+/// `stated_sigma_px` 0: none stated). Neither known: the sigma is infinite.
+PrincipalPointBelief CombinePrincipalPoint(const PrincipalPointEstimate& tags,
+                                           double stated_sigma_px);
+
+/// Chi-square of the tags' shift against the stated sigma and their own (blind spot included),
+/// two degrees of freedom; 0 when either is unknown.
+double StatedPrincipalPointChiSquare(const PrincipalPointEstimate& tags, double stated_sigma_px);
+
 /// The turn a principal point shift of `shift_px` (or its sigma) gives the result, deg: about
 /// |(dx / fx, dy / fy)|, which the LiDAR cannot see.
 double PrincipalPointTurnDeg(const Eigen::Vector2d& shift_px, const CameraIntrinsics& camera);

@@ -27,13 +27,22 @@ struct QualityFigures {
   double min_information_eigenvalue = 0.0;
   double rotation_sigma_deg = 0.0, translation_sigma_m = 0.0;  ///< formal, from J^T J
   /// The same from the cluster-robust covariance (clustered_covariance.hpp): honest about errors
-  /// a board or a stretch of frames shares; infinite where it cannot be estimated.
+  /// a board or a stretch of frames shares, widened for the few stretches it rests on
+  /// (FewClustersVarianceFactor); infinite where it cannot be estimated.
   double rotation_clustered_sigma_deg = std::numeric_limits<double>::infinity();
   double translation_clustered_sigma_m = std::numeric_limits<double>::infinity();
   /// What the systematic terms the checks measure could move the result by (ErrorBound in
   /// measure_quality.hpp): the principal point's turn, the range offset, the camera's scale and
   /// the time offset left, their estimates plus their sigmas at the bound's quantile.
   double rotation_systematic_deg = 0.0, translation_systematic_m = 0.0;
+  /// The mean direction from the camera to the boards (unit, camera frame): the one along which
+  /// a range offset, a scale error or a time offset moves the translation.
+  Eigen::Vector3d board_direction = Eigen::Vector3d::UnitZ();
+  /// The translation's systematic terms each alone (estimate plus sigma at the bound's
+  /// quantile), m: what the error bound's gate names as the main cause.
+  double translation_bound_range_offset_m = 0.0;
+  double translation_bound_scale_m = 0.0;
+  double translation_bound_time_offset_m = 0.0;
   /// The predicted bound on this result's own error (99 %): the clustered covariance's worst
   /// direction at the 99 % quantile of a 3-D error's norm, plus the systematic terms.
   double rotation_bound_deg = std::numeric_limits<double>::infinity();
@@ -100,6 +109,19 @@ struct QualityFigures {
   /// shift's sigma.
   double principal_point_turn_deg = 0.0;
   double principal_point_turn_sigma_deg = std::numeric_limits<double>::infinity();
+  /// The intrinsic calibration's stated sigma of the principal point (CalibConfig), px; 0: none.
+  double principal_point_stated_sigma_px = 0.0;
+  /// The tags' shift against that sigma and their own (StatedPrincipalPointChiSquare).
+  double principal_point_stated_chi2 = 0.0;
+  /// What the result takes the principal point to be (CombinePrincipalPoint: the tags, their
+  /// blind spot and the stated sigma), as the turn it gives the result and that turn's sigma,
+  /// deg: the error bound's rotation terms. Infinite sigma: known neither from the tags nor from
+  /// the intrinsic calibration.
+  double principal_point_belief_turn_deg = 0.0;
+  double principal_point_belief_turn_sigma_deg = std::numeric_limits<double>::infinity();
+  /// The same sigma per axis as a turn, rad: along u (about the camera's y axis), along v.
+  Eigen::Vector2d principal_point_belief_sigma_rad =
+      Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   double principal_point_ms = 0.0;
 };
 

@@ -16,6 +16,7 @@
 #include "calibd/core/verdict/gates/board_flatness_gate.hpp"
 #include "calibd/core/verdict/gates/camera_scale_gate.hpp"
 #include "calibd/core/verdict/gates/correspondence_count_gate.hpp"
+#include "calibd/core/verdict/gates/error_bound_gate.hpp"
 #include "calibd/core/verdict/gates/precision_gate.hpp"
 #include "calibd/core/verdict/gates/principal_point_gate.hpp"
 #include "calibd/core/verdict/gates/prior_tolerance_gate.hpp"
@@ -37,7 +38,8 @@ struct VerdictConfig : PriorToleranceConfig,
                        TimeOffsetGateConfig,
                        StabilityGateConfig,
                        ReprojectionGateConfig,
-                       ResidualGateConfig {};
+                       ResidualGateConfig,
+                       ErrorBoundGateConfig {};
 
 /// The gates in order: the first that fails gives the reason (`detail` its figures and what to
 /// do); kNone when every gate passes.

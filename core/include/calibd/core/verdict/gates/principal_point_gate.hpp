@@ -3,7 +3,8 @@
 /// Principal point gates (QualityFigures::principal_point_*, principal_point_check.hpp): a
 /// principal point off by d turns the result by about d / f, which the LiDAR cannot see. Refused
 /// as `principal_point_mismatch` when the tags disagree with each other on it and misfit the lens
-/// (a wrong lens model), or when the shift they agree on turns the result too far.
+/// (a wrong lens model), when the shift they agree on turns the result too far, or when they
+/// put it beyond what the intrinsic calibration states (camera.principal_point_sigma_px).
 
 #include "calibd/core/verdict/gate.hpp"
 #include "calibd/core/verdict/principal_point_check.hpp"
@@ -31,9 +32,16 @@ inline constexpr double kPrincipalPointSigmaTurns = 2.0;
 /// much with corners that fit, while a wrong lens leaves them misfit (the same section).
 inline constexpr double kLensMisfitResidualPx = 3.0 * kCornerNoisePx;
 
+/// The tags' shift against the intrinsic calibration's stated sigma and their own, blind spot
+/// included (StatedPrincipalPointChiSquare), is refused beyond this: chi-square with two degrees
+/// of freedom at 99 %.
+inline constexpr double kStatedPrincipalPointChiSquare = 9.21;
+
 /// The tags disagree on the principal point and misfit the lens: a wrong lens model.
 Reason CheckLensModel(const GateInput& in, std::string* detail);
 /// The shift the tags agree on turns the result beyond the gate.
 Reason CheckPrincipalPoint(const GateInput& in, std::string* detail);
+/// The tags put the principal point beyond what the intrinsic calibration states.
+Reason CheckStatedPrincipalPoint(const GateInput& in, std::string* detail);
 
 }  // namespace calibd

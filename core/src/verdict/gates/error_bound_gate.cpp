@@ -1,0 +1,91 @@
+#include "calibd/core/verdict/gates/error_bound_gate.hpp"
+
+#include <cmath>
+
+#include "calibd/core/common/text_format.hpp"
+#include "calibd/core/verdict/measure_quality.hpp"
+#include "calibd/core/verdict/principal_point_check.hpp"
+#include "calibd/core/verdict/verdict.hpp"
+
+namespace calibd {
+
+namespace {
+
+std::string Bound(double x, int decimals) {
+  return std::isfinite(x) ? FixedDecimal(x, decimals) : std::string("unknown");
+}
+
+// The rotation bound's larger part, and what would shrink it.
+std::string RotationCause(const GateInput& in) {
+  const QualityFigures& q = in.quality;
+  const double statistical_deg = kBoundNormQuantile3d * q.rotation_clustered_sigma_deg;
+  if (statistical_deg >= q.rotation_systematic_deg)
+    return "most of it the boards' own scatter (+-" +
+           FixedDecimal(q.rotation_clustered_sigma_deg, 3) +
+           " deg): more boards, closer and at more varied angles";
+  const std::string known =
+      q.principal_point_fitted
+          ? "the tags measure it to +-" + FixedDecimal(q.principal_point_turn_sigma_deg, 2) +
+                " deg of turn, and their corners' own bias could move it " +
+                FixedDecimal(PrincipalPointTurnDeg(q.principal_point_systematic_px, in.camera), 2) +
+                " deg"
+          : "the tags could not measure it";
+  if (q.principal_point_stated_sigma_px > 0.0)
+    return "most of it the camera's principal point, which the LiDAR cannot see (" + known +
+           "; the intrinsic calibration states +-" +
+           FixedDecimal(q.principal_point_stated_sigma_px, 1) +
+           " px): a more precise intrinsic calibration, or still poses with boards close to the "
+           "camera (1.5-3 m) turned 20-40 deg";
+  return "most of it the camera's principal point, which the LiDAR cannot see (" + known +
+         "): set camera.principal_point_sigma_px to the sigma the camera's intrinsic "
+         "calibration states for cx and cy, or add still poses with boards close to the camera "
+         "(1.5-3 m) turned 20-40 deg";
+}
+
+// The translation bound's largest part, and what would shrink it.
+std::string TranslationCause(const QualityFigures& q) {
+  const double statistical_m = kBoundNormQuantile3d * q.translation_clustered_sigma_m;
+  const double range_m = q.translation_bound_range_offset_m;
+  const double scale_m = q.translation_bound_scale_m;
+  const double time_m = q.translation_bound_time_offset_m;
+  if (range_m >= statistical_m && range_m >= scale_m && range_m >= time_m)
+    return "most of it the LiDAR's range offset (" + FixedDecimal(q.lidar_range_offset_m * 100, 1) +
+           " +-" + FixedDecimal(q.lidar_range_offset_sigma_m * 100, 1) +
+           " cm), which boards all ahead of the LiDAR cannot tell from its position along them: "
+           "boards to the sides as well, or still poses around the sensors";
+  if (scale_m >= statistical_m && scale_m >= time_m)
+    return "most of it the boards' distances as the tags measure them (scale +-" +
+           FixedDecimal(q.camera_scale_sigma * 100, 2) +
+           " %): boards closer to the camera, or larger tags";
+  if (time_m >= statistical_m)
+    return "most of it the camera's time offset against the LiDAR while the boards move: "
+           "boards held still, or slower";
+  return "most of it the boards' own scatter (+-" +
+         FixedDecimal(q.translation_clustered_sigma_m * 100, 2) +
+         " cm): more boards, closer and at more varied angles";
+}
+
+}  // namespace
+
+Reason CheckErrorBound(const GateInput& in, std::string* detail) {
+  const QualityFigures& q = in.quality;
+  const VerdictConfig& v = in.config;
+  const bool rotation_out = !(q.rotation_bound_deg <= v.max_rotation_bound_deg);
+  const bool translation_out = !(q.translation_bound_m <= v.max_translation_bound_m);
+  if (!rotation_out && !translation_out) return Reason::kNone;
+  std::string text = "this result's error could reach " + Bound(q.rotation_bound_deg, 2) +
+                     " deg / " + Bound(q.translation_bound_m * 100, 1) +
+                     " cm (its 99 % bound), more than the " +
+                     FixedDecimal(v.max_rotation_bound_deg, 2) + " deg / " +
+                     FixedDecimal(v.max_translation_bound_m * 100, 1) + " cm it must be known to";
+  if (!q.has_error_bound() && !std::isfinite(q.rotation_clustered_sigma_deg))
+    return Refuse(detail, Reason::kPoorObservability,
+                  text +
+                      ": the boards' scatter could not be measured (too few stretches of "
+                      "frames or boards): more boards over a longer session");
+  if (rotation_out) text += "; rotation: " + RotationCause(in);
+  if (translation_out) text += "; translation: " + TranslationCause(q);
+  return Refuse(detail, Reason::kPoorObservability, text);
+}
+
+}  // namespace calibd
