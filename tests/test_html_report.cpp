@@ -81,6 +81,30 @@ TEST(HtmlReportTest, RejectedResultIsRedWithItsReason) {
   EXPECT_NE(html.find("No overlay pictures"), std::string::npos);
 }
 
+// A figure the verdict judged within its sigma is not shown as failed beside an accepted result:
+// a range offset beyond its 1.5 cm tolerance but measured too loosely to be refused for it, a
+// principal point turn beyond 0.30 deg that the tags do not show beyond their sigma (the figures
+// of a real VLP-16 session that the page once marked fail beside UPDATED). A figure the gates
+// refuse is marked.
+TEST(HtmlReportTest, RowsSayWhatTheVerdictDidWithTheirFigure) {
+  tools::HtmlReportInput in = testing::AcceptedReportInput();
+  QualityFigures& q = in.outcome.quality;
+  q.lidar_range_offset_m = 0.0305;
+  q.lidar_range_offset_sigma_m = 0.008;
+  q.principal_point_fitted = true;
+  q.principal_point_shift_px = {21.0, 0.0};
+  q.principal_point_sigma_px = {10.0, 10.0};
+  q.principal_point_systematic_px = {5.0, 5.0};
+  q.principal_point_turn_deg = 0.37;
+  q.principal_point_turn_sigma_deg = 0.24;
+  std::string html = tools::RenderHtmlReport(in);
+  EXPECT_EQ(Count(html, "class=\"fail\""), 0u) << html;
+  EXPECT_NE(html.find("or within 4 sigma"), std::string::npos);
+  q.lidar_range_offset_sigma_m = 0.002;  // measured: the gate refuses it
+  html = tools::RenderHtmlReport(in);
+  EXPECT_EQ(Count(html, "class=\"fail\""), 1u);
+}
+
 TEST(HtmlReportTest, EveryStringIsEscaped) {
   tools::HtmlReportInput in = testing::AcceptedReportInput();
   const std::string evil = "<script>alert('x')</script>\"&";

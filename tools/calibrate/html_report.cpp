@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 
+#include "calibd/core/verdict/verdict.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
 
@@ -466,6 +467,17 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
                      int max_digits) {
     return Row(name, Num(value, value_digits), "<= " + Num(max, max_digits), check(value <= max));
   };
+  // A figure one of the verdict's own gates judges (its estimate against the tolerance and its
+  // sigma, verdict/gates/): the row's result is what those gates decided, so that the table
+  // never shows a fail the verdict did not act on.
+  const GateInput judge{in.camera, v, q, out.delta_rotation_deg, out.delta_translation_m};
+  auto judged = [&](const std::string& name, double value, int value_digits,
+                    const std::string& rule, std::initializer_list<calibd::Gate> gates) {
+    bool ok = true;
+    std::string detail;
+    for (const calibd::Gate g : gates) ok = ok && g(judge, &detail) == Reason::kNone;
+    return Row(name, Num(value, value_digits), rule, check(ok));
+  };
   s += "<section id=\"quality\"><h2>Quality</h2>\n<table><tr><th>figure</th><th>value</th>"
        "<th>gate</th><th>result</th></tr>";
   s += Row("frame pairs used", std::to_string(q.frames_used), ">= " + std::to_string(v.min_frames),
@@ -488,31 +500,47 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += at_most("solves from other starts, translation [m]", q.start_translation_m, 4,
                v.max_start_translation_m, 4);
   if (std::isfinite(q.camera_scale_error))
-    s += at_most("camera vs LiDAR scale error [%] (sigma " + Num(q.camera_scale_sigma * 100.0, 3) +
-                     (q.camera_scale_corrected != 0.0
-                          ? "; corrected for " + Num(q.camera_scale_corrected * 100.0, 3)
-                          : std::string()) +
-                     ")",
-                 std::fabs(q.camera_scale_error) * 100.0, 3, v.max_camera_scale_error * 100.0, 3);
+    s += judged("camera vs LiDAR scale error [%] (sigma " + Num(q.camera_scale_sigma * 100.0, 3) +
+                    (q.camera_scale_corrected != 0.0
+                         ? "; corrected for " + Num(q.camera_scale_corrected * 100.0, 3)
+                         : std::string()) +
+                    ")",
+                std::fabs(q.camera_scale_error) * 100.0, 3,
+                "<= " + Num(v.max_camera_scale_error * 100.0, 3) + " or within " +
+                    Num(kScaleSigmas, 0) + " sigma",
+                {CheckCameraScale});
   if (std::isfinite(q.lidar_range_offset_m))
-    s += at_most("LiDAR range offset [m] (sigma " + Num(q.lidar_range_offset_sigma_m, 4) + ")",
-                 std::fabs(q.lidar_range_offset_m), 4, v.max_lidar_range_offset_m, 4);
+    s += judged("LiDAR range offset [m] (sigma " + Num(q.lidar_range_offset_sigma_m, 4) + ")",
+                std::fabs(q.lidar_range_offset_m), 4,
+                "<= " + Num(v.max_lidar_range_offset_m, 4) + " or within " +
+                    Num(kRangeOffsetSigmas, 0) + " sigma",
+                {CheckRangeOffset});
   if (q.board_bend_id >= 0)
-    s += at_most("most bent board's bend [mm] (board " + std::to_string(q.board_bend_id) +
-                     ", sigma " + Num(q.board_bend_sigma_m * 1e3, 1) + ")",
-                 std::fabs(q.board_bend_m) * 1e3, 1, kMaxBoardBendM * 1e3, 1);
+    s += judged(
+        "most bent board's bend [mm] (board " + std::to_string(q.board_bend_id) + ", sigma " +
+            Num(q.board_bend_sigma_m * 1e3, 1) + ")",
+        std::fabs(q.board_bend_m) * 1e3, 1,
+        "<= " + Num(kMaxBoardBendM * 1e3, 1) + " or within " + Num(kBoardBendSigmas, 0) + " sigma",
+        {CheckBoardFlatness});
   if (q.principal_point_fitted)
-    s += at_most(
+    s += judged(
         "principal point shift as a turn [deg] (" + Num(q.principal_point_shift_px.x(), 1) + ", " +
             Num(q.principal_point_shift_px.y(), 1) + " px, sigma " +
             Num(q.principal_point_sigma_px.x(), 1) + ", " + Num(q.principal_point_sigma_px.y(), 1) +
             ", blind to a common corner bias up to " + Num(q.principal_point_systematic_px.x(), 1) +
             ", " + Num(q.principal_point_systematic_px.y(), 1) + ")",
-        q.principal_point_turn_deg, 3, kPrincipalPointTurnTolerances * v.verify_rotation_deg, 3);
+        q.principal_point_turn_deg, 3,
+        "<= " + Num(kPrincipalPointTurnTolerances * v.verify_rotation_deg, 3) +
+            " or not shown beyond its sigma; within the stated +-" +
+            Num(q.principal_point_stated_sigma_px, 1) + " px",
+        {CheckLensModel, CheckPrincipalPoint, CheckStatedPrincipalPoint});
   if (q.time_offset_fitted)
-    s += at_most("camera time offset [ms] (sigma " + Num(q.time_offset_sigma_s * 1e3, 1) +
-                     ", corrected for " + Num(q.time_offset_corrected_s * 1e3, 1) + ")",
-                 std::fabs(q.time_offset_s) * 1e3, 1, v.max_time_offset_s * 1e3, 1);
+    s += judged("camera time offset [ms] (sigma " + Num(q.time_offset_sigma_s * 1e3, 1) +
+                    ", corrected for " + Num(q.time_offset_corrected_s * 1e3, 1) + ")",
+                std::fabs(q.time_offset_s) * 1e3, 1,
+                "<= " + Num(v.max_time_offset_s * 1e3, 1) + " or within " +
+                    Num(kTimeOffsetSigmas, 0) + " sigma",
+                {CheckTimeOffset});
   s += at_most("reprojection error mean [px] (p95 " + Num(q.reprojection_p95_px, 2) + ")",
                q.reprojection_mean_px, 2, ReprojectionGate(in), 2);
   s += at_most("LiDAR residual RMS [m]", q.residual_rms_m, 4, v.max_residual_rms_m, 4);

@@ -52,7 +52,8 @@ struct ReportProvenance {
 /// Everything the page shows. A value type.
 struct HtmlReportInput {
   CalibrationOutcome outcome;
-  VerdictConfig gates;  ///< the quality gates the verdict applied (EngineConfig::verdict)
+  VerdictConfig gates;      ///< the quality gates the verdict applied (EngineConfig::verdict)
+  CameraIntrinsics camera;  ///< the intrinsics the gates judged with (CalibConfig::camera)
   std::string camera_frame = "camera", lidar_frame = "lidar";
   std::vector<std::string> board_names;  ///< per configured board, e.g. "board 3 (tag36h11 #3)"
   std::vector<BoardReprojection> reprojection;

@@ -372,6 +372,7 @@ bool WriteHtml(const Options& o, const CalibrationRun& run, const CalibConfig& c
   const auto t_html = SteadyClock::now();
   html.outcome = run.outcome;
   html.gates = engine.verdict;
+  html.camera = config.camera;
   html.camera_frame = config.camera_frame;
   html.lidar_frame = config.lidar_frame;
   html.board_names = tools::BoardNames(config.boards);
