@@ -18,6 +18,8 @@ mkdir -p "$shared" || exit 2
 shared=$(cd "$shared" && pwd -P)
 rm -f "$shared/soak.txt" "$shared/soak.json" "$shared/soak-progress.txt"
 job=$shared/soak-job.sh
+# --max-translation-bound-m: 60 pairs of small tags bound their translation beyond the default
+# 3 cm (kShortSessionTranslationBoundM, tests/short_session.hpp).
 cat >"$job" <<JOB
 #!/bin/bash
 # LCM udpm on the guest's loopback, with receive buffers for whole sweeps (as agent_diag_vmtest).

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "calibd/core/common/geometry.hpp"
+
 namespace calibd {
 
 nlohmann::json QualityJson(const QualityFigures& q) {
@@ -65,10 +67,11 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["principal_point_stated_sigma_px"] = q.principal_point_stated_sigma_px;
   j["principal_point_stated_chi2"] = q.principal_point_stated_chi2;
   j["principal_point_belief_turn_deg"] = q.principal_point_belief_turn_deg;
+  const double belief_turn_sigma_deg =
+      std::hypot(q.principal_point_belief_sigma_rad.x(), q.principal_point_belief_sigma_rad.y()) *
+      kRad2Deg;
   j["principal_point_belief_turn_sigma_deg"] =
-      std::isfinite(q.principal_point_belief_turn_sigma_deg)
-          ? nlohmann::json(q.principal_point_belief_turn_sigma_deg)
-          : nullptr;
+      std::isfinite(belief_turn_sigma_deg) ? nlohmann::json(belief_turn_sigma_deg) : nullptr;
   j["principal_point_ms"] = q.principal_point_ms;
   // The predicted 99 % bound on the result's own error and its parts (ErrorBound); null where
   // the clustered covariance could not be estimated.

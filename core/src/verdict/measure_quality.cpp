@@ -132,7 +132,6 @@ void PrincipalPointFigures(const CalibConfig& config, const SessionObservations&
       StatedPrincipalPointChiSquare(pp, config.principal_point_sigma_px);
   const PrincipalPointBelief belief = CombinePrincipalPoint(pp, config.principal_point_sigma_px);
   q.principal_point_belief_turn_deg = PrincipalPointTurnDeg(belief.shift_px, config.camera);
-  q.principal_point_belief_turn_sigma_deg = PrincipalPointTurnDeg(belief.sigma_px, config.camera);
   q.principal_point_belief_sigma_rad = {belief.sigma_px.x() / config.camera.fx,
                                         belief.sigma_px.y() / config.camera.fy};
   q.principal_point_ms = MsSince(t_pp);

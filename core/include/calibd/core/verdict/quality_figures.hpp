@@ -43,8 +43,9 @@ struct QualityFigures {
   double translation_bound_range_offset_m = 0.0;
   double translation_bound_scale_m = 0.0;
   double translation_bound_time_offset_m = 0.0;
-  /// The predicted bound on this result's own error (99 %): the clustered covariance's worst
-  /// direction at the 99 % quantile of a 3-D error's norm, plus the systematic terms.
+  /// The predicted bound on this result's own error (99 %): the systematic terms' estimates
+  /// plus the 99 % quantile of the norm of the error the clustered covariance and their sigmas
+  /// give (ErrorBound in measure_quality.hpp).
   double rotation_bound_deg = std::numeric_limits<double>::infinity();
   double translation_bound_m = std::numeric_limits<double>::infinity();
   /// Whether the session bounded its error at all (both bounds finite).
@@ -114,12 +115,11 @@ struct QualityFigures {
   /// The tags' shift against that sigma and their own (StatedPrincipalPointChiSquare).
   double principal_point_stated_chi2 = 0.0;
   /// What the result takes the principal point to be (CombinePrincipalPoint: the tags, their
-  /// blind spot and the stated sigma), as the turn it gives the result and that turn's sigma,
-  /// deg: the error bound's rotation terms. Infinite sigma: known neither from the tags nor from
-  /// the intrinsic calibration.
+  /// blind spot and the stated sigma), as the turn it gives the result (deg) and that shift's
+  /// sigma per axis as a turn (rad: along u, about the camera's y axis; along v): the error
+  /// bound's rotation terms. Infinite sigma: known neither from the tags nor from the intrinsic
+  /// calibration.
   double principal_point_belief_turn_deg = 0.0;
-  double principal_point_belief_turn_sigma_deg = std::numeric_limits<double>::infinity();
-  /// The same sigma per axis as a turn, rad: along u (about the camera's y axis), along v.
   Eigen::Vector2d principal_point_belief_sigma_rad =
       Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   double principal_point_ms = 0.0;
