@@ -8,10 +8,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <random>
 
 #include "calibd/core/camera/camera_pnp.hpp"
 #include "calibd/core/solve/board_box_joint_cost.hpp"
+#include "calibd/core/solve/board_pose_refinement.hpp"
 #include "calibd/core/solve/box_cost.hpp"
 #include "calibd/core/solve/compressed_box_cost.hpp"
 #include "calibd/core/solve/corner_reprojection_cost.hpp"
@@ -343,6 +345,69 @@ TEST(CornerCostTest, ResidualIsTheScaledNormalisedErrorAndJacobianMatches) {
   // Behind the camera: no residual (Ceres then rejects the step).
   PoseToParameters(PoseFromXyzRpy({0, 0, -8.0}, {0, 0, 0}), b);
   EXPECT_FALSE(cost.Evaluate(p, r, nullptr));
+}
+
+// RefineBoardPose minimises with ceres::TinySolver what a ceres::Problem of the same blocks (the
+// joint box cost with the extrinsic held, the corners under HuberLoss, PoseManifold) minimises:
+// from a start degrees off, both end at the same pose. One corner's detection is 40 px off, so
+// that the Huber loss is active on it.
+TEST(BoardPoseRefinementTest, EndsWhereACeresProblemOfTheSameBlocksEnds) {
+  const Synthetic s = MakeSynthetic(47, 1, 0.02);
+  const CameraModel camera{CameraIntrinsics{}};
+  const BoardObservation& o = s.set.observations[1];
+  const double weight = 0.02 / 0.25, huber = 2.0 * weight;
+  const double scale = camera.intrinsics().fx * weight;
+  const BoardBoxJointCost box(s.set.points.data() + o.first_point, o.num_points, 1, 0.3, 0.3, 0.0,
+                              0.05);
+  double ext[7];
+  PoseToParameters(s.T_camera_lidar, ext);
+  std::vector<std::unique_ptr<CornerReprojectionCost>> corners;
+  const auto tag_corners = s.boards[1].TagCornersInBoard();
+  for (int c = 0; c < 4; ++c) {
+    Eigen::Vector2d xy;
+    const Eigen::Vector2d px =
+        o.corners_px[c] + (c == 2 ? Eigen::Vector2d(40.0, 0.0) : Eigen::Vector2d::Zero());
+    ASSERT_TRUE(camera.Unproject(px, &xy));
+    corners.push_back(std::make_unique<CornerReprojectionCost>(tag_corners[c], xy, scale));
+  }
+  const Pose start = Perturb(o.T_camera_board, 3.0, 0.1, 12);
+
+  BoardPoseTerms terms;
+  terms.box = &box;
+  terms.T_camera_lidar = ext;
+  terms.corner_huber = huber;
+  for (const auto& c : corners) terms.corners[terms.num_corners++] = c.get();
+  Pose tiny = start;
+  ASSERT_TRUE(RefineBoardPose(terms, 50, 1e-12, &tiny));
+
+  ceres::Problem::Options options;
+  options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(options);
+  PoseManifold manifold;
+  double b[7];
+  PoseToParameters(start, b);
+  problem.AddParameterBlock(ext, 7);
+  problem.SetParameterBlockConstant(ext);
+  problem.AddParameterBlock(b, 7, &manifold);
+  problem.AddResidualBlock(const_cast<BoardBoxJointCost*>(&box), nullptr, ext, b);
+  for (const auto& c : corners) problem.AddResidualBlock(c.get(), new ceres::HuberLoss(huber), b);
+  ceres::Solver::Options solver;
+  solver.max_num_iterations = 50;
+  solver.function_tolerance = 1e-12;
+  solver.parameter_tolerance = 1e-12;
+  solver.gradient_tolerance = 1e-12;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  ASSERT_TRUE(summary.IsSolutionUsable());
+  const Pose reference = PoseFromParameters(b);
+
+  EXPECT_LT(RotationAngle(tiny.linear(), reference.linear()) * kRad2Deg, 1e-5);
+  EXPECT_LT((tiny.translation() - reference.translation()).norm(), 1e-6);
+  // The start was far enough for the solve to matter, and the outlying corner did not pull the
+  // pose away from the true one.
+  EXPECT_GT(RotationAngle(start.linear(), reference.linear()) * kRad2Deg, 1.0);
+  EXPECT_LT((reference.translation() - o.T_camera_board.translation()).norm(), 0.02);
 }
 
 TEST(DirectOptimizerTest, BoardPoseRefinementRemovesCameraPoseNoise) {

@@ -118,12 +118,15 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
 
   // 5. Quality figures, then the verdict's gates (verdict.hpp).
   const auto t_q = SteadyClock::now();
-  MeasureQuality(config, session, projection, corr, solution.boards, solution.direct, &q);
   const StabilityChecks checks{engine.stability_runs, engine.method == EngineConfig::Method::kDirect
                                                           ? engine.start_checks
                                                           : 0};
+  // The figures of the solution share the threads with its re-solves.
+  const auto measure = [&] {
+    MeasureQuality(config, session, projection, corr, solution.boards, solution.direct, 1, &q);
+  };
   MeasureStabilityAndReprojection(checks, engine.direct, engine.verdict, solution.boards, camera,
-                                  corr, solution.direct, &q, reprojection_px);
+                                  corr, solution.direct, measure, &q, reprojection_px);
   out.quality_ms = MsSince(t_q);
   const GateInput judged{config.camera, engine.verdict, q, out.delta_rotation_deg,
                          out.delta_translation_m};

@@ -79,7 +79,8 @@ Reason SearchGrid(const CalibConfig& config, const SessionObservations& session,
                   const RangeImage& projection, const EngineConfig& engine,
                   GridSearchResult* result, ObservationSet* corr, std::string* detail) {
   GridSearch grid(engine.grid, projection, config.boards);
-  *result = grid.Run(session, config.prior_T_camera_lidar, corr, engine.max_solve_frames);
+  *result = grid.Run(session, config.prior_T_camera_lidar, corr, engine.max_solve_frames,
+                     engine.direct.threads);
   if (result->status != GridSearchResult::Status::kOk) {
     const BoardSwap swap = FindSwappedBoards(engine.grid, projection, config.boards, session,
                                              config.prior_T_camera_lidar, engine.max_solve_frames);

@@ -1,6 +1,7 @@
 #pragma once
 // Private to the box costs: the per-point signed hinge of paper Eq. 1/3 with its per-point Huber
-// loss, shared by BoardBoxCost (board pose fixed) and BoardBoxJointCost (board pose refined).
+// loss, shared by BoardBoxCost (board pose fixed) and BoardBoxJointCost (board pose refined); the
+// Huber loss also serves the board-pose refinement's corners.
 
 #include <Eigen/Core>
 #include <cmath>
@@ -25,20 +26,28 @@ inline Eigen::Vector3d HingeResidual(const Eigen::Vector3d& p_board,
   return r;
 }
 
+/// Huber's loss (Ceres' HuberLoss: rho(s) = s up to huber^2, 2 huber sqrt(s) - huber^2 beyond)
+/// on a residual r of norm n, as a residual g(n) r / n with g = sqrt(rho(n^2)), so that its
+/// squared norm is exactly rho: `across` = g / n scales r, and its Jacobian is
+/// [along u u^T + across (I - u u^T)] dr with u = r / n and `along` = g'(n). Both 1 within
+/// `huber` (<= 0: no loss).
+inline void HuberScales(double n, double huber, double* along, double* across) {
+  *along = *across = 1.0;
+  if (!(huber > 0.0 && n > huber)) return;
+  const double g = std::sqrt(2.0 * huber * n - huber * huber);
+  *across = g / n;
+  *along = huber / g;  // g'(n) = rho'(n^2) n / g with rho' = huber / n
+}
+
 /// The robust residual of a point and d(residual)/d(p_board). The signed hinge has slope 1 where
-/// active and 0 inside the box. Huber on the residual norm n: the residual becomes g(n) r/n with
-/// g = sqrt(rho(n^2)), so its squared norm is exactly rho; its Jacobian is
-/// [g' u u^T + (g/n)(I - u u^T)] diag(active).
+/// active and 0 inside the box; Huber on the residual norm (HuberScales) makes the Jacobian
+/// [along u u^T + across (I - u u^T)] diag(active).
 inline void RobustHinge(const Eigen::Vector3d& p_board, const Eigen::Vector3d& half_extent,
                         double huber, Eigen::Vector3d* residual, Eigen::Matrix3d* d_residual) {
   const Eigen::Vector3d r = HingeResidual(p_board, half_extent);
   const double n = r.norm();
   double scale_along = 1.0, scale_across = 1.0;
-  if (huber > 0.0 && n > huber) {
-    const double g = std::sqrt(2.0 * huber * n - huber * huber);
-    scale_across = g / n;
-    scale_along = huber / g;  // g'(n) = rho'(n^2) n / g with rho' = huber / n
-  }
+  HuberScales(n, huber, &scale_along, &scale_across);
   *residual = scale_across * r;
   if (d_residual == nullptr) return;
   const Eigen::Vector3d u = n > 0.0 ? Eigen::Vector3d(r / n) : Eigen::Vector3d::Zero();

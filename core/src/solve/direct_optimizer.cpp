@@ -9,9 +9,11 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <utility>
 
 #include "calibd/core/solve/board_box_joint_cost.hpp"
+#include "calibd/core/solve/board_pose_refinement.hpp"
 #include "calibd/core/solve/compressed_box_cost.hpp"
 #include "calibd/core/solve/corner_reprojection_cost.hpp"
 #include "calibd/core/solve/pose_manifold.hpp"
@@ -58,49 +60,39 @@ ceres::Solver::Options SolverOptions(const DirectOptimizerConfig& config) {
 }
 
 // Board poses refined one by one with the extrinsic held fixed: each board's LiDAR points (box
-// cost through T_camera_lidar) and its tag corners, a 6-unknown problem per board. Boards
-// [begin, end) of `set`; independent of the others, so ranges run on their own threads.
+// cost through T_camera_lidar) and its tag corners, a 6-unknown problem per board
+// (board_pose_refinement.hpp). Boards [begin, end) of `set`; independent of the others, so ranges
+// run on their own threads.
 void RefineBoardPoses(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
                       const std::vector<char>* use, const DirectOptimizerConfig& config,
                       const CameraModel& camera, const Pose& T_camera_lidar, size_t begin,
                       size_t end, std::vector<Pose>* T_camera_board) {
-  PoseManifold manifold;
+  constexpr int kMaxIterations = 20;
+  constexpr double kFunctionTolerance = 1e-8;
   const double weight = config.lidar_sigma_m / config.corner_sigma_px;  // m per px
   const double scale = camera.intrinsics().fx * weight;
   double ext[7];  // held constant
   PoseToParameters(T_camera_lidar, ext);
-  ceres::Solver::Options options = SolverOptions(config);
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.num_threads = 1;
-  options.max_num_iterations = 20;
-  options.function_tolerance = 1e-8;
   for (size_t k = begin; k < end; ++k) {
     if (!Used(boards, set, use, k)) continue;
     const BoardObservation& o = set.observations[k];
     const BoardGeometry& g = boards[o.board_index];
-    ceres::Problem::Options problem_options;
-    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    ceres::Problem problem(problem_options);
-    double b[7];
-    PoseToParameters((*T_camera_board)[k], b);
-    problem.AddParameterBlock(ext, 7);
-    problem.SetParameterBlockConstant(ext);
-    problem.AddParameterBlock(b, 7, &manifold);
-    problem.AddResidualBlock(
-        new BoardBoxJointCost(set.points.data() + o.first_point, o.num_points,
-                              StrideOf(o, config.joint_points_per_observation), g.width_m / 2.0,
-                              g.height_m / 2.0, config.alpha_m, config.huber_m),
-        nullptr, ext, b);
-    const auto corners = g.TagCornersInBoard();
+    const BoardBoxJointCost box(set.points.data() + o.first_point, o.num_points,
+                                StrideOf(o, config.joint_points_per_observation), g.width_m / 2.0,
+                                g.height_m / 2.0, config.alpha_m, config.huber_m);
+    BoardPoseTerms terms;
+    terms.box = &box;
+    terms.T_camera_lidar = ext;
+    terms.corner_huber = config.corner_huber_px * weight;
+    std::array<std::optional<CornerReprojectionCost>, 4> corners;
+    const auto tag_corners = g.TagCornersInBoard();
     for (int c = 0; c < 4; ++c) {
       Eigen::Vector2d xy;
       if (!camera.Unproject(o.corners_px[c], &xy)) continue;
-      problem.AddResidualBlock(new CornerReprojectionCost(corners[c], xy, scale),
-                               new ceres::HuberLoss(config.corner_huber_px * weight), b);
+      corners[static_cast<size_t>(c)].emplace(tag_corners[c], xy, scale);
+      terms.corners[static_cast<size_t>(terms.num_corners++)] = &*corners[static_cast<size_t>(c)];
     }
-    ceres::Solver::Summary summary;
-    ceres::Solve(options, &problem, &summary);
-    if (summary.IsSolutionUsable()) (*T_camera_board)[k] = PoseFromParameters(b);
+    RefineBoardPose(terms, kMaxIterations, kFunctionTolerance, &(*T_camera_board)[k]);
   }
 }
 

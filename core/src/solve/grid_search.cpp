@@ -4,7 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <vector>
 
+#include "calibd/core/common/parallel_for.hpp"
 #include "calibd/core/common/stopwatch.hpp"
 #include "calibd/core/common/validation.hpp"
 
@@ -238,7 +240,7 @@ long GridSearch::CountBruteForce(const SessionObservations& s, const Pose& T_cam
 }
 
 GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_prior,
-                                 ObservationSet* correspondences, int max_frames) {
+                                 ObservationSet* correspondences, int max_frames, int threads) {
   const auto t0 = std::chrono::steady_clock::now();
   GridSearchResult result;
   result.T_camera_lidar = T_prior;
@@ -264,26 +266,38 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
 
   // One pass over a cube of perturbations centred on `centre`; candidates in a fixed order, a tie
   // keeps the one closest to the centre (then the earlier one): deterministic, biased to the prior.
+  // The candidates are counted in slices on `threads` threads, then compared in their order.
   Eigen::Vector3d best_rpy = Eigen::Vector3d::Zero();
   long best_count = -1;
+  std::vector<long> counts;
   auto pass = [&](const Eigen::Vector3d& centre, double range_deg, double step_deg) {
     const int n = static_cast<int>(std::floor(range_deg / step_deg + 1e-9));
+    const int side = 2 * n + 1, candidates = side * side * side;
+    const auto offset = [&](int c) -> Eigen::Vector3d {
+      const int i = c / (side * side) - n, j = (c / side) % side - n, k = c % side - n;
+      return Eigen::Vector3d(i * step_deg * kDeg2Rad, j * step_deg * kDeg2Rad,
+                             k * step_deg * kDeg2Rad);
+    };
+    counts.assign(static_cast<size_t>(candidates), 0);
+    const int slices = 4 * std::max(1, threads);
+    ParallelFor(threads, slices, [&](int, int slice) {
+      for (int c = candidates * slice / slices; c < candidates * (slice + 1) / slices; ++c)
+        counts[static_cast<size_t>(c)] =
+            CountFast(s, PerturbExtrinsic(T_prior, centre + offset(c)), nullptr, stride);
+    });
+    result.candidates += candidates;
     Eigen::Vector3d pass_best = centre;
     long pass_count = -1;
     double pass_norm = 0.0;
-    for (int i = -n; i <= n; ++i)
-      for (int j = -n; j <= n; ++j)
-        for (int k = -n; k <= n; ++k) {
-          const Eigen::Vector3d d = Eigen::Vector3d(i, j, k) * step_deg * kDeg2Rad;
-          const Eigen::Vector3d rpy = centre + d;
-          const long count = CountFast(s, PerturbExtrinsic(T_prior, rpy), nullptr, stride);
-          ++result.candidates;
-          if (count > pass_count || (count == pass_count && d.norm() < pass_norm)) {
-            pass_count = count;
-            pass_best = rpy;
-            pass_norm = d.norm();
-          }
-        }
+    for (int c = 0; c < candidates; ++c) {
+      const Eigen::Vector3d d = offset(c);
+      const long count = counts[static_cast<size_t>(c)];
+      if (count > pass_count || (count == pass_count && d.norm() < pass_norm)) {
+        pass_count = count;
+        pass_best = centre + d;
+        pass_norm = d.norm();
+      }
+    }
     if (pass_count > best_count) {
       best_count = pass_count;
       best_rpy = pass_best;

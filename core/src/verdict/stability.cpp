@@ -49,7 +49,8 @@ void MeasureStabilityAndReprojection(const StabilityChecks& checks,
                                      const ReprojectionGateConfig& gate,
                                      const std::vector<BoardGeometry>& boards,
                                      const CameraModel& camera, const ObservationSet& corr,
-                                     const DirectResult& direct, QualityFigures* q,
+                                     const DirectResult& direct,
+                                     const std::function<void()>& alongside, QualityFigures* q,
                                      std::vector<double>* reprojection_px) {
   const Pose& T = direct.T_camera_lidar;
   const int runs = std::max(0, checks.half_data_runs);
@@ -64,20 +65,25 @@ void MeasureStabilityAndReprojection(const StabilityChecks& checks,
   const size_t n = corr.observations.size();
   const int chunks = 4 * threads;
   std::vector<double> errors_px(4 * n);
-  // Tasks [0, runs): re-solves on random halves (deterministic seed) from the full solution with
-  // its board poses held, i.e. how far the extrinsic moves when half the boards are left out;
-  // tasks [runs, runs + starts): solves of every board from other starts, board poses refined
-  // again from the camera's (does the solve end in the same minimum?); then
-  // [runs + starts, runs + starts + chunks): reprojection errors of a slice of the observations.
-  ParallelFor(threads, runs + starts + chunks, [&](int, int task) {
-    if (task < runs) {
-      half[task] = ResolveWithHeldBoards(boards, corr, T, one, direct.T_camera_board, &use[task]);
-    } else if (task < runs + starts) {
-      const int k = task - runs;
-      started[static_cast<size_t>(k)] = OptimizeDirect(
-          boards, corr, StartCheckPose(T, k), one, DirectSolveOptions::RefiningBoardPoses(camera));
+  // Longest first, so that the workers finish together: tasks [0, starts): solves of every board
+  // from other starts, board poses refined again from the camera's (does the solve end in the
+  // same minimum?); task `starts`: `alongside` (an empty task without it); tasks
+  // [first_half, first_half + runs): re-solves on random halves (deterministic seed) from the full
+  // solution with its board poses held, i.e. how far the extrinsic moves when half the boards are
+  // left out; then `chunks` tasks: reprojection errors of a slice of the observations each.
+  const int first_half = starts + 1, first_chunk = first_half + runs;
+  ParallelFor(threads, first_chunk + chunks, [&](int, int task) {
+    if (task < starts) {
+      started[static_cast<size_t>(task)] =
+          OptimizeDirect(boards, corr, StartCheckPose(T, task), one,
+                         DirectSolveOptions::RefiningBoardPoses(camera));
+    } else if (task == starts) {
+      if (alongside) alongside();
+    } else if (task < first_chunk) {
+      const int k = task - first_half;
+      half[k] = ResolveWithHeldBoards(boards, corr, T, one, direct.T_camera_board, &use[k]);
     } else {
-      const size_t c = static_cast<size_t>(task - runs - starts);
+      const size_t c = static_cast<size_t>(task - first_chunk);
       ReprojectionErrors(boards, camera, corr, T, solver, direct.T_camera_board, n * c / chunks,
                          n * (c + 1) / chunks, errors_px.data());
     }

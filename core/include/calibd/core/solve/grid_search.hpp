@@ -95,9 +95,10 @@ class GridSearch {
   /// it receives one observation per camera board matched to the LiDAR cluster with the most
   /// points in its region (each cluster used once). Only `max_frames` frame pairs spread evenly
   /// over the session take part, in the search and in the correspondences (0: every frame; see
-  /// SpreadFrameSelected): its memory and time do not grow with a longer session.
+  /// SpreadFrameSelected): its memory and time do not grow with a longer session. The candidates
+  /// are counted on `threads` threads; the result does not depend on how many.
   GridSearchResult Run(const SessionObservations& session, const Pose& T_camera_lidar_prior,
-                       ObservationSet* correspondences, int max_frames = 0);
+                       ObservationSet* correspondences, int max_frames = 0, int threads = 1);
 
   /// Points of `session` inside the regions for one extrinsic, by brute force over every point
   /// (an oracle for tests; Run uses per-cluster integral images).

@@ -5,6 +5,7 @@
 /// scale, range offset, ring elevations, board flatness, principal point, time offset), the
 /// planes' conditioning, and the stability and reprojection figures.
 
+#include <functional>
 #include <vector>
 
 #include "calibd/core/camera/camera_model.hpp"
@@ -25,11 +26,12 @@ void CoverageFigures(const CalibConfig& config, const ObservationSet& set, Quali
 
 /// The quality figures of a solution (`direct`, over `boards` as the solve saw them): its formal
 /// sigmas and residual, the camera's scale and the LiDAR's range offset, ring elevations, board
-/// flatness, the principal point, the time offset left and the planes' conditioning.
+/// flatness, the principal point, the time offset left and the planes' conditioning. The
+/// principal point's fits share `threads` threads.
 void MeasureQuality(const CalibConfig& config, const SessionObservations& session,
                     const RangeImage& projection, const ObservationSet& corr,
                     const std::vector<BoardGeometry>& boards, const DirectResult& direct,
-                    QualityFigures* q);
+                    int threads, QualityFigures* q);
 
 /// How much wider the clustered covariance is taken for the bound, as a variance factor, when it
 /// rests on `clusters` stretches of frames: a covariance estimated from G clusters has G - 1
@@ -82,14 +84,16 @@ struct StabilityChecks {
 
 /// The stability figures (re-solves on random halves, solves from other starts) and the
 /// reprojection errors (each board fitted alone, started from its refined pose): independent tasks
-/// shared out over the solver's threads (`solver.threads`). `reprojection_px`, when given, gets
-/// each correspondence's mean corner error.
+/// shared out over the solver's threads (`solver.threads`). `alongside`, when given, runs as one
+/// more of those tasks (MeasureQuality, which writes other figures of `q`), so that it shares the
+/// threads too. `reprojection_px`, when given, gets each correspondence's mean corner error.
 void MeasureStabilityAndReprojection(const StabilityChecks& checks,
                                      const DirectOptimizerConfig& solver,
                                      const ReprojectionGateConfig& gate,
                                      const std::vector<BoardGeometry>& boards,
                                      const CameraModel& camera, const ObservationSet& corr,
-                                     const DirectResult& direct, QualityFigures* q,
+                                     const DirectResult& direct,
+                                     const std::function<void()>& alongside, QualityFigures* q,
                                      std::vector<double>* reprojection_px);
 
 }  // namespace calibd
