@@ -78,7 +78,7 @@ void ExpectAgentAndEngineDefaults(const AgentConfig& c) {
   EXPECT_EQ(v.min_plane_conditioning, dv.min_plane_conditioning);
   EXPECT_EQ(v.max_rotation_spread_deg, dv.max_rotation_spread_deg);
   EXPECT_EQ(v.max_translation_spread_m, dv.max_translation_spread_m);
-  EXPECT_EQ(v.max_reprojection_mean_px, dv.max_reprojection_mean_px);
+  EXPECT_EQ(v.max_reprojection_mean_deg, dv.max_reprojection_mean_deg);
   EXPECT_EQ(v.max_residual_rms_m, dv.max_residual_rms_m);
 }
 
@@ -188,7 +188,7 @@ engine:
     min_plane_conditioning: 2e-5
     max_rotation_spread_deg: 0.3
     max_translation_spread_m: 0.04
-    max_reprojection_mean_px: 5
+    max_reprojection_mean_deg: 0.1
     max_residual_rms_m: 0.06
 )";
   AgentConfig c;
@@ -235,7 +235,7 @@ engine:
   EXPECT_EQ(e.verdict.min_plane_conditioning, 2e-5);
   EXPECT_EQ(e.verdict.max_rotation_spread_deg, 0.3);
   EXPECT_EQ(e.verdict.max_translation_spread_m, 0.04);
-  EXPECT_EQ(e.verdict.max_reprojection_mean_px, 5.0);
+  EXPECT_EQ(e.verdict.max_reprojection_mean_deg, 0.1);
   EXPECT_EQ(e.verdict.max_residual_rms_m, 0.06);
 }
 
@@ -488,6 +488,20 @@ TEST(AgentConfigTest, UnknownKeySuggestsTheNearestKnownOne) {
   std::string error;
   EXPECT_FALSE(ParseAgentConfigYaml(yaml, &c, &error));
   EXPECT_EQ(error, "agent.max_frame: unknown key (did you mean max_frames?)");
+}
+
+// A key an older version read, whose meaning changed: refused with what replaced it, not taken
+// silently nor called unknown.
+TEST(AgentConfigTest, AReplacedKeyNamesItsReplacement) {
+  std::string yaml = ReadText(kDefaultConfigPath);
+  const std::string line = "    max_reprojection_mean_deg: 0.14\n";
+  ASSERT_NE(yaml.find(line), std::string::npos);
+  yaml.replace(yaml.find(line), line.size(), "    max_reprojection_mean_px: 8\n");
+  AgentConfig c;
+  std::string error;
+  EXPECT_FALSE(ParseAgentConfigYaml(yaml, &c, &error));
+  EXPECT_EQ(error.rfind("engine.verdict.max_reprojection_mean_px: no longer read", 0), 0u) << error;
+  EXPECT_NE(error.find("max_reprojection_mean_deg"), std::string::npos) << error;
 }
 
 }  // namespace

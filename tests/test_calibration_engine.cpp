@@ -196,7 +196,8 @@ TEST(CalibrationEngineTest, TheReprojectionGateFollowsTheLidarsPointSpacing) {
   EXPECT_LT(RotationAngle(out.T_camera_lidar.linear(), truth.linear()) / kDeg2Rad, 0.15);
   EXPECT_LT((out.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
   const VerdictConfig v;
-  EXPECT_GT(q.reprojection_mean_px, v.max_reprojection_mean_px);
+  EXPECT_GT(q.reprojection_mean_px,
+            ReprojectionGatePx(v, ReprojectionFocalPx(sparse->config.camera), 0.0));
   EXPECT_DOUBLE_EQ(q.reprojection_gate_px, kReprojectionSpacingShare * q.lidar_spacing_px);
 }
 
@@ -451,8 +452,9 @@ TEST(CalibrationEngineDefaultDriveTest, PerCorrespondenceReprojectionErrorsAreTh
               0.05 * out.quality.reprojection_mean_px);
   // An OT128's drive resolves the boards finely: the configured gate holds.
   const VerdictConfig v;
-  EXPECT_DOUBLE_EQ(out.quality.reprojection_gate_px, v.max_reprojection_mean_px);
-  EXPECT_LT(kReprojectionSpacingShare * out.quality.lidar_spacing_px, v.max_reprojection_mean_px);
+  const double angle_px = ReprojectionGatePx(v, ReprojectionFocalPx(r->config.camera), 0.0);
+  EXPECT_DOUBLE_EQ(out.quality.reprojection_gate_px, angle_px);
+  EXPECT_LT(kReprojectionSpacingShare * out.quality.lidar_spacing_px, angle_px);
   // Stopped before the solve: none.
   SessionObservations camera_only = r->obs;
   camera_only.lidar.clear();

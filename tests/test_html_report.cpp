@@ -9,6 +9,7 @@
 #include <string>
 
 #include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/common/text_format.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "html_report.hpp"
 #include "html_report_inputs.hpp"
@@ -43,7 +44,10 @@ TEST(HtmlReportTest, EverySectionIsPresent) {
   EXPECT_NE(html.find("T_camera_lidar"), std::string::npos);
   EXPECT_NE(html.find("T_lidar_camera (inverse)"), std::string::npos);
   EXPECT_NE(html.find("quaternion x y z w"), std::string::npos);
-  EXPECT_NE(html.find("8.00 px"), std::string::npos);
+  // The reprojection gate as configured (an angle) and in px at this camera.
+  EXPECT_NE(html.find("0.140 deg ("), std::string::npos);
+  const double angle_px = ReprojectionGatePx(in.gates, ReprojectionFocalPx(in.camera), 0.0);
+  EXPECT_NE(html.find(FixedDecimal(angle_px, 2) + " px at the focal length"), std::string::npos);
   // Two plots: one bar per board (with its name) and one point per finite correspondence.
   EXPECT_EQ(Count(html, "<svg "), 2u);
   for (const auto& name : in.board_names) EXPECT_NE(html.find(name), std::string::npos);

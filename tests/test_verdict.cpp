@@ -226,8 +226,34 @@ TEST(VerdictTest, AFigureAtItsGatePasses) {
 
 TEST(VerdictTest, TheReprojectionGateWidensForASparseLidar) {
   const ReprojectionGateConfig c;
-  EXPECT_EQ(ReprojectionGatePx(c, 1.0), c.max_reprojection_mean_px);
-  EXPECT_DOUBLE_EQ(ReprojectionGatePx(c, 40.0), kReprojectionSpacingShare * 40.0);
+  EXPECT_DOUBLE_EQ(ReprojectionGatePx(c, 3325.0, 1.0),
+                   3325.0 * c.max_reprojection_mean_deg * kDeg2Rad);
+  EXPECT_DOUBLE_EQ(ReprojectionGatePx(c, 3325.0, 40.0), kReprojectionSpacingShare * 40.0);
+}
+
+// The gate is an angle: the same boards seen through a lens of a third of the focal length miss
+// by a third of the pixels, and are judged the same. At fx = 3325 px it is the 8 px it was.
+TEST(VerdictTest, TheReprojectionGateScalesWithTheFocalLength) {
+  const ReprojectionGateConfig c;
+  EXPECT_NEAR(ReprojectionGatePx(c, 3325.0, 0.0), 8.1, 0.05);
+  EXPECT_DOUBLE_EQ(ReprojectionGatePx(c, 1100.0, 0.0) / ReprojectionGatePx(c, 3300.0, 0.0),
+                   1.0 / 3.0);
+  CameraIntrinsics long_lens, short_lens;
+  long_lens.fx = long_lens.fy = 3300.0;
+  short_lens.fx = short_lens.fy = 1100.0;
+  EXPECT_DOUBLE_EQ(ReprojectionFocalPx(short_lens), 1100.0);
+  for (const CameraIntrinsics& camera : {long_lens, short_lens}) {
+    Session s;
+    s.camera = camera;
+    const double scale = camera.fx / 3300.0;
+    s.q.reprojection_gate_px = ReprojectionGatePx(s.config, camera.fx, 0.0);
+    std::string detail;
+    s.q.reprojection_mean_px = 7.0 * scale;  // 0.12 deg
+    EXPECT_EQ(s.Verdict(&detail), Reason::kNone) << detail;
+    s.q.reprojection_mean_px = 9.0 * scale;  // 0.16 deg
+    EXPECT_EQ(s.Verdict(&detail), Reason::kHighReprojectionError);
+    EXPECT_NE(detail.find("deg at the camera's focal length"), std::string::npos) << detail;
+  }
 }
 
 TEST(VerdictTest, VerifiedOnlyWithinBothVerificationTolerances) {

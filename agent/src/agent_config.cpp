@@ -211,7 +211,7 @@ bool EngineKeysValid(const EngineConfig& e, std::string* error) {
   if (!PositiveUpTo(k + "max_lidar_range_offset_m", v.max_lidar_range_offset_m, 1.0, error))
     return false;
   if (!PositiveUpTo(k + "max_time_offset_s", v.max_time_offset_s, 1.0, error)) return false;
-  if (!PositiveUpTo(k + "max_reprojection_mean_px", v.max_reprojection_mean_px, 1000.0, error))
+  if (!PositiveUpTo(k + "max_reprojection_mean_deg", v.max_reprojection_mean_deg, 10.0, error))
     return false;
   if (!PositiveUpTo(k + "max_rotation_bound_deg", v.max_rotation_bound_deg, 180.0, error))
     return false;
@@ -323,6 +323,14 @@ class Section {
   Section Child(const char* name) {
     known_.emplace_back(name);
     return Section(node_.IsMap() ? Lookup(name) : YAML::Node(), key_ + "." + name);
+  }
+
+  /// A key this version no longer reads: where the mapping has it, an error that says what
+  /// replaced it (`instead`), rather than "unknown key" or a silent change of meaning.
+  void Replaced(const char* name, const std::string& instead) {
+    known_.emplace_back(name);
+    if (node_.IsMap() && Lookup(name))
+      throw KeyError{key_ + "." + name, "no longer read: " + instead};
   }
 
   /// Throws for the first key that no Read or Child asked for.
@@ -478,7 +486,10 @@ void ParseEngineSection(const YAML::Node& node, EngineConfig* e) {
   v.Read("max_camera_scale_error", &e->verdict.max_camera_scale_error);
   v.Read("max_lidar_range_offset_m", &e->verdict.max_lidar_range_offset_m);
   v.Read("max_time_offset_s", &e->verdict.max_time_offset_s);
-  v.Read("max_reprojection_mean_px", &e->verdict.max_reprojection_mean_px);
+  v.Read("max_reprojection_mean_deg", &e->verdict.max_reprojection_mean_deg);
+  v.Replaced("max_reprojection_mean_px",
+             "the reprojection gate is an angle now, max_reprojection_mean_deg (0.14 deg: the "
+             "8 px it was at fx = 3325 px; px = deg / 57.3 x fx)");
   v.Read("max_residual_rms_m", &e->verdict.max_residual_rms_m);
   v.Read("max_rotation_bound_deg", &e->verdict.max_rotation_bound_deg);
   v.Read("max_translation_bound_m", &e->verdict.max_translation_bound_m);

@@ -140,7 +140,7 @@ double Mean(const std::vector<double>& v) {
 // where the session stopped before the quality figures.
 double ReprojectionGate(const HtmlReportInput& in) {
   const double gate = in.outcome.quality.reprojection_gate_px;
-  return gate > 0.0 ? gate : in.gates.max_reprojection_mean_px;
+  return gate > 0.0 ? gate : ReprojectionGatePx(in.gates, ReprojectionFocalPx(in.camera), 0.0);
 }
 
 std::string PerBoardPlot(const HtmlReportInput& in) {
@@ -606,7 +606,20 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += InfoRow(
       "max distance of solves from other starts",
       Num(v.max_start_rotation_deg, 4) + " deg, " + Num(v.max_start_translation_m, 4) + " m");
-  s += InfoRow("max reprojection error mean", Num(v.max_reprojection_mean_px, 2) + " px");
+  {
+    // The configured angle, what it is at this camera, and the gate applied where a sparse
+    // LiDAR raised it (ReprojectionGatePx).
+    const double focal_px = ReprojectionFocalPx(in.camera);
+    const double angle_px = focal_px * v.max_reprojection_mean_deg * kDeg2Rad;
+    const double applied = ReprojectionGate(in);
+    s += InfoRow("max reprojection error mean",
+                 Num(v.max_reprojection_mean_deg, 3) + " deg (" + Num(angle_px, 2) +
+                     " px at the focal length, " + Num(focal_px, 0) + " px)" +
+                     (applied > angle_px ? "; " + Num(applied, 2) +
+                                               " px applied: " + Num(kReprojectionSpacingShare, 1) +
+                                               " of the LiDAR's point spacing on the boards"
+                                         : std::string()));
+  }
   s += InfoRow("max LiDAR residual RMS", Num(v.max_residual_rms_m, 4) + " m");
   s += InfoRow("max error bound, 99 %", Num(v.max_rotation_bound_deg, 3) + " deg, " +
                                             Num(v.max_translation_bound_m, 4) + " m");

@@ -123,7 +123,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
                                                           : 0};
   // The figures of the solution share the threads with its re-solves.
   const auto measure = [&] {
-    MeasureQuality(config, session, projection, corr, solution.boards, solution.direct, 1, &q);
+    MeasureQuality(config, session, projection, corr, solution.boards, solution.direct, &q);
   };
   MeasureStabilityAndReprojection(checks, engine.direct, engine.verdict, solution.boards, camera,
                                   corr, solution.direct, measure, &q, reprojection_px);

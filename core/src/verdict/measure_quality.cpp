@@ -116,11 +116,10 @@ void BoardBendFigures(const std::vector<BoardGeometry>& boards, const Observatio
 
 // The principal point the tags fit (principal_point_check.hpp) and the turn it gives the result.
 void PrincipalPointFigures(const CalibConfig& config, const SessionObservations& session,
-                           int threads, QualityFigures* quality) {
+                           QualityFigures* quality) {
   QualityFigures& q = *quality;
   const auto t_pp = SteadyClock::now();
-  const PrincipalPointEstimate pp =
-      EstimatePrincipalPoint(config.camera, config.boards, session, threads);
+  const PrincipalPointEstimate pp = EstimatePrincipalPoint(config.camera, config.boards, session);
   q.principal_point_fitted = pp.fitted;
   q.principal_point_shift_px = pp.shift_px;
   q.principal_point_sigma_px = pp.sigma_px;
@@ -265,7 +264,7 @@ void CoverageFigures(const CalibConfig& config, const ObservationSet& set, Quali
 void MeasureQuality(const CalibConfig& config, const SessionObservations& session,
                     const RangeImage& projection, const ObservationSet& corr,
                     const std::vector<BoardGeometry>& boards, const DirectResult& direct,
-                    int threads, QualityFigures* q) {
+                    QualityFigures* q) {
   q->residual_rms_m = direct.residual_rms_m;
   q->information = direct.information;
   q->min_information_eigenvalue = direct.min_information_eigenvalue;
@@ -274,7 +273,7 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
   ScaleAndRangeOffset(corr, distances, q);
   RingElevationFigures(boards, corr, projection, direct, q);
   BoardBendFigures(boards, corr, direct, q);
-  PrincipalPointFigures(config, session, threads, q);
+  PrincipalPointFigures(config, session, q);
   TimeOffsetFigures(corr, distances, q);
   q->plane_conditioning = PlaneConditioning(direct);
   q->board_direction = BoardDirection(corr);

@@ -8,7 +8,6 @@
 #include <cmath>
 
 #include "calibd/core/common/geometry.hpp"
-#include "calibd/core/common/parallel_for.hpp"
 
 namespace calibd {
 
@@ -138,7 +137,7 @@ Sensitivity ShiftSensitivity(const std::vector<View>& views, const Eigen::Vector
 
 PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
                                               const std::vector<BoardGeometry>& boards,
-                                              const SessionObservations& session, int threads) {
+                                              const SessionObservations& session) {
   PrincipalPointEstimate est;
   const CameraModel model(camera);
   const size_t n = session.camera.size();
@@ -176,21 +175,16 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
   std::vector<View> solved = views;
   if (!FitShift(&solved, all, &shift)) return est;
   const Sensitivity sensitivity = ShiftSensitivity(solved, shift);
-  // Delete-a-group jackknife: var = (G - 1) / G sum (theta_g - mean)^2; the groups' fits are
-  // independent tasks.
+  // Delete-a-group jackknife: var = (G - 1) / G sum (theta_g - mean)^2.
   std::array<Eigen::Vector2d, kPrincipalPointGroups> left_out;
-  std::array<char, kPrincipalPointGroups> fitted{};
-  ParallelFor(threads, kPrincipalPointGroups, [&](int, int g) {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (int g = 0; g < kPrincipalPointGroups; ++g) {
     std::vector<char> use(views.size(), 1);
     for (size_t i = 0; i < views.size(); ++i)
       if (static_cast<int>(i * kPrincipalPointGroups / views.size()) == g) use[i] = 0;
     left_out[static_cast<size_t>(g)] = shift;
     std::vector<View> subset = solved;
-    fitted[static_cast<size_t>(g)] = FitShift(&subset, use, &left_out[static_cast<size_t>(g)]);
-  });
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  for (int g = 0; g < kPrincipalPointGroups; ++g) {
-    if (!fitted[static_cast<size_t>(g)]) return est;
+    if (!FitShift(&subset, use, &left_out[static_cast<size_t>(g)])) return est;
     mean += left_out[static_cast<size_t>(g)] / kPrincipalPointGroups;
   }
   Eigen::Vector2d var = Eigen::Vector2d::Zero();

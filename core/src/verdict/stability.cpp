@@ -90,7 +90,8 @@ void MeasureStabilityAndReprojection(const StabilityChecks& checks,
   });
   if (reprojection_px) MeanCornerErrors(errors_px, reprojection_px);
   ReprojectionFigures(std::move(errors_px), q);
-  q->reprojection_gate_px = ReprojectionGatePx(gate, q->lidar_spacing_px);
+  q->reprojection_gate_px =
+      ReprojectionGatePx(gate, ReprojectionFocalPx(camera.intrinsics()), q->lidar_spacing_px);
   std::vector<Pose> ends;
   for (const DirectResult& h : half)
     if (h.usable) ends.push_back(h.T_camera_lidar);

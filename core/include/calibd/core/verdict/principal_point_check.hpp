@@ -73,9 +73,9 @@ double PrincipalPointTurnDeg(const Eigen::Vector2d& shift_px, const CameraIntrin
 
 /// Fits the principal point shift to the camera observations of `session` (tag corners of the
 /// configured boards; checkerboards by their four outer corners), starting from each one's PnP
-/// pose. The jackknife's fits share `threads` threads.
+/// pose.
 PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
                                               const std::vector<BoardGeometry>& boards,
-                                              const SessionObservations& session, int threads = 1);
+                                              const SessionObservations& session);
 
 }  // namespace calibd

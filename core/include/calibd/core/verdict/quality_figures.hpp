@@ -16,8 +16,9 @@ struct QualityFigures {
   /// (A the board's area, n its LiDAR points, d its distance from the camera), mean over the
   /// boards. Each board's own fit, which the Table I metric measures, is as good as a share of it.
   double lidar_spacing_px = 0.0;
-  /// The reprojection gate the verdict applied: VerdictConfig::max_reprojection_mean_px, or
-  /// kReprojectionSpacingShare of lidar_spacing_px where the LiDAR resolves the boards coarser.
+  /// The reprojection gate the verdict applied: VerdictConfig::max_reprojection_mean_deg at the
+  /// camera's focal length, or kReprojectionSpacingShare of lidar_spacing_px where the LiDAR
+  /// resolves the boards coarser (ReprojectionGatePx).
   double reprojection_gate_px = 0.0;
   double residual_rms_m = 0.0;
   int frames_used = 0, boards_used = 0;
