@@ -19,6 +19,11 @@ namespace calibd::bench {
 /// sessions compared one by one while the engine was reorganised).
 inline constexpr unsigned long long kTuningSeeds[] = {1, 2, 3, 4, 5, 7};
 
+/// The held-out seed `make test` runs (VerdictsBenchTest.HeldOutCleanSessionsLieInsideTheirBounds):
+/// no constant is set on it, and no figure in the docs comes from it. Should the test fail, the
+/// cause is fixed and the test moves to a seed not run before.
+inline constexpr unsigned long long kHeldOutTestSeed = 101;
+
 inline bool IsTuningSeed(unsigned long long seed) {
   return std::find(std::begin(kTuningSeeds), std::end(kTuningSeeds), seed) !=
          std::end(kTuningSeeds);
