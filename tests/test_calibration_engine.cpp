@@ -197,7 +197,7 @@ TEST(CalibrationEngineTest, TheReprojectionGateFollowsTheLidarsPointSpacing) {
   EXPECT_LT((out.T_camera_lidar.translation() - truth.translation()).norm(), 0.015);
   const VerdictConfig v;
   EXPECT_GT(q.reprojection_mean_px,
-            ReprojectionGatePx(v, ReprojectionFocalPx(sparse->config.camera), 0.0));
+            ReprojectionAnglePx(v, ReprojectionFocalPx(sparse->config.camera)));
   EXPECT_DOUBLE_EQ(q.reprojection_gate_px, kReprojectionSpacingShare * q.lidar_spacing_px);
 }
 
@@ -452,7 +452,7 @@ TEST(CalibrationEngineDefaultDriveTest, PerCorrespondenceReprojectionErrorsAreTh
               0.05 * out.quality.reprojection_mean_px);
   // An OT128's drive resolves the boards finely: the configured gate holds.
   const VerdictConfig v;
-  const double angle_px = ReprojectionGatePx(v, ReprojectionFocalPx(r->config.camera), 0.0);
+  const double angle_px = ReprojectionAnglePx(v, ReprojectionFocalPx(r->config.camera));
   EXPECT_DOUBLE_EQ(out.quality.reprojection_gate_px, angle_px);
   EXPECT_LT(kReprojectionSpacingShare * out.quality.lidar_spacing_px, angle_px);
   // Stopped before the solve: none.

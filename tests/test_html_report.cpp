@@ -46,7 +46,7 @@ TEST(HtmlReportTest, EverySectionIsPresent) {
   EXPECT_NE(html.find("quaternion x y z w"), std::string::npos);
   // The reprojection gate as configured (an angle) and in px at this camera.
   EXPECT_NE(html.find("0.140 deg ("), std::string::npos);
-  const double angle_px = ReprojectionGatePx(in.gates, ReprojectionFocalPx(in.camera), 0.0);
+  const double angle_px = ReprojectionAnglePx(in.gates, ReprojectionFocalPx(in.camera));
   EXPECT_NE(html.find(FixedDecimal(angle_px, 2) + " px at the focal length"), std::string::npos);
   // Two plots: one bar per board (with its name) and one point per finite correspondence.
   EXPECT_EQ(Count(html, "<svg "), 2u);

@@ -235,9 +235,8 @@ TEST(VerdictTest, TheReprojectionGateWidensForASparseLidar) {
 // by a third of the pixels, and are judged the same. At fx = 3325 px it is the 8 px it was.
 TEST(VerdictTest, TheReprojectionGateScalesWithTheFocalLength) {
   const ReprojectionGateConfig c;
-  EXPECT_NEAR(ReprojectionGatePx(c, 3325.0, 0.0), 8.1, 0.05);
-  EXPECT_DOUBLE_EQ(ReprojectionGatePx(c, 1100.0, 0.0) / ReprojectionGatePx(c, 3300.0, 0.0),
-                   1.0 / 3.0);
+  EXPECT_NEAR(ReprojectionAnglePx(c, 3325.0), 8.1, 0.05);
+  EXPECT_DOUBLE_EQ(ReprojectionAnglePx(c, 1100.0) / ReprojectionAnglePx(c, 3300.0), 1.0 / 3.0);
   CameraIntrinsics long_lens, short_lens;
   long_lens.fx = long_lens.fy = 3300.0;
   short_lens.fx = short_lens.fy = 1100.0;

@@ -140,7 +140,7 @@ double Mean(const std::vector<double>& v) {
 // where the session stopped before the quality figures.
 double ReprojectionGate(const HtmlReportInput& in) {
   const double gate = in.outcome.quality.reprojection_gate_px;
-  return gate > 0.0 ? gate : ReprojectionGatePx(in.gates, ReprojectionFocalPx(in.camera), 0.0);
+  return gate > 0.0 ? gate : ReprojectionAnglePx(in.gates, ReprojectionFocalPx(in.camera));
 }
 
 std::string PerBoardPlot(const HtmlReportInput& in) {
@@ -610,7 +610,7 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
     // The configured angle, what it is at this camera, and the gate applied where a sparse
     // LiDAR raised it (ReprojectionGatePx).
     const double focal_px = ReprojectionFocalPx(in.camera);
-    const double angle_px = focal_px * v.max_reprojection_mean_deg * kDeg2Rad;
+    const double angle_px = ReprojectionAnglePx(v, focal_px);
     const double applied = ReprojectionGate(in);
     s += InfoRow("max reprojection error mean",
                  Num(v.max_reprojection_mean_deg, 3) + " deg (" + Num(angle_px, 2) +

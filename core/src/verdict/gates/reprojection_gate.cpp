@@ -10,17 +10,20 @@ namespace calibd {
 
 double ReprojectionFocalPx(const CameraIntrinsics& camera) { return 0.5 * (camera.fx + camera.fy); }
 
+double ReprojectionAnglePx(const ReprojectionGateConfig& c, double focal_px) {
+  return focal_px * c.max_reprojection_mean_deg * kDeg2Rad;
+}
+
 double ReprojectionGatePx(const ReprojectionGateConfig& c, double focal_px,
                           double lidar_spacing_px) {
-  return std::max(focal_px * c.max_reprojection_mean_deg * kDeg2Rad,
-                  kReprojectionSpacingShare * lidar_spacing_px);
+  return std::max(ReprojectionAnglePx(c, focal_px), kReprojectionSpacingShare * lidar_spacing_px);
 }
 
 Reason CheckReprojection(const GateInput& in, std::string* detail) {
   const QualityFigures& q = in.quality;
   if (!(q.reprojection_mean_px > q.reprojection_gate_px)) return Reason::kNone;
   const double focal_px = ReprojectionFocalPx(in.camera);
-  const double angle_px = focal_px * in.config.max_reprojection_mean_deg * kDeg2Rad;
+  const double angle_px = ReprojectionAnglePx(in.config, focal_px);
   return Refuse(
       detail, Reason::kHighReprojectionError,
       "mean " + FixedDecimal(q.reprojection_mean_px, 2) + " px above " +

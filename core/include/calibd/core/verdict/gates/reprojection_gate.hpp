@@ -26,9 +26,11 @@ inline constexpr double kReprojectionSpacingShare = 0.6;
 /// The camera's focal length in px for the gate: the mean of fx and fy.
 double ReprojectionFocalPx(const CameraIntrinsics& camera);
 
-/// The gate applied (QualityFigures::reprojection_gate_px): max_reprojection_mean_deg at
-/// `focal_px`, or kReprojectionSpacingShare of the LiDAR's spacing where it resolves the boards
-/// coarser.
+/// max_reprojection_mean_deg in px at a focal length of `focal_px`.
+double ReprojectionAnglePx(const ReprojectionGateConfig& c, double focal_px);
+
+/// The gate applied (QualityFigures::reprojection_gate_px): ReprojectionAnglePx, or
+/// kReprojectionSpacingShare of the LiDAR's spacing where it resolves the boards coarser.
 double ReprojectionGatePx(const ReprojectionGateConfig& c, double focal_px,
                           double lidar_spacing_px);
 
