@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
+
+#include "workshop.hpp"
 
 namespace calibd::sim {
 namespace {
@@ -134,6 +137,50 @@ TEST(SceneTest, CastReturnsNearestPrimitive) {
                          100.0, &hit));
   EXPECT_EQ(scene.primitives[hit.primitive].kind, SurfaceKind::kGround);
   EXPECT_NEAR(hit.t, std::sqrt(2.0), 1e-12);
+}
+
+// Culling by azimuth changes no hit: rays in every direction (up and down too, and straight up)
+// from origins along a sensor's path through the workshop, beside a crate and standing inside a
+// box, hit with the sectors what they hit without them.
+TEST(SceneTest, AzimuthSectorsChangeNoHit) {
+  Workshop workshop;
+  std::string error;
+  ASSERT_TRUE(BuildWorkshop(WorkshopOptions{}, 7, &workshop, &error)) << error;
+  Scene& scene = workshop.scene;
+  Pose inside_pose = Pose::Identity();
+  inside_pose.translation() = Eigen::Vector3d(-20.0, 0.0, 1.0);
+  scene.Add(UnitBoxAt(inside_pose, {1.0, 1.0, 1.0}));  // a box around one path's origins
+  scene.Finalize();
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const std::pair<Eigen::Vector3d, Eigen::Vector3d> paths[] = {
+      {{-10.0, 0.0, 1.8}, {-9.75, 0.02, 1.8}},  // a drive, 0.25 m a sweep
+      {{-3.0, 0.0, 1.8}, {-3.0, 0.0, 1.8}},     // standing still
+      {{-20.2, 0.1, 1.2}, {-19.8, 0.1, 1.2}},   // inside the added box
+  };
+  int hits = 0, checked = 0;
+  for (const auto& [a, b] : paths) {
+    AzimuthSectors sectors;
+    sectors.Build(scene, a, b);
+    for (int k = 0; k < 20000; ++k) {
+      const double s = 0.5 * (u(rng) + 1.0);
+      const Eigen::Vector3d origin = a + s * (b - a);
+      Eigen::Vector3d dir(u(rng), u(rng), (k % 2 ? 0.3 : 1.0) * u(rng));
+      if (k == 0) dir = Eigen::Vector3d::UnitZ();
+      dir.normalize();
+      Hit all, culled;
+      const bool hit_all = scene.Cast(origin, dir, 0.1, 200.0, &all);
+      const bool hit_culled = scene.Cast(origin, dir, 0.1, 200.0, sectors, &culled);
+      ASSERT_EQ(hit_culled, hit_all) << origin.transpose() << " " << dir.transpose();
+      ++checked;
+      if (!hit_all) continue;
+      ++hits;
+      EXPECT_EQ(culled.primitive, all.primitive);
+      EXPECT_EQ(culled.t, all.t);
+    }
+  }
+  EXPECT_EQ(checked, 60000);
+  EXPECT_GT(hits, checked / 2);  // the rays meet the walls, the floor and the clutter
 }
 
 }  // namespace

@@ -1,8 +1,9 @@
 // calibd-bench verdicts on a few of its sessions: a clean one is accepted within tolerance and
 // counted so, with its error inside the bound it predicts for itself, the same seed gives the
 // same answer, and a fault drawn from the catalogue reaches the engine (a wrong tag size is
-// refused for its scale, a wrong principal point for what the tags say); and clean sessions of a
-// held-out seed lie inside their bounds.
+// refused for its scale, a wrong principal point for what the tags say); sessions derived from
+// one recording answer as if recorded alone; and clean sessions of a held-out seed lie inside
+// their bounds.
 
 #include <gtest/gtest.h>
 
@@ -71,6 +72,48 @@ TEST(VerdictsBenchTest, ACleanSessionIsAcceptedAndSizeAndCentreFaultsAreRefusedF
   // Deterministic per seed.
   const nlohmann::json again = RunSessions({sessions[0]}, dir.file("b.json"), &table, &ok);
   EXPECT_EQ(again["sessions"][0]["rotation_error_deg"], clean["rotation_error_deg"]);
+}
+
+// A round's faults that change only the config, the stamps or the LiDAR's noise are derived from
+// its clean recording (one simulation; detectors built alike copy each other): each answers as
+// it does recorded alone, to the last bit, whichever sessions it is run with.
+TEST(VerdictsBenchTest, SessionsSharingARecordingAnswerAsIfRecordedAlone) {
+  testing::TempDir dir;
+  std::string table;
+  bool ok = false;
+  // VLP-16 still poses (round 7): the clean session, a wrong focal length (the same LiDAR
+  // detector as the clean one's), a range bias (its own sweep beside the shared images), a
+  // shuffled order (both detectors copied).
+  const int round = 7;
+  const std::vector<int> together = {
+      VerdictSessionIndex("none", round), VerdictSessionIndex("focal_length", round),
+      VerdictSessionIndex("range_bias", round), VerdictSessionIndex("frames_reordered", round)};
+  const nlohmann::json shared = RunSessions(together, dir.file("shared.json"), &table, &ok);
+  ASSERT_EQ(shared["sessions"].size(), together.size()) << table;
+  for (size_t k = 1; k < together.size(); ++k) {
+    const nlohmann::json alone = RunSessions({together[k]}, dir.file("alone.json"), &table, &ok);
+    ASSERT_EQ(alone["sessions"].size(), 1u) << table;
+    const nlohmann::json& a = alone["sessions"][0];
+    const nlohmann::json& s = shared["sessions"][k];
+    SCOPED_TRACE(a["fault"].get<std::string>());
+    EXPECT_EQ(s["fault"], a["fault"]);
+    EXPECT_EQ(s["verdict"], a["verdict"]);
+    EXPECT_EQ(s["reason"], a["reason"]);
+    EXPECT_EQ(s["frames"], a["frames"]);
+    EXPECT_EQ(s["camera_boards"], a["camera_boards"]);
+    ASSERT_TRUE(a.contains("rotation_error_deg")) << a.dump();
+    EXPECT_EQ(s["rotation_error_deg"], a["rotation_error_deg"]);
+    EXPECT_EQ(s["translation_error_m"], a["translation_error_m"]);
+    EXPECT_EQ(s["quality"]["rotation_bound_deg"], a["quality"]["rotation_bound_deg"]);
+  }
+  // The clean recording and a shuffled order of the same pairs solve to the same answer; the
+  // wrong focal length and the range bias change it.
+  EXPECT_EQ(shared["sessions"][3]["rotation_error_deg"],
+            shared["sessions"][0]["rotation_error_deg"]);
+  EXPECT_NE(shared["sessions"][1]["rotation_error_deg"],
+            shared["sessions"][0]["rotation_error_deg"]);
+  EXPECT_NE(shared["sessions"][2]["translation_error_m"],
+            shared["sessions"][0]["translation_error_m"]);
 }
 
 // The bound on sessions nobody tuned on: clean sessions of a seed no one looks at but this test

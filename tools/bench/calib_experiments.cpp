@@ -94,49 +94,80 @@ void ParallelTasks(int count, int threads, const std::function<void(int)>& task,
   for (auto& w : workers) w.join();
 }
 
-bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
-                 const LidarDetectorConfig& lidar, const LidarModel* model,
-                 const RecordingFaults& faults, const KeepRecording& keep_going) {
-  const auto t0 = std::chrono::steady_clock::now();
-  DetectedSession detected;
-  if (!detected.Init(options, error, lidar, model, faults.edit_config)) return false;
-  const sim::SessionSimulator& session = detected.session();
+bool DriveRecorder::Init(const sim::SessionOptions& options, RecordedDrive* drive,
+                         std::string* error, const LidarDetectorConfig& lidar,
+                         const LidarModel* model, const RecordingFaults& faults,
+                         KeepRecording keep_going) {
+  if (!detected_.Init(options, error, lidar, model, faults.edit_config)) return false;
+  drive_ = drive;
+  faults_ = faults;
+  keep_going_ = std::move(keep_going);
   drive->seed = options.seed;
-  drive->config = detected.user_config();
-  drive->T_camera_lidar = session.T_camera_lidar();
-  const auto& boards = drive->config.boards;
-  const int frames = session.num_frames();
+  drive->config = detected_.user_config();
+  drive->T_camera_lidar = detected_.session().T_camera_lidar();
   // As tests/recorded_session.hpp: room for every frame pair, so positions stay aligned.
-  drive->observations.Reserve(frames, static_cast<int>(boards.size()) + 4, 4096);
+  drive->observations.Reserve(num_frames(), static_cast<int>(drive->config.boards.size()) + 4,
+                              4096);
   drive->vehicle_positions.clear();
   drive->timings.clear();
   drive->incomplete_frames = 0;
-  FrameDetections frame;
-  std::vector<int> board_of_point;
   drive->lidar_tp = drive->lidar_fp = drive->lidar_fn = drive->camera_boards_in_view = 0;
   drive->lidar_true.clear();
   drive->lidar_found_boards.clear();
   drive->lidar_visible_boards.clear();
-  int64_t first_camera_utime = 0;
-  for (int k = 0; k < frames; ++k) {
-    detected.Detect(k, true, &frame);
-    ScoreLidar(frame, &board_of_point, drive);
-    if (k == 0) first_camera_utime = frame.truth.camera_utime;
-    const auto drift_us =
-        std::llround(static_cast<double>(frame.truth.camera_utime - first_camera_utime) *
-                     faults.camera_clock_drift_ppm * 1e-6);
-    FrameTimes times{frame.truth.camera_utime + faults.camera_stamp_shift_us + drift_us,
-                     frame.truth.lidar_utime};
-    if (faults.one_time_per_pair) times.camera_utime = times.lidar_utime;
-    if (faults.no_times) times = FrameTimes{};
-    if (!drive->observations.AddFrame(frame.camera, frame.lidar, boards, times))
-      ++drive->incomplete_frames;
-    drive->vehicle_positions.push_back(frame.truth.T_world_vehicle.translation());
-    drive->timings.push_back({frame.lidar_ms, frame.camera_ms, frame.lidar_cpu_ms,
-                              frame.camera_cpu_ms, frame.camera.full_frame_search});
-    if (keep_going && !keep_going(drive->observations, frame.truth)) break;
+  first_camera_utime_ = 0;
+  detect_s_ = 0.0;
+  return true;
+}
+
+bool DriveRecorder::Add(const SimulatedFrame& simulated, const DriveRecorder* same_lidar,
+                        const DriveRecorder* same_camera) {
+  const auto t0 = std::chrono::steady_clock::now();
+  RecordedDrive* drive = drive_;
+  detected_.DetectFrame(simulated, &frame_, same_lidar ? &same_lidar->frame_.lidar : nullptr,
+                        same_camera ? &same_camera->frame_.camera : nullptr);
+  ScoreLidar(frame_, &board_of_point_, drive);
+  if (simulated.index == 0) first_camera_utime_ = frame_.truth.camera_utime;
+  const auto drift_us =
+      std::llround(static_cast<double>(frame_.truth.camera_utime - first_camera_utime_) *
+                   faults_.camera_clock_drift_ppm * 1e-6);
+  FrameTimes times{frame_.truth.camera_utime + faults_.camera_stamp_shift_us + drift_us,
+                   frame_.truth.lidar_utime};
+  if (faults_.one_time_per_pair) times.camera_utime = times.lidar_utime;
+  if (faults_.no_times) times = FrameTimes{};
+  if (!drive->observations.AddFrame(frame_.camera, frame_.lidar, drive->config.boards, times))
+    ++drive->incomplete_frames;
+  drive->vehicle_positions.push_back(frame_.truth.T_world_vehicle.translation());
+  drive->timings.push_back({frame_.lidar_ms, frame_.camera_ms, frame_.lidar_cpu_ms,
+                            frame_.camera_cpu_ms, frame_.camera.full_frame_search});
+  detect_s_ += SecondsSince(t0);
+  return !keep_going_ || keep_going_(drive->observations, frame_.truth);
+}
+
+void DriveRecorder::DetectOnly(const SimulatedFrame& frame, bool lidar, bool camera) {
+  const auto t0 = std::chrono::steady_clock::now();
+  detected_.DetectOnly(frame, lidar, camera, &frame_);
+  detect_s_ += SecondsSince(t0);
+}
+
+void DriveRecorder::Finish(double simulation_seconds) {
+  drive_->detect_s = detect_s_ + simulation_seconds;
+}
+
+bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
+                 const LidarDetectorConfig& lidar, const LidarModel* model,
+                 const RecordingFaults& faults, const KeepRecording& keep_going) {
+  DriveRecorder recorder;
+  if (!recorder.Init(options, drive, error, lidar, model, faults, keep_going)) return false;
+  SimulatedFrame frame;
+  double simulation_s = 0.0;
+  for (int k = 0; k < recorder.num_frames(); ++k) {
+    const auto t0 = std::chrono::steady_clock::now();
+    recorder.session().Simulate(k, true, &frame);
+    simulation_s += SecondsSince(t0);
+    if (!recorder.Add(frame)) break;
   }
-  drive->detect_s = SecondsSince(t0);
+  recorder.Finish(simulation_s);
   return true;
 }
 

@@ -17,6 +17,7 @@
 #include "calibd/core/session/config.hpp"
 #include "calibd/core/session/session_observations.hpp"
 #include "session.hpp"
+#include "session_detector.hpp"
 
 namespace calibd::bench {
 
@@ -71,13 +72,51 @@ void ParallelTasks(int count, int threads, const std::function<void(int)>& task,
                    std::ostream* progress, const std::string& label, const char* unit,
                    int every = 1);
 
-/// Simulates every frame pair of a drive and runs the real detectors on it into
-/// `drive->observations`, the way tests/recorded_session.hpp does; the LiDAR detector with
-/// `model` when given (DetectedSession::Init). With `keep_going`, asked after each pair with the
-/// observations so far and the pair's truth, recording stops at the first false (e.g. where the
-/// agent's session machine would end its collection).
 using KeepRecording =
     std::function<bool(const SessionObservations& observations, const sim::FrameTruth& truth)>;
+
+/// Detects a drive frame pair by frame pair into a RecordedDrive, the way tests/
+/// recorded_session.hpp does: the pairs come from its own session (RecordDrive), or from another
+/// session of the same scene, so that several configs and recording faults share one simulation
+/// (calibd-bench verdicts).
+class DriveRecorder {
+ public:
+  /// Builds the session and its detectors (DetectedSession::Init with `faults.edit_config`); the
+  /// LiDAR detector with `model` when given. With `keep_going`, asked after each pair with the
+  /// observations so far and the pair's truth, recording stops at the first false (e.g. where the
+  /// agent's session machine would end its collection).
+  bool Init(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
+            const LidarDetectorConfig& lidar = LidarDetectorConfig{},
+            const LidarModel* model = nullptr, const RecordingFaults& faults = {},
+            KeepRecording keep_going = nullptr);
+  /// This recording's own session: it simulates the pairs Add takes.
+  DetectedSession& session() { return detected_; }
+  int num_frames() const { return detected_.session().num_frames(); }
+  /// Detects pair `frame` (simulated by session() or by a session of the same scene) and records
+  /// it with the recording's faults; false once keep_going said stop.
+  /// With `same_lidar` / `same_camera`: a recorder of the same scene whose detector of that
+  /// sensor matches this one's and has just detected this frame (DetectedSession::DetectFrame).
+  bool Add(const SimulatedFrame& frame, const DriveRecorder* same_lidar = nullptr,
+           const DriveRecorder* same_camera = nullptr);
+  /// Detects with the sensors' detectors asked for, records nothing: a recording that has ended
+  /// keeps a detector others copy (Add's same_lidar, same_camera) in step with the frames.
+  void DetectOnly(const SimulatedFrame& frame, bool lidar, bool camera);
+  /// Ends the recording: the drive's detection time, `seconds` spent in the simulations it took
+  /// its pairs from (its share of a shared one) added.
+  void Finish(double simulation_seconds);
+
+ private:
+  DetectedSession detected_;
+  RecordedDrive* drive_ = nullptr;
+  RecordingFaults faults_;
+  KeepRecording keep_going_;
+  FrameDetections frame_;
+  std::vector<int> board_of_point_;
+  int64_t first_camera_utime_ = 0;
+  double detect_s_ = 0.0;  // wall time of Add's detections
+};
+
+/// Simulates every frame pair of a drive and detects it (DriveRecorder) into `drive`.
 bool RecordDrive(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
                  const LidarDetectorConfig& lidar = LidarDetectorConfig{},
                  const LidarModel* model = nullptr, const RecordingFaults& faults = {},

@@ -8,8 +8,6 @@
 
 namespace calibd::bench {
 
-namespace {}  // namespace
-
 double ProcessCpuMs() {
   timespec ts{};
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
@@ -48,19 +46,43 @@ bool DetectedSession::Init(const sim::SessionOptions& options, std::string* erro
 }
 
 void DetectedSession::Detect(int k, bool with_camera, FrameDetections* out) {
-  session_.SimulateFrame(k, with_camera ? &image_ : nullptr, &scan_, &out->truth);
-  const PointCloudView cloud{
-      scan_.x.data(), scan_.y.data(),
-      scan_.z.data(), session_.lidar_model().has_rings ? scan_.ring.data() : nullptr,
-      scan_.size(),   scan_.time_offset_us.data()};
-  const auto t0 = SteadyClock::now();
-  const double c0 = ProcessCpuMs();
-  lidar_detector_->Detect(cloud, &out->lidar);
-  out->lidar_ms = MsSince(t0);
-  out->lidar_cpu_ms = ProcessCpuMs() - c0;
-  out->camera_ms = out->camera_cpu_ms = 0.0;
-  if (!with_camera) return;
-  const ImageView view{image_.data, image_.cols, image_.rows, static_cast<int>(image_.step[0])};
+  Simulate(k, with_camera, &frame_);
+  DetectFrame(frame_, out);
+}
+
+void DetectedSession::Simulate(int k, bool with_camera, SimulatedFrame* frame) {
+  frame->index = k;
+  if (!with_camera) frame->image.release();
+  session_.SimulateFrame(k, with_camera ? &frame->image : nullptr, &frame->scan, &frame->truth);
+}
+
+void DetectedSession::DetectFrame(const SimulatedFrame& frame, FrameDetections* out,
+                                  const LidarDetections* same_lidar,
+                                  const CameraDetections* same_camera) {
+  DetectOnly(frame, same_lidar == nullptr, same_camera == nullptr, out);
+  if (same_lidar) out->lidar = *same_lidar;
+  if (same_camera && !frame.image.empty()) out->camera = *same_camera;
+}
+
+void DetectedSession::DetectOnly(const SimulatedFrame& frame, bool lidar, bool camera,
+                                 FrameDetections* out) {
+  out->truth = frame.truth;
+  out->lidar_ms = out->lidar_cpu_ms = out->camera_ms = out->camera_cpu_ms = 0.0;
+  if (lidar) {
+    const sim::LidarScan& scan = frame.scan;
+    const PointCloudView cloud{
+        scan.x.data(), scan.y.data(),
+        scan.z.data(), session_.lidar_model().has_rings ? scan.ring.data() : nullptr,
+        scan.size(),   scan.time_offset_us.data()};
+    const auto t0 = SteadyClock::now();
+    const double c0 = ProcessCpuMs();
+    lidar_detector_->Detect(cloud, &out->lidar);
+    out->lidar_ms = MsSince(t0);
+    out->lidar_cpu_ms = ProcessCpuMs() - c0;
+  }
+  if (!camera || frame.image.empty()) return;
+  const cv::Mat& image = frame.image;
+  const ImageView view{image.data, image.cols, image.rows, static_cast<int>(image.step[0])};
   const auto tc = SteadyClock::now();
   const double cc = ProcessCpuMs();
   camera_detector_->Detect(view, &out->camera, out->truth.camera_utime);

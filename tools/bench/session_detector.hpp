@@ -31,6 +31,15 @@ struct FrameDetections {
   double lidar_cpu_ms = 0.0, camera_cpu_ms = 0.0;
 };
 
+/// One simulated frame pair as the detectors take it: shared between the sessions of one scene
+/// (calibd-bench verdicts derives the faults that change only a config from one recording).
+struct SimulatedFrame {
+  int index = 0;
+  cv::Mat image;  ///< empty when the camera was not rendered
+  sim::LidarScan scan;
+  sim::FrameTruth truth;
+};
+
 /// CPU time of the whole process (CLOCK_PROCESS_CPUTIME_ID), ms.
 double ProcessCpuMs();
 
@@ -57,14 +66,28 @@ class DetectedSession {
   /// the camera detector only `with_camera` (rendering dominates the time otherwise).
   void Detect(int k, bool with_camera, FrameDetections* out);
 
+  /// Simulates frame pair k into `frame` (the image only `with_camera`), detecting nothing.
+  void Simulate(int k, bool with_camera, SimulatedFrame* frame);
+  /// Runs the LiDAR detector, and the camera's when the frame has an image, on a pair simulated
+  /// by this session or by another of the same scene (the same sim::SessionOptions up to the
+  /// LiDAR's noise).
+  /// With `same_lidar` or `same_camera`: that detector's output on this frame from a session
+  /// whose detector of that sensor was built from the same inputs and has taken the same frames
+  /// (its output then equals this one's), copied instead of detected again.
+  void DetectFrame(const SimulatedFrame& frame, FrameDetections* out,
+                   const LidarDetections* same_lidar = nullptr,
+                   const CameraDetections* same_camera = nullptr);
+  /// The detectors of the sensors asked for only, on a pair simulated as for DetectFrame: to keep
+  /// a detector whose output other sessions copy in step with the frames (the camera's tracks).
+  void DetectOnly(const SimulatedFrame& frame, bool lidar, bool camera, FrameDetections* out);
+
  private:
   sim::SessionSimulator session_;
   CalibConfig user_;
   LidarDetectorConfig lidar_config_;
   std::optional<LidarDetector> lidar_detector_;
   std::optional<CameraDetector> camera_detector_;
-  sim::LidarScan scan_;  // reused buffers
-  cv::Mat image_;
+  SimulatedFrame frame_;  // Detect's, reused
 };
 
 }  // namespace calibd::bench

@@ -422,13 +422,13 @@ void LidarSimulator::RebuildPatternIfNeeded(int frame_index) {
 
 // Pass 1: the main ray of each beam, from the pose at its firing time along its jittered
 // direction. Dropped beams are cast too, so their neighbours still see the geometry.
-const Scene& LidarSimulator::SceneOf(size_t i) const {
-  if (slices_.size() == 1) return *slices_[0];
+size_t LidarSimulator::SliceOf(size_t i) const {
+  if (slices_.size() == 1) return 0;
   const double period_us = 1e6 / model_.frame_rate_hz;
   const auto n = static_cast<int64_t>(slices_.size());
   const int64_t k = static_cast<int64_t>(std::floor(static_cast<double>(beams_[i].time_offset_us) /
                                                     period_us * static_cast<double>(n)));
-  return *slices_[static_cast<size_t>(std::clamp<int64_t>(k, 0, n - 1))];
+  return static_cast<size_t>(std::clamp<int64_t>(k, 0, n - 1));
 }
 
 void LidarSimulator::CastMainRays(const Pose& T_world_lidar_start, const Pose& T_world_lidar_end,
@@ -453,9 +453,11 @@ void LidarSimulator::CastMainRays(const Pose& T_world_lidar_start, const Pose& T
     for (int k = 0; k < 3; ++k) st.dir[k] = static_cast<float>(d[k]);
     pose.Get(beams_[i].time_offset_us, &origin, &R);
     const Eigen::Vector3d d_world = R * d;
-    const Scene& scene = SceneOf(i);
+    const size_t slice = SliceOf(i);
+    const Scene& scene = *slices_[slice];
     Hit hit;
-    if (scene.Cast(origin, d_world, model_.min_range_m, model_.max_range_m, &hit)) {
+    if (scene.Cast(origin, d_world, model_.min_range_m, model_.max_range_m, sectors_[slice],
+                   &hit)) {
       st.t = static_cast<float>(hit.t);
       st.primitive = hit.primitive;
       st.intensity = Intensity(scene.primitives[hit.primitive], hit, d_world);
@@ -486,7 +488,8 @@ void LidarSimulator::FinishBeams(const Pose& T_world_lidar_start, const Pose& T_
     BeamOut& o = out_[i];
     o.valid = false;
     if (st.dropped) continue;
-    const Scene& scene = SceneOf(i);
+    const size_t slice = SliceOf(i);
+    const Scene& scene = *slices_[slice];
 
     // Only silhouettes matter: a footprint can straddle two depths only where the neighbour
     // hit another primitive far behind or in front, or nothing (primitives are convex, the
@@ -527,7 +530,9 @@ void LidarSimulator::FinishBeams(const Pose& T_world_lidar_start, const Pose& T_
       for (const Eigen::Vector3d& off : offsets) {
         const Eigen::Vector3d d_world = R * (d + off).normalized();
         Hit hit;
-        if (!scene.Cast(origin, d_world, model_.min_range_m, model_.max_range_m, &hit)) continue;
+        if (!scene.Cast(origin, d_world, model_.min_range_m, model_.max_range_m, sectors_[slice],
+                        &hit))
+          continue;
         t[hits] = hit.t;
         inten[hits] = Intensity(scene.primitives[hit.primitive], hit, d_world);
         prim[hits++] = hit.primitive;
@@ -590,6 +595,20 @@ void LidarSimulator::Scan(const std::vector<const Scene*>& slices, const Pose& T
                           LidarScan* out) {
   slices_ = slices;
   RebuildPatternIfNeeded(frame_index);
+  // The sensor's path over the beams' firing times (PoseAt: the translation is lerped), for
+  // culling each slice's primitives by azimuth.
+  int t_first = 0, t_last = 0;
+  for (size_t i = 0; i < beams_.size(); ++i) {
+    t_first = i == 0 ? beams_[i].time_offset_us : std::min(t_first, beams_[i].time_offset_us);
+    t_last = i == 0 ? beams_[i].time_offset_us : std::max(t_last, beams_[i].time_offset_us);
+  }
+  const double period_us = 1e6 / model_.frame_rate_hz;
+  const Eigen::Vector3d p0 = T_world_lidar_start.translation();
+  const Eigen::Vector3d step = T_world_lidar_end.translation() - p0;
+  sectors_.resize(slices_.size());
+  for (size_t k = 0; k < slices_.size(); ++k)
+    sectors_[k].Build(*slices_[k], p0 + (t_first / period_us) * step,
+                      p0 + (t_last / period_us) * step);
   out->Clear();
   out->Reserve(beams_.size());
   const size_t num_chunks = (beams_.size() + kChunkBeams - 1) / kChunkBeams;

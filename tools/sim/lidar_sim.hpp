@@ -94,8 +94,8 @@ class LidarSimulator {
   };
 
   void RebuildPatternIfNeeded(int frame_index);
-  /// The scene beam i is cast into (Scan's slices).
-  const Scene& SceneOf(size_t i) const;
+  /// Which of Scan's slices beam i is cast into.
+  size_t SliceOf(size_t i) const;
   void CastMainRays(const Pose& T_world_lidar_start, const Pose& T_world_lidar_end, uint64_t seed,
                     size_t chunk);
   void FinishBeams(const Pose& T_world_lidar_start, const Pose& T_world_lidar_end,
@@ -103,13 +103,14 @@ class LidarSimulator {
 
   LidarModel model_;
   LidarNoise noise_;
-  std::vector<Beam> beams_;           ///< reused between frames
-  std::vector<float> nominal_dir_;    ///< 3 per beam: reported direction (LiDAR frame)
-  std::vector<float> fired_dir_;      ///< 3 per beam: where it fires (ring_elevation_error_deg)
-  int pattern_key_ = -1;              ///< which frame phase beams_ holds, -1 before the first
-  std::vector<BeamState> state_;      ///< reused between frames
-  std::vector<BeamOut> out_;          ///< reused between frames
-  std::vector<const Scene*> slices_;  ///< the scan's scene(s), during Scan only
+  std::vector<Beam> beams_;              ///< reused between frames
+  std::vector<float> nominal_dir_;       ///< 3 per beam: reported direction (LiDAR frame)
+  std::vector<float> fired_dir_;         ///< 3 per beam: where it fires (ring_elevation_error_deg)
+  int pattern_key_ = -1;                 ///< which frame phase beams_ holds, -1 before the first
+  std::vector<BeamState> state_;         ///< reused between frames
+  std::vector<BeamOut> out_;             ///< reused between frames
+  std::vector<const Scene*> slices_;     ///< the scan's scene(s), during Scan only
+  std::vector<AzimuthSectors> sectors_;  ///< per slice, for the scan's path
 };
 
 }  // namespace calibd::sim

@@ -1,5 +1,6 @@
 #include "scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -169,10 +170,23 @@ void Scene::Finalize() {
 
 bool Scene::Cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
                  double t_max, Hit* hit) const {
+  return CastAmong(origin, dir, t_min, t_max, nullptr, static_cast<int>(primitives.size()), hit);
+}
+
+bool Scene::Cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
+                 double t_max, const AzimuthSectors& sectors, Hit* hit) const {
+  int count = 0;
+  const int* candidates = sectors.Of(dir, &count);
+  return CastAmong(origin, dir, t_min, t_max, candidates, count, hit);
+}
+
+bool Scene::CastAmong(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
+                      double t_max, const int* candidates, int count, Hit* hit) const {
   const Eigen::Vector3d inv_d = dir.cwiseInverse();
   double best = t_max;
   bool found = false;
-  for (size_t i = 0; i < primitives.size(); ++i) {
+  for (int k = 0; k < count; ++k) {
+    const auto i = static_cast<size_t>(candidates ? candidates[k] : k);
     const Primitive& p = primitives[i];
     double t = 0.0;
     Eigen::Vector3d n;
@@ -205,6 +219,78 @@ bool Scene::Cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, doub
     }
   }
   return found;
+}
+
+namespace {
+
+constexpr double kSectorWidth = 2.0 * M_PI / AzimuthSectors::kSectors;
+
+int SectorOf(double azimuth) {
+  const auto s = static_cast<int>(std::floor((azimuth + M_PI) / kSectorWidth));
+  return ((s % AzimuthSectors::kSectors) + AzimuthSectors::kSectors) % AzimuthSectors::kSectors;
+}
+
+}  // namespace
+
+void AzimuthSectors::Build(const Scene& scene, const Eigen::Vector3d& origin_a,
+                           const Eigen::Vector3d& origin_b) {
+  const Eigen::Vector2d mid = 0.5 * (origin_a + origin_b).head<2>();
+  const double half = 0.5 * (origin_b - origin_a).head<2>().norm();
+  // Per sector, which primitives a ray of its azimuth may enter the bounds of.
+  std::vector<std::vector<char>> listed(static_cast<size_t>(kSectors),
+                                        std::vector<char>(scene.primitives.size(), 0));
+  for (size_t i = 0; i < scene.primitives.size(); ++i) {
+    bool all = scene.primitives[i].shape == Primitive::Shape::kPlaneZ0;
+    double lo = 0.0, hi = 0.0, centre = 0.0;
+    if (!all) {
+      const Aabb& b = scene.bounds(static_cast<int>(i));
+      // Horizontal distance from the segment's middle to the box's footprint: an origin within
+      // `half` of it that could stand inside (or on) the footprint sees it in every direction.
+      const double dx = std::max({b.lo.x() - mid.x(), 0.0, mid.x() - b.hi.x()});
+      const double dy = std::max({b.lo.y() - mid.y(), 0.0, mid.y() - b.hi.y()});
+      const double d = std::hypot(dx, dy);
+      all = d <= half + 1e-3;
+      if (!all) {
+        // The footprint's corners bound its azimuths from outside it (a convex polygon); an
+        // origin `half` away turns each by at most asin(half / d); a sector of slack each side
+        // for rounding.
+        centre = std::atan2(0.5 * (b.lo.y() + b.hi.y()) - mid.y(),
+                            0.5 * (b.lo.x() + b.hi.x()) - mid.x());
+        lo = hi = 0.0;
+        for (int c = 0; c < 4; ++c) {
+          const double x = (c & 1) ? b.hi.x() : b.lo.x(), y = (c & 2) ? b.hi.y() : b.lo.y();
+          const double a = std::remainder(std::atan2(y - mid.y(), x - mid.x()) - centre, 2 * M_PI);
+          lo = std::min(lo, a);
+          hi = std::max(hi, a);
+        }
+        const double margin = std::asin(std::min(1.0, half / d)) + kSectorWidth;
+        lo -= margin;
+        hi += margin;
+        all = hi - lo >= 2.0 * M_PI - 2.0 * kSectorWidth;
+      }
+    }
+    if (all) {
+      for (auto& l : listed) l[i] = 1;
+      continue;
+    }
+    const int first = SectorOf(centre + lo);
+    const int span = static_cast<int>(std::ceil((hi - lo) / kSectorWidth)) + 1;
+    for (int k = 0; k <= span && k < kSectors; ++k)
+      listed[static_cast<size_t>((first + k) % kSectors)][i] = 1;
+  }
+  begin_.assign(static_cast<size_t>(kSectors) + 1, 0);
+  items_.clear();
+  for (size_t s = 0; s < listed.size(); ++s) {
+    for (size_t i = 0; i < listed[s].size(); ++i)
+      if (listed[s][i]) items_.push_back(static_cast<int>(i));
+    begin_[s + 1] = static_cast<int>(items_.size());
+  }
+}
+
+const int* AzimuthSectors::Of(const Eigen::Vector3d& dir, int* count) const {
+  const auto s = static_cast<size_t>(SectorOf(std::atan2(dir.y(), dir.x())));
+  *count = begin_[s + 1] - begin_[s];
+  return items_.data() + begin_[s];
 }
 
 }  // namespace calibd::sim
