@@ -185,6 +185,8 @@ bool VerdictsOption(CommandLine& line, VerdictsBenchOptions* v) {
   } else if (line.Is("--only")) {  // each --only adds to the list
     if (line.Integers(tools::Count{1}, 0, 1000000, &only))
       v->only.insert(v->only.end(), only.begin(), only.end());
+  } else if (line.Is("--unshared")) {
+    v->share_recordings = false;
   } else if (line.Is("--json")) {
     line.Value(&v->json_path);
   } else {

@@ -150,8 +150,10 @@ verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-
          someone in front of every board hiding 10-40 % of it (still poses), two boards of
          different sizes with their ids swapped in the config, boards bent 5-20 mm, still
          poses whose boards are still carried at 0.2-1 m/s with the camera 10-50 ms late, a
-         rolling shutter reading out over 10-40 ms while driving (22 faults: 352 sessions meet
-         every LiDAR in both modes with each). Each is detected
+         rolling shutter reading out over 10-40 ms while driving, boards out at 25-40 m (23
+         faults: 368 sessions meet every LiDAR in both modes with each). A round's faults that
+         change only the config, the stamps, the order of the pairs, the LiDAR's noise or the
+         camera derive from its clean session's recording (its scene and prior). Each is detected
          and calibrated by the real detectors and engine; the agent's session machine decides
          when its collection ends (short of 50 pairs with boards or 20 boards when the drive or
          the 120 s of still poses end: counted apart, not judged);
@@ -167,6 +169,8 @@ verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-
   --threads N         sessions at once (default 2)
   --only LIST         only these sessions (comma-separated indices, as in --json): to look
                       again at one
+  --unshared          each session simulated and detected on its own, none from its round's
+                      clean recording (the same answers, slower: a check of the sharing)
   --json FILE         also write every session as JSON
 
 time-offset the camera's time offset against the LiDAR, estimated by the engine from the boards'

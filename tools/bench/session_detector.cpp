@@ -50,10 +50,12 @@ void DetectedSession::Detect(int k, bool with_camera, FrameDetections* out) {
   DetectFrame(frame_, out);
 }
 
-void DetectedSession::Simulate(int k, bool with_camera, SimulatedFrame* frame) {
+void DetectedSession::Simulate(int k, bool with_camera, SimulatedFrame* frame, bool with_lidar) {
   frame->index = k;
   if (!with_camera) frame->image.release();
-  session_.SimulateFrame(k, with_camera ? &frame->image : nullptr, &frame->scan, &frame->truth);
+  if (!with_lidar) frame->scan.Clear();
+  session_.SimulateFrame(k, with_camera ? &frame->image : nullptr,
+                         with_lidar ? &frame->scan : nullptr, &frame->truth);
 }
 
 void DetectedSession::DetectFrame(const SimulatedFrame& frame, FrameDetections* out,

@@ -35,7 +35,9 @@ struct FrameDetections {
 /// (calibd-bench verdicts derives the faults that change only a config from one recording).
 struct SimulatedFrame {
   int index = 0;
-  cv::Mat image;  ///< empty when the camera was not rendered
+  /// Empty when the camera was not rendered. Simulate renders into its buffer: one shared with
+  /// another frame's image (cv::Mat assignment) would be overwritten.
+  cv::Mat image;
   sim::LidarScan scan;
   sim::FrameTruth truth;
 };
@@ -66,8 +68,9 @@ class DetectedSession {
   /// the camera detector only `with_camera` (rendering dominates the time otherwise).
   void Detect(int k, bool with_camera, FrameDetections* out);
 
-  /// Simulates frame pair k into `frame` (the image only `with_camera`), detecting nothing.
-  void Simulate(int k, bool with_camera, SimulatedFrame* frame);
+  /// Simulates frame pair k into `frame` (the image only `with_camera`, the sweep only
+  /// `with_lidar`), detecting nothing.
+  void Simulate(int k, bool with_camera, SimulatedFrame* frame, bool with_lidar = true);
   /// Runs the LiDAR detector, and the camera's when the frame has an image, on a pair simulated
   /// by this session or by another of the same scene (the same sim::SessionOptions up to the
   /// LiDAR's noise).

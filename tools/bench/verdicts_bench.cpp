@@ -35,10 +35,11 @@ constexpr const char* kLidars[] = {"ot128",  "m1",     "falcon", "vlp16",
 
 /// How much of its round's clean session (fault "none") a session's recording shares. A fault
 /// that changes only the config, the stamps or the order of the pairs detects on the clean
-/// session's pairs; one that changes only the LiDAR's noise sweeps again beside its images.
+/// session's pairs (kRecording); one that changes only the LiDAR's noise sweeps again beside its
+/// images (kImages); one that changes only the camera renders again beside its sweeps (kSweeps).
 /// Those sessions take the clean one's scene, trajectory and prior (its sim::SessionOptions);
 /// the others simulate their own.
-enum class Shares { kNothing, kImages, kRecording };
+enum class Shares { kNothing, kImages, kSweeps, kRecording };
 
 /// One session of the campaign: what is simulated, and what the recording and config say.
 struct Session {
@@ -154,7 +155,8 @@ constexpr Fault kFaults[] = {
        s->sim.camera_delay_us = delay;
        s->recording.camera_stamp_shift_us = -delay;
        s->magnitude = Num(static_cast<double>(delay) * 1e-3, 1) + " ms";
-     }},
+     },
+     Shares::kSweeps},
     {"camera_delay_no_times",
      "the camera exposes 0-100 ms after its trigger; pairs carry no capture times",
      [](Rng* rng, Session* s) {
@@ -162,7 +164,8 @@ constexpr Fault kFaults[] = {
        s->sim.camera_delay_us = delay;
        s->recording.no_times = true;
        s->magnitude = Num(static_cast<double>(delay) * 1e-3, 1) + " ms";
-     }},
+     },
+     Shares::kSweeps},
     {"board_size", "the config's board width and height 1-5 % off",
      [](Rng* rng, Session* s) {
        const double f = DrawFactor(rng, 0.01, 0.05, s);
@@ -360,7 +363,8 @@ constexpr Fault kFaults[] = {
        const int64_t readout = std::llround(Draw(rng, 10e3, 40e3));
        s->sim.camera_readout_us = readout;
        s->magnitude = Num(static_cast<double>(readout) * 1e-3, 1) + " ms readout";
-     }},
+     },
+     Shares::kSweeps},
     {"boards_far",
      "driving out to 25-40 m, where the camera sees the tags at 13-21 px: their distances too "
      "loose for the translation",
@@ -418,11 +422,16 @@ Session MakeSession(int i, unsigned long long seed, bool quick) {
   if (fault.shares != Shares::kNothing && &fault != &kFaults[0]) {
     // The round's clean session's scene, trajectory and prior (its draws above are unused).
     o = MakeSession(round * kNumFaults, seed, quick).sim;
-    const std::string lidar = o.lidar_model;
+    const sim::SessionOptions clean = o;
     fault.apply(&rng, &s);
-    // A fault that changes the LiDAR (ring_elevation in a round without rings) changes the
-    // scene's timing: simulated on its own.
-    s.shares = o.lidar_model == lidar ? fault.shares : Shares::kNothing;
+    // A fault that changes the LiDAR (ring_elevation in a round without rings) or the mode (a
+    // rolling shutter in a still-pose round) changes the scene: simulated on its own.
+    const bool same_scene = o.lidar_model == clean.lidar_model &&
+                            o.trajectory.mode == clean.trajectory.mode &&
+                            o.workshop.num_boards == clean.workshop.num_boards &&
+                            o.workshop.board_width_m == clean.workshop.board_width_m &&
+                            o.workshop.tag_size_m == clean.workshop.tag_size_m;
+    s.shares = same_scene ? fault.shares : Shares::kNothing;
     return s;
   }
   fault.apply(&rng, &s);
@@ -549,9 +558,9 @@ class CampaignSession {
 };
 
 /// What a session's LiDAR detector is built from: its model and the boards' sides (all it reads
-/// of the boards); `own_sweep`, a sweep no other session takes.
-std::string LidarDetectorKey(const CalibConfig& config, int own_sweep) {
-  std::string key = config.lidar_model + (own_sweep >= 0 ? "/" + std::to_string(own_sweep) : "");
+/// of the boards).
+std::string LidarDetectorKey(const CalibConfig& config) {
+  std::string key = config.lidar_model;
   for (const BoardGeometry& b : config.boards)
     key += " " + ShortestDecimal(b.width_m) + "x" + ShortestDecimal(b.height_m);
   return key;
@@ -565,35 +574,38 @@ std::string CameraDetectorKey(const CalibConfig& config) {
   return ConfigToYaml(c);
 }
 
-/// Records and solves `sessions`, which share one recording as Session::shares says (all of one
-/// round; a single session records its own): the first session that shares the whole recording
-/// simulates each pair, image and sweep; the others detect on it, those that share only the
-/// images after a sweep of their own (same scene, same seed, their LiDAR's noise). A detector
-/// built from the same inputs as an earlier session's, on the same pairs, gives its output: it is
-/// copied from that session's, which keeps detecting while a session copies it. Pairs are
-/// simulated until every session's collection has ended.
-void RunSessions(const std::vector<Session>& sessions, const std::vector<SessionResult*>& out) {
+/// Records and solves `sessions`, which share the recording of their round's clean session
+/// (`clean`, simulated here) as Session::shares says: a session that shares the whole recording
+/// detects on its pairs; one that shares the images sweeps again (same scene, same seed, its
+/// LiDAR's noise), one that shares the sweeps renders again (its camera). A detector built from
+/// the same inputs as an earlier session's, on the same frames, gives its output: it is copied
+/// from that session's, which keeps detecting while a session copies it. Pairs are simulated
+/// until every session's collection has ended.
+void RunSessions(const sim::SessionOptions& clean, const std::vector<Session>& sessions,
+                 const std::vector<SessionResult*>& out) {
   const size_t n = sessions.size();
+  DetectedSession base;
+  std::string error;
+  if (!base.Init(clean, &error)) {
+    for (SessionResult* r : out) r->error = "the round's clean session: " + error;
+    return;
+  }
   std::vector<std::unique_ptr<CampaignSession>> runs;
   std::vector<char> active(n, 0);
   for (size_t m = 0; m < n; ++m) {
     runs.push_back(std::make_unique<CampaignSession>(sessions[m], out[m]));
     active[m] = runs[m]->Init() ? 1 : 0;
   }
-  size_t base = n;
-  for (size_t m = 0; m < n && base == n; ++m)
-    if (active[m] && sessions[m].shares == Shares::kRecording) base = m;
-  for (size_t m = 0; m < n && base == n; ++m)
-    if (active[m]) base = m;
-  if (base == n) return;
-  auto own_sweep = [&](size_t m) { return m != base && sessions[m].shares == Shares::kImages; };
+  auto own_sweep = [&](size_t m) { return sessions[m].shares == Shares::kImages; };
+  auto own_image = [&](size_t m) { return sessions[m].shares == Shares::kSweeps; };
   // Each session's detectors copy the first session's with the same key (itself: it detects).
   std::vector<size_t> lidar_from(n), camera_from(n);
   std::vector<std::string> lidar_keys(n), camera_keys(n);
   for (size_t m = 0; m < n; ++m) {
     const CalibConfig& config = runs[m]->recorder().session().user_config();
-    lidar_keys[m] = LidarDetectorKey(config, own_sweep(m) ? static_cast<int>(m) : -1);
-    camera_keys[m] = CameraDetectorKey(config);
+    const std::string own = "/" + std::to_string(m);
+    lidar_keys[m] = LidarDetectorKey(config) + (own_sweep(m) ? own : "");
+    camera_keys[m] = CameraDetectorKey(config) + (own_image(m) ? own : "");
     lidar_from[m] = camera_from[m] = m;
     for (size_t e = 0; e < m; ++e) {
       if (!active[e]) continue;
@@ -602,8 +614,10 @@ void RunSessions(const std::vector<Session>& sessions, const std::vector<Session
     }
   }
   std::vector<double> simulation_s(n, 0.0);
-  SimulatedFrame shared, own;
-  const int frames = runs[base]->recorder().num_frames();
+  // Each with a buffer of its own to render into: an image rendered into a cv::Mat that shares
+  // its buffer with another frame's would overwrite that one.
+  SimulatedFrame shared, own_sweep_frame, own_image_frame;
+  const int frames = base.session().num_frames();
   for (int k = 0; k < frames; ++k) {
     // Detectors others copy from keep detecting while those sessions record.
     std::vector<char> lidar_needed(n, 0), camera_needed(n, 0);
@@ -615,15 +629,24 @@ void RunSessions(const std::vector<Session>& sessions, const std::vector<Session
     }
     if (recording == 0) break;
     auto t0 = std::chrono::steady_clock::now();
-    runs[base]->recorder().session().Simulate(k, true, &shared);
+    base.Simulate(k, true, &shared);
     const double shared_s = SecondsSince(t0);
     for (size_t m = 0; m < n; ++m) {
       if (!active[m] && !lidar_needed[m] && !camera_needed[m]) continue;
       const SimulatedFrame* frame = &shared;
       if (own_sweep(m)) {
         t0 = std::chrono::steady_clock::now();
-        runs[m]->recorder().session().Simulate(k, false, &own);
-        own.image = shared.image;
+        runs[m]->recorder().session().Simulate(k, false, &own_sweep_frame);
+        own_sweep_frame.image = shared.image;
+        simulation_s[m] += SecondsSince(t0);
+        frame = &own_sweep_frame;
+      } else if (own_image(m)) {
+        t0 = std::chrono::steady_clock::now();
+        SimulatedFrame& own = own_image_frame;
+        runs[m]->recorder().session().Simulate(k, true, &own, false);
+        own.scan = shared.scan;
+        for (size_t b = 0; b < own.truth.boards.size(); ++b)
+          own.truth.boards[b].lidar_point_indices = shared.truth.boards[b].lidar_point_indices;
         simulation_s[m] += SecondsSince(t0);
         frame = &own;
       }
@@ -685,7 +708,8 @@ bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ost
   std::vector<std::vector<size_t>> tasks;
   std::map<int, size_t> shared_task_of_round;
   for (size_t k = 0; k < indices.size(); ++k) {
-    if (MakeSession(indices[k], o.seed, o.quick).shares == Shares::kNothing) {
+    if (!o.share_recordings ||
+        MakeSession(indices[k], o.seed, o.quick).shares == Shares::kNothing) {
       tasks.push_back({k});
       continue;
     }
@@ -705,7 +729,12 @@ bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ost
           sessions.push_back(MakeSession(indices[k], o.seed, o.quick));
           task_results.push_back(&results[k]);
         }
-        RunSessions(sessions, task_results);
+        // A session alone is its own clean recording, whole.
+        if (sessions.size() == 1) sessions.front().shares = Shares::kNothing;
+        const int round = sessions.front().index / kNumFaults;
+        RunSessions(sessions.size() == 1 ? sessions.front().sim
+                                         : MakeSession(round * kNumFaults, o.seed, o.quick).sim,
+                    sessions, task_results);
       },
       progress, "calibd-bench verdicts (" + std::to_string(count) + " sessions)", "recordings", 10);
 

@@ -22,6 +22,11 @@ struct VerdictsBenchOptions {
   /// Only these sessions (indices of a full run with the same seed and mode): to look again at
   /// one. Empty: sessions 0 .. sessions - 1.
   std::vector<int> only;
+  /// A round's sessions whose faults change only the config, the stamps, the order of the pairs,
+  /// the LiDAR's noise or the camera take what they can of its clean session's recording (one
+  /// simulation and detection for all: the same answers as each on its own, several times
+  /// faster). False: every session simulated and detected on its own.
+  bool share_recordings = true;
   std::string json_path;
 };
 

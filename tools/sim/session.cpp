@@ -230,7 +230,9 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
     }
     workshop.scene.Finalize();
   };
-  if (speed > 0.0) {
+  if (scan == nullptr) {
+    // No sweep asked for (the caller takes one simulated with the same scene and seed).
+  } else if (speed > 0.0) {
     // The LiDAR fires over its whole sweep, a MEMS sensor down a board over most of it: the
     // beams see the boards where they are at their own time (kBoardMotionSlices of the sweep).
     std::vector<Scene> slices(kBoardMotionSlices);
@@ -287,7 +289,7 @@ void SessionSimulator::SimulateFrame(int k, cv::Mat* image, LidarScan* scan, Fra
                                          workshop.geometries[b].TagCornersInBoard(), -2.0);
     bt.lidar_point_indices.clear();
   }
-  for (size_t i = 0; i < scan->size(); ++i) {
+  for (size_t i = 0; scan != nullptr && i < scan->size(); ++i) {
     const int b = scan->board[i];
     if (b >= 0) truth->boards[b].lidar_point_indices.push_back(static_cast<int>(i));
   }

@@ -106,8 +106,8 @@ class SessionSimulator {
   /// camera is triggered then (phase lock, as on real vehicles), in microseconds.
   int64_t camera_phase_us() const { return camera_phase_us_; }
 
-  /// Simulates frame k: the image (if non-null), the sweep and the truth. Deterministic per (seed,
-  /// k).
+  /// Simulates frame k: the image (if non-null), the sweep (if non-null; else the truth's boards
+  /// list no LiDAR points) and the truth. Deterministic per (seed, k).
   void SimulateFrame(int k, cv::Mat* image, LidarScan* scan, FrameTruth* truth);
 
   /// The calibration config a user would write for this vehicle: intrinsics, boards, LiDAR model
