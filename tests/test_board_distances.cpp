@@ -1,6 +1,7 @@
 // The camera-LiDAR distance rows and their weighted fit (board_distances.hpp): a board's distance
-// along its normal from PnP and from its LiDAR points, what a LiDAR range offset does to it, and
-// the fit's two sigmas when rows of a block share their errors.
+// along its normal from PnP and from its LiDAR points, what a LiDAR range offset does to it, the
+// in-plane centre left by mixed returns off the plane, and the fit's two sigmas when rows of a
+// block share their errors.
 
 #include <gtest/gtest.h>
 
@@ -55,6 +56,34 @@ TEST(BoardDistancesTest, BothSensorsDistancesAlongTheNormalAndWhatARangeOffsetAd
   ASSERT_EQ(longer.size(), 1u);
   EXPECT_NEAR(longer[0].lidar_m - b.camera_m, 0.05 * b.normal.dot(b.mean_ray), 2e-4);
   EXPECT_GT(longer[0].lidar_m, b.lidar_m + 0.04);
+}
+
+// Returns mixed from a board's edge and the wall behind it lie off the board's plane; along the
+// slanted rays of a board turned 20 deg they land beside one edge only. The in-plane centre counts
+// the points on the plane: 20 such returns beyond the right edge (within the outline's margin,
+// 0.2-0.6 m behind the plane) leave it where it was.
+TEST(BoardDistancesTest, MixedReturnsBehindAnEdgeLeaveTheInPlaneCentre) {
+  BoardGeometry g;
+  g.width_m = g.height_m = 0.6;
+  const std::vector<BoardGeometry> boards = {g};
+  const ObservationSet clean = OneBoard(0.0);
+  ObservationSet mixed;
+  mixed.Reserve(1, 420);
+  std::vector<Eigen::Vector3f> points(clean.points.begin(),
+                                      clean.points.begin() + clean.observations[0].num_points);
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::Vector3d in_board(0.31 + 0.002 * k, -0.3 + 0.03 * k, -0.2 - 0.02 * k);
+    points.push_back((clean.observations[0].T_camera_board * in_board).cast<float>());
+  }
+  ASSERT_TRUE(
+      mixed.Add(clean.observations[0], points.data(), nullptr, static_cast<int>(points.size())));
+  const std::vector<BoardDistance> a = BoardDistances(clean, Pose::Identity(), &boards);
+  const std::vector<BoardDistance> b = BoardDistances(mixed, Pose::Identity(), &boards);
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_NEAR(b[0].lidar_in_plane.x(), a[0].lidar_in_plane.x(), 1e-9);
+  EXPECT_NEAR(b[0].lidar_in_plane.y(), a[0].lidar_in_plane.y(), 1e-9);
+  EXPECT_NEAR(b[0].lidar_m, a[0].lidar_m, 0.01);  // the median plane: hardly moved
 }
 
 // y = 2 a0 - a1 over 40 blocks of 10 rows; each block shares one error of 0.1 and each row has

@@ -9,6 +9,12 @@ namespace {
 // The in-plane centre's grid: about this many points a cell, at most this many cells a side.
 constexpr double kPointsPerCell = 6.0;
 constexpr int kMaxCellsPerSide = 12;
+// The in-plane centre counts the points within this many sigmas (the board's own scatter along
+// its normal, from the median absolute deviation) of its plane, and never less than
+// kMinPlaneBandM: a return mixed from a board's edge and what lies behind it sits off the plane,
+// and projected onto it along a slanted ray lands beyond the edge on one side only.
+constexpr double kPlaneBandSigmas = 3.0;
+constexpr double kMinPlaneBandM = 0.01;
 }  // namespace
 
 std::vector<BoardDistance> BoardDistances(const ObservationSet& set, const Pose& T_camera_lidar,
@@ -19,6 +25,7 @@ std::vector<BoardDistance> BoardDistances(const ObservationSet& set, const Pose&
   struct Inside {
     Eigen::Vector2d xy;
     Eigen::Vector3d ray;
+    double along;  // normal . p
   };
   struct Cell {
     Eigen::Vector2d xy = Eigen::Vector2d::Zero();
@@ -56,11 +63,20 @@ std::vector<BoardDistance> BoardDistances(const ObservationSet& set, const Pose&
       ray += u;
       const Eigen::Vector2d in_board = (T_board_camera * p_camera).head<2>();
       if (std::fabs(in_board.x()) > half.x() || std::fabs(in_board.y()) > half.y()) continue;
-      inside.push_back({in_board, u});
+      inside.push_back({in_board, u, along.back()});
     }
     if (inside.empty() || !ray.allFinite()) continue;
     b.lidar_m = Quantile(along, 0.5);
     b.mean_ray = ray.normalized();
+    for (double& a : along) a = std::fabs(a - b.lidar_m);
+    constexpr double kMadToSigma = 1.4826;
+    const double band =
+        std::max(kMinPlaneBandM, kPlaneBandSigmas * kMadToSigma * Quantile(along, 0.5));
+    inside.erase(
+        std::remove_if(inside.begin(), inside.end(),
+                       [&](const Inside& p) { return std::fabs(p.along - b.lidar_m) > band; }),
+        inside.end());
+    if (inside.empty()) continue;
     // The in-plane centre: the mean over the occupied cells of a grid on the board of each cell's
     // mean point, so that where the scan puts its points more densely (a rosette's centre, a
     // ring LiDAR's denser rings, the nearer side) weighs no more. About kPointsPerCell points a

@@ -30,8 +30,9 @@ struct BoardDistance {
   /// Unit mean direction from the LiDAR to the board's points, camera frame: a range offset b
   /// moves the LiDAR's plane by b (normal . mean_ray).
   Eigen::Vector3d mean_ray = Eigen::Vector3d::Zero();
-  /// The LiDAR's board centre in the camera's board frame (x, y: in the board's plane), the
-  /// points' density evened out (board_distances.cpp). Symmetric edge bloom leaves it.
+  /// The LiDAR's board centre in the camera's board frame (x, y: in the board's plane), over the
+  /// points on the board's plane (not the edges' mixed returns), the points' density evened out
+  /// (board_distances.cpp). Symmetric edge bloom leaves it.
   Eigen::Vector2d lidar_in_plane = Eigen::Vector2d::Zero();
   /// The same mean of the unit rays (not renormalised): a range offset b moves that centre by
   /// b mean_ray_area.
