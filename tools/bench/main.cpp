@@ -166,7 +166,8 @@ verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-
                       still poses of 6 sweeps) instead of at the agent's target (200 pairs;
                       200-pair drives, 10 sweeps a pose)
   --seed N            simulation seed (default 1; its kind: Seeds, below)
-  --threads N         sessions at once (default 2)
+  --threads N         recordings at once (default 2; the sessions sharing a round's clean
+                      recording are one)
   --only LIST         only these sessions (comma-separated indices, as in --json): to look
                       again at one
   --unshared          each session simulated and detected on its own, none from its round's
