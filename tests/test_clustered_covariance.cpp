@@ -118,5 +118,50 @@ TEST(ClusteredCovarianceTest, TheNormQuantileOfAGaussianErrorMatchesItsDistribut
   EXPECT_NEAR(GaussianNormQuantile99(cov), norms[198000], 0.01 * norms[198000]);
 }
 
+// The bound's principal point term holds whichever reading of the tags' corners is true: it takes
+// the reading whose bound is the larger. Weak tags (a blind spot of 7 px) that read a 5 px shift
+// leave the biased reading at about the stated 1 px; read as unbiased (2 px against 1 px), they
+// pull the belief a fifth of the way, and that turn is added as a bias.
+TEST(ClusteredCovarianceTest, TheErrorBoundTakesTheLargerReadingOfTheTagsCorners) {
+  DirectResult direct;
+  direct.clustered.valid = true;
+  direct.clustered.stretches = 8;
+  direct.clustered.covariance.setIdentity();
+  direct.clustered.covariance *= 1e-8;  // 0.1 mrad, 0.1 mm: the principal point dominates
+  constexpr double kF = 1200.0;
+  const auto turn = [](double turn_deg, double sigma_px) {
+    QualityFigures::PrincipalPointTurn t;
+    t.turn_deg = turn_deg;
+    t.sigma_rad = Eigen::Vector2d::Constant(sigma_px / kF);
+    return t;
+  };
+  QualityFigures q;
+  q.principal_point_beliefs[static_cast<size_t>(CornerBias::kAssumed)] =
+      turn(5.0 / 50.0 / kF * kRad2Deg, std::sqrt(49.0 / 50.0));
+  q.principal_point_beliefs[static_cast<size_t>(CornerBias::kNone)] =
+      turn(5.0 / 5.0 / kF * kRad2Deg, std::sqrt(4.0 / 5.0));
+  ErrorBound(direct, &q);
+  EXPECT_EQ(q.principal_point_bound_corners, CornerBias::kNone);
+  const auto bound_of = [&](const QualityFigures::PrincipalPointTurn& t) {
+    const Eigen::Matrix3d cov =
+        direct.clustered.covariance.bottomRightCorner<3, 3>() *
+            FewClustersVarianceFactor(direct.clustered.stretches) +
+        Eigen::Vector3d(t.sigma_rad.y() * t.sigma_rad.y(), t.sigma_rad.x() * t.sigma_rad.x(), 0.0)
+            .asDiagonal()
+            .toDenseMatrix();
+    return t.turn_deg + GaussianNormQuantile99(cov) * kRad2Deg;
+  };
+  const double biased = bound_of(q.principal_point_beliefs[0]);
+  const double unbiased = bound_of(q.principal_point_beliefs[1]);
+  EXPECT_GT(unbiased, biased);
+  EXPECT_NEAR(q.rotation_bound_deg, unbiased, 1e-12);
+  EXPECT_EQ(q.principal_point_belief.turn_deg, q.principal_point_beliefs[1].turn_deg);
+  // Tags that agree with the stated sigma: the biased reading, wider, is the bound.
+  q.principal_point_beliefs[1] = turn(0.0, 0.5);
+  ErrorBound(direct, &q);
+  EXPECT_EQ(q.principal_point_bound_corners, CornerBias::kAssumed);
+  EXPECT_NEAR(q.rotation_bound_deg, biased, 1e-12);
+}
+
 }  // namespace
 }  // namespace calibd

@@ -151,8 +151,9 @@ TEST(PrincipalPointCheckTest, ACornerBiasCommonToEveryTagMovesTheShiftWithinTheS
               far.systematic_px.y());
 }
 
-// The principal point as the error bound knows it: the tags (their sigma and blind spot in
-// quadrature) weighed against the intrinsic calibration's stated sigma, axis by axis.
+// The principal point as the error bound knows it: the tags (their sigma and, with the corners'
+// bias assumed, their blind spot in quadrature) weighed against the intrinsic calibration's
+// stated sigma, axis by axis.
 TEST(PrincipalPointCheckTest, TheTagsAndTheStatedSigmaCombineByTheirVariances) {
   PrincipalPointEstimate tags;
   tags.fitted = true;
@@ -160,24 +161,39 @@ TEST(PrincipalPointCheckTest, TheTagsAndTheStatedSigmaCombineByTheirVariances) {
   tags.sigma_px = {3.0, 1.0};
   tags.systematic_px = {4.0, 0.0};  // x: 5 px in all
   // Nothing stated: the tags alone, blind spot included.
-  PrincipalPointBelief b = CombinePrincipalPoint(tags, 0.0);
+  PrincipalPointBelief b = CombinePrincipalPoint(tags, 0.0, CornerBias::kAssumed);
   EXPECT_DOUBLE_EQ(b.shift_px.x(), 6.0);
   EXPECT_DOUBLE_EQ(b.sigma_px.x(), 5.0);
   EXPECT_DOUBLE_EQ(b.sigma_px.y(), 1.0);
-  EXPECT_DOUBLE_EQ(StatedPrincipalPointChiSquare(tags, 0.0), 0.0);
+  EXPECT_DOUBLE_EQ(StatedPrincipalPointChiSquare(tags, 0.0, CornerBias::kAssumed), 0.0);
   // 1 px stated: x weighs the tags 1/26, y 1/2.
-  b = CombinePrincipalPoint(tags, 1.0);
+  b = CombinePrincipalPoint(tags, 1.0, CornerBias::kAssumed);
   EXPECT_NEAR(b.shift_px.x(), 6.0 / 26.0, 1e-12);
   EXPECT_NEAR(b.sigma_px.x(), std::sqrt(25.0 / 26.0), 1e-12);
   EXPECT_NEAR(b.shift_px.y(), -1.0, 1e-12);
   EXPECT_NEAR(b.sigma_px.y(), std::sqrt(0.5), 1e-12);
-  EXPECT_NEAR(StatedPrincipalPointChiSquare(tags, 1.0), 36.0 / 26.0 + 4.0 / 2.0, 1e-12);
+  // Corners taken as unbiased: x weighs the tags 1/10 (3 px against 1 px), y as before.
+  b = CombinePrincipalPoint(tags, 1.0, CornerBias::kNone);
+  EXPECT_NEAR(b.shift_px.x(), 6.0 / 10.0, 1e-12);
+  EXPECT_NEAR(b.sigma_px.x(), std::sqrt(9.0 / 10.0), 1e-12);
+  EXPECT_NEAR(b.shift_px.y(), -1.0, 1e-12);
+  EXPECT_NEAR(StatedPrincipalPointChiSquare(tags, 1.0, CornerBias::kAssumed),
+              36.0 / 26.0 + 4.0 / 2.0, 1e-12);
+  // Tags sharper than their blind spot: read as biased, they do not refute the stated 1 px
+  // (chi-square 4); read as unbiased they do (20, beyond 9.21), and that reading takes them alone.
+  tags.sigma_px = {1.0, 1.0};
+  EXPECT_NEAR(StatedPrincipalPointChiSquare(tags, 1.0, CornerBias::kNone), 20.0, 1e-12);
+  b = CombinePrincipalPoint(tags, 1.0, CornerBias::kAssumed);
+  EXPECT_NEAR(b.shift_px.x(), 6.0 / 18.0, 1e-12);
+  b = CombinePrincipalPoint(tags, 1.0, CornerBias::kNone);
+  EXPECT_EQ(b.shift_px, tags.shift_px);
+  EXPECT_EQ(b.sigma_px, tags.sigma_px);
   // Tags that could not fit: the stated sigma alone, or nothing known.
   tags.fitted = false;
-  b = CombinePrincipalPoint(tags, 1.5);
+  b = CombinePrincipalPoint(tags, 1.5, CornerBias::kNone);
   EXPECT_EQ(b.shift_px, Eigen::Vector2d::Zero());
   EXPECT_DOUBLE_EQ(b.sigma_px.y(), 1.5);
-  EXPECT_TRUE(std::isinf(CombinePrincipalPoint(tags, 0.0).sigma_px.x()));
+  EXPECT_TRUE(std::isinf(CombinePrincipalPoint(tags, 0.0, CornerBias::kAssumed).sigma_px.x()));
 }
 
 }  // namespace

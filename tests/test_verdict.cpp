@@ -52,6 +52,7 @@ QualityFigures Clean() {
   q.principal_point_stated_sigma_px = 1.0;
   q.principal_point_stated_chi2 = 0.5;
   q.rotation_clustered_sigma_deg = 0.01;
+  q.rotation_statistical_deg = 0.03;
   q.translation_clustered_sigma_m = 0.001;
   q.rotation_systematic_deg = 0.1;
   q.translation_systematic_m = 0.01;
@@ -164,9 +165,19 @@ TEST(VerdictTest, EachGateRefusesTheFigureItJudges) {
       {"scattered boards",
        [](Session* s) {
          s->q.rotation_clustered_sigma_deg = 0.1;
+         s->q.rotation_statistical_deg = 0.337;
          s->q.rotation_bound_deg = 0.35;
        },
        Reason::kPoorObservability, "the boards' own scatter (+-0.100 deg)"},
+      {"scatter within the tolerance, a principal point the unbiased tags read beyond it",
+       [](Session* s) {
+         s->q.rotation_clustered_sigma_deg = 0.08;
+         s->q.rotation_statistical_deg = 0.27;
+         s->q.rotation_systematic_deg = 0.2;
+         s->q.rotation_bound_deg = 0.33;
+         s->q.principal_point_bound_corners = CornerBias::kNone;
+       },
+       Reason::kPoorObservability, "the tags put it 1.0 px right and 1.0 px down"},
       {"no bound", [inf](Session* s) { s->q.rotation_bound_deg = s->q.translation_bound_m = inf; },
        Reason::kPoorObservability, "error could reach unknown deg"},
       {"beyond the mechanical tolerance", [](Session* s) { s->delta_translation_m = 0.3; },

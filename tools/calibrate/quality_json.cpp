@@ -9,6 +9,7 @@ namespace calibd {
 nlohmann::json QualityJson(const QualityFigures& q) {
   nlohmann::json j = {{"reprojection_mean_px", q.reprojection_mean_px},
                       {"reprojection_p95_px", q.reprojection_p95_px},
+                      {"reprojection_median_px", q.reprojection_median_px},
                       {"reprojection_gate_px", q.reprojection_gate_px},
                       {"lidar_spacing_px", q.lidar_spacing_px},
                       {"residual_rms_m", q.residual_rms_m},
@@ -66,12 +67,16 @@ nlohmann::json QualityJson(const QualityFigures& q) {
       q.principal_point_fitted ? nlohmann::json(q.principal_point_turn_sigma_deg) : nullptr;
   j["principal_point_stated_sigma_px"] = q.principal_point_stated_sigma_px;
   j["principal_point_stated_chi2"] = q.principal_point_stated_chi2;
-  j["principal_point_belief_turn_deg"] = q.principal_point_belief_turn_deg;
+  j["principal_point_belief_turn_deg"] = q.principal_point_belief.turn_deg;
   const double belief_turn_sigma_deg =
-      std::hypot(q.principal_point_belief_sigma_rad.x(), q.principal_point_belief_sigma_rad.y()) *
+      std::hypot(q.principal_point_belief.sigma_rad.x(), q.principal_point_belief.sigma_rad.y()) *
       kRad2Deg;
   j["principal_point_belief_turn_sigma_deg"] =
       std::isfinite(belief_turn_sigma_deg) ? nlohmann::json(belief_turn_sigma_deg) : nullptr;
+  // Which reading of the tags' corners the bound took (CornerBias): "biased" when their blind
+  // spot joined their variance, "unbiased" when they alone weighed more.
+  j["principal_point_bound_corners"] =
+      q.principal_point_bound_corners == CornerBias::kAssumed ? "biased" : "unbiased";
   j["principal_point_ms"] = q.principal_point_ms;
   // The predicted 99 % bound on the result's own error and its parts (ErrorBound); null where
   // the clustered covariance could not be estimated.

@@ -129,11 +129,16 @@ void PrincipalPointFigures(const CalibConfig& config, const SessionObservations&
   q.principal_point_turn_sigma_deg = PrincipalPointTurnDeg(pp.sigma_px, config.camera);
   q.principal_point_stated_sigma_px = config.principal_point_sigma_px;
   q.principal_point_stated_chi2 =
-      StatedPrincipalPointChiSquare(pp, config.principal_point_sigma_px);
-  const PrincipalPointBelief belief = CombinePrincipalPoint(pp, config.principal_point_sigma_px);
-  q.principal_point_belief_turn_deg = PrincipalPointTurnDeg(belief.shift_px, config.camera);
-  q.principal_point_belief_sigma_rad = {belief.sigma_px.x() / config.camera.fx,
-                                        belief.sigma_px.y() / config.camera.fy};
+      StatedPrincipalPointChiSquare(pp, config.principal_point_sigma_px, CornerBias::kAssumed);
+  for (const CornerBias corners : {CornerBias::kAssumed, CornerBias::kNone}) {
+    const PrincipalPointBelief belief =
+        CombinePrincipalPoint(pp, config.principal_point_sigma_px, corners);
+    QualityFigures::PrincipalPointTurn& turn =
+        q.principal_point_beliefs[static_cast<size_t>(corners)];
+    turn.turn_deg = PrincipalPointTurnDeg(belief.shift_px, config.camera);
+    turn.sigma_rad = {belief.sigma_px.x() / config.camera.fx,
+                      belief.sigma_px.y() / config.camera.fy};
+  }
   q.principal_point_ms = MsSince(t_pp);
 }
 
@@ -284,14 +289,40 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
   const auto finite = [](double x) { return std::isfinite(x) ? x : 0.0; };
   // What a check estimated and left uncorrected is a bias, added as it is; how uncertain each
   // estimate is joins the statistical part's covariance.
+  // The statistical part: the clustered covariance, widened for the few stretches it rests on.
+  Eigen::Matrix<double, 6, 6> clustered = Eigen::Matrix<double, 6, 6>::Zero();
+  if (direct.clustered.valid) {
+    clustered = direct.clustered.covariance * FewClustersVarianceFactor(direct.clustered.stretches);
+    WorstSigmas(clustered, &q->translation_clustered_sigma_m, &q->rotation_clustered_sigma_deg);
+    q->rotation_statistical_deg =
+        GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>()) * kRad2Deg;
+  }
   // The rotation: the principal point, which the LiDAR cannot see, as the tags and the
   // intrinsic calibration know it (infinite when neither does: no bound); a shift along u turns
-  // the camera frame about its y axis, along v about its x axis.
-  const double rotation_bias_deg = q->principal_point_belief_turn_deg;
-  const Eigen::Vector2d pp_rad = q->principal_point_belief_sigma_rad;
-  const Eigen::Matrix3d pp_cov =
-      Eigen::Vector3d(pp_rad.y() * pp_rad.y(), pp_rad.x() * pp_rad.x(), 0.0).asDiagonal();
-  q->rotation_systematic_deg = rotation_bias_deg + GaussianNormQuantile99(pp_cov) * kRad2Deg;
+  // the camera frame about its y axis, along v about its x axis. Of the two readings of the tags'
+  // corners (CornerBias), the one whose bound is the larger: the bound holds whichever is true.
+  q->rotation_systematic_deg = q->rotation_bound_deg = -1.0;
+  for (const CornerBias corners : {CornerBias::kAssumed, CornerBias::kNone}) {
+    const QualityFigures::PrincipalPointTurn& pp =
+        q->principal_point_beliefs[static_cast<size_t>(corners)];
+    const Eigen::Matrix3d pp_cov = Eigen::Vector3d(pp.sigma_rad.y() * pp.sigma_rad.y(),
+                                                   pp.sigma_rad.x() * pp.sigma_rad.x(), 0.0)
+                                       .asDiagonal();
+    const double systematic_deg = pp.turn_deg + GaussianNormQuantile99(pp_cov) * kRad2Deg;
+    const double bound_deg =
+        direct.clustered.valid
+            ? pp.turn_deg +
+                  GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>() + pp_cov) * kRad2Deg
+            : std::numeric_limits<double>::infinity();
+    // Ties (both infinite, or equal) keep the first: the blind spot assumed.
+    const bool larger = direct.clustered.valid ? bound_deg > q->rotation_bound_deg
+                                               : systematic_deg > q->rotation_systematic_deg;
+    if (!larger) continue;
+    q->principal_point_bound_corners = corners;
+    q->principal_point_belief = pp;
+    q->rotation_systematic_deg = systematic_deg;
+    q->rotation_bound_deg = bound_deg;
+  }
   // The translation: the range offset (moves it by about itself), the scale error left after
   // its correction and its sigma (by themselves times the boards' distance), the time offset's
   // sigma (times the boards' speed along their normals); each along the boards' direction.
@@ -319,17 +350,11 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
       range.sigma_m * range.sigma_m + scale.sigma_m * scale.sigma_m + time.sigma_m * time.sigma_m;
   q->translation_systematic_m = translation_bias_m + k1 * std::sqrt(translation_var);
   if (!direct.clustered.valid) {
-    q->rotation_bound_deg = q->translation_bound_m = std::numeric_limits<double>::infinity();
+    q->translation_bound_m = std::numeric_limits<double>::infinity();
     return;
   }
-  // The statistical part: the clustered covariance, widened for the few stretches it rests on.
-  const Eigen::Matrix<double, 6, 6> clustered =
-      direct.clustered.covariance * FewClustersVarianceFactor(direct.clustered.stretches);
-  WorstSigmas(clustered, &q->translation_clustered_sigma_m, &q->rotation_clustered_sigma_deg);
-  // Each bound: the biases, plus the 99 % quantile of the norm of the whole covariance's error.
-  q->rotation_bound_deg =
-      rotation_bias_deg +
-      GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>() + pp_cov) * kRad2Deg;
+  // The translation bound: the biases, plus the 99 % quantile of the norm of the whole
+  // covariance's error.
   q->translation_bound_m =
       translation_bias_m +
       GaussianNormQuantile99(clustered.topLeftCorner<3, 3>() +

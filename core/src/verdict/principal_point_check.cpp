@@ -202,21 +202,27 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
 
 namespace {
 
-// The tags' variance of the shift on axis a, blind spot included; infinite when not fitted.
-double TagsVariance(const PrincipalPointEstimate& tags, int a) {
+// The tags' variance of the shift on axis a, with the blind spot when the corners are taken as
+// biased; infinite when not fitted.
+double TagsVariance(const PrincipalPointEstimate& tags, int a, CornerBias corners) {
   if (!tags.fitted) return std::numeric_limits<double>::infinity();
-  return tags.sigma_px(a) * tags.sigma_px(a) + tags.systematic_px(a) * tags.systematic_px(a);
+  const double blind_spot = corners == CornerBias::kAssumed ? tags.systematic_px(a) : 0.0;
+  return tags.sigma_px(a) * tags.sigma_px(a) + blind_spot * blind_spot;
 }
 
 }  // namespace
 
 PrincipalPointBelief CombinePrincipalPoint(const PrincipalPointEstimate& tags,
-                                           double stated_sigma_px) {
+                                           double stated_sigma_px, CornerBias corners) {
   PrincipalPointBelief out;
-  const double stated_var = stated_sigma_px > 0.0 ? stated_sigma_px * stated_sigma_px
-                                                  : std::numeric_limits<double>::infinity();
+  // A statement the tags refute, in this reading, no longer counts.
+  const bool refuted = StatedPrincipalPointChiSquare(tags, stated_sigma_px, corners) >
+                       kStatedPrincipalPointChiSquare;
+  const double stated_var = stated_sigma_px > 0.0 && !refuted
+                                ? stated_sigma_px * stated_sigma_px
+                                : std::numeric_limits<double>::infinity();
   for (int a = 0; a < 2; ++a) {
-    const double tags_var = TagsVariance(tags, a);
+    const double tags_var = TagsVariance(tags, a, corners);
     if (!std::isfinite(tags_var)) {
       out.sigma_px(a) = std::sqrt(stated_var);  // the prior alone (infinite when none)
       continue;
@@ -233,12 +239,13 @@ PrincipalPointBelief CombinePrincipalPoint(const PrincipalPointEstimate& tags,
   return out;
 }
 
-double StatedPrincipalPointChiSquare(const PrincipalPointEstimate& tags, double stated_sigma_px) {
+double StatedPrincipalPointChiSquare(const PrincipalPointEstimate& tags, double stated_sigma_px,
+                                     CornerBias corners) {
   if (!tags.fitted || !(stated_sigma_px > 0.0)) return 0.0;
   double chi2 = 0.0;
   for (int a = 0; a < 2; ++a)
     chi2 += tags.shift_px(a) * tags.shift_px(a) /
-            (TagsVariance(tags, a) + stated_sigma_px * stated_sigma_px);
+            (TagsVariance(tags, a, corners) + stated_sigma_px * stated_sigma_px);
   return std::isfinite(chi2) ? chi2 : 0.0;
 }
 

@@ -61,6 +61,7 @@ void ReprojectionFigures(std::vector<double> errors_px, QualityFigures* q) {
   q->reprojection_mean_px = std::accumulate(errors_px.begin(), errors_px.end(), 0.0) /
                             static_cast<double>(errors_px.size());
   q->reprojection_p95_px = Quantile(errors_px, 0.95);
+  q->reprojection_median_px = Quantile(errors_px, 0.5);
 }
 
 void MeanCornerErrors(const std::vector<double>& errors_px, std::vector<double>* mean_px) {

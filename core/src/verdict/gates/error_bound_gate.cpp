@@ -18,11 +18,23 @@ std::string Bound(double x, int decimals) {
 // The rotation bound's larger part, and what would shrink it.
 std::string RotationCause(const GateInput& in) {
   const QualityFigures& q = in.quality;
-  const double statistical_deg = kBoundNormQuantile3d * q.rotation_clustered_sigma_deg;
-  if (statistical_deg >= q.rotation_systematic_deg)
+  // The scatter first only when it alone reaches the tolerance and outweighs the principal point.
+  const bool scatter_alone_out = !(q.rotation_statistical_deg <= in.config.max_rotation_bound_deg);
+  if (scatter_alone_out && q.rotation_statistical_deg >= q.rotation_systematic_deg)
     return "most of it the boards' own scatter (+-" +
            FixedDecimal(q.rotation_clustered_sigma_deg, 3) +
            " deg): more boards, closer and at more varied angles";
+  const Eigen::Vector2d d = q.principal_point_shift_px;
+  if (q.principal_point_bound_corners == CornerBias::kNone)
+    return "most of it the camera's principal point, which the LiDAR cannot see: the tags put it " +
+           FixedDecimal(d.x(), 1) + " px right and " + FixedDecimal(d.y(), 1) +
+           " px down of the configured one (+-" + FixedDecimal(q.principal_point_sigma_px.x(), 1) +
+           " / +-" + FixedDecimal(q.principal_point_sigma_px.y(), 1) +
+           " px): taken as they read it, the result may turn that far; they measure it too "
+           "loosely to confirm or refute the intrinsic calibration's +-" +
+           FixedDecimal(q.principal_point_stated_sigma_px, 1) +
+           " px: check the camera's intrinsic calibration (cx, cy), or add still poses with "
+           "boards close to the camera (1.5-3 m) turned 20-40 deg";
   const std::string known =
       q.principal_point_fitted
           ? "the tags measure it to +-" + FixedDecimal(q.principal_point_turn_sigma_deg, 2) +

@@ -63,7 +63,8 @@ double GaussianNormQuantile99(const Eigen::Matrix3d& covariance);
 /// translation_bound_m and their parts), from `direct`'s clustered covariance (widened by
 /// FewClustersVarianceFactor) and the systematic figures MeasureQuality set in `q`. Rotation: the
 /// principal point as the tags and the intrinsic calibration know it together
-/// (principal_point_belief_*), which the LiDAR cannot see. Translation, each along the boards'
+/// (principal_point_beliefs), which the LiDAR cannot see, in the reading of the tags' corners
+/// (CornerBias) whose bound is the larger. Translation, each along the boards'
 /// direction: the LiDAR's range offset (moves it by about itself), the camera's scale error left
 /// after its correction and its sigma (by themselves times the boards' distance), the time
 /// offset's sigma (times the boards' speed along their normals). What a check estimated and left

@@ -56,16 +56,35 @@ struct PrincipalPointBelief {
   Eigen::Vector2d sigma_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
 };
 
-/// The tags' estimate (its sigma and its blind spot in quadrature: the blind spot is a bias that
-/// no resampling shows) combined, axis by axis and weighted by inverse variances, with the
-/// intrinsic calibration's stated sigma (a prior centred on the configured principal point;
-/// `stated_sigma_px` 0: none stated). Neither known: the sigma is infinite.
-PrincipalPointBelief CombinePrincipalPoint(const PrincipalPointEstimate& tags,
-                                           double stated_sigma_px);
+/// How the tags' corners are taken when their estimate is weighed. Whether a detector's corners
+/// carry a bias common to every tag depends on the lens, the image pipeline and the motion, none
+/// of which the session shows; the error bound holds for both ends (ErrorBound takes the reading
+/// whose bound is the larger).
+enum class CornerBias {
+  kAssumed,  ///< a bias of kCornerBiasPx: the blind spot joins the tags' variance
+  kNone,     ///< unbiased: the tags' sigma alone, so they weigh more against the stated sigma
+};
+inline constexpr int kNumCornerBiasReadings = 2;
 
-/// Chi-square of the tags' shift against the stated sigma and their own (blind spot included),
-/// two degrees of freedom; 0 when either is unknown.
-double StatedPrincipalPointChiSquare(const PrincipalPointEstimate& tags, double stated_sigma_px);
+/// The tags' shift against the stated sigma and their own (with CornerBias::kAssumed, blind spot
+/// included) is a refutation of the stated sigma beyond this: chi-square with two degrees of
+/// freedom at 99 %.
+inline constexpr double kStatedPrincipalPointChiSquare = 9.21;
+
+/// Chi-square of the tags' shift against the stated sigma and their own in the reading
+/// `corners`, two degrees of freedom; 0 when either is unknown.
+double StatedPrincipalPointChiSquare(const PrincipalPointEstimate& tags, double stated_sigma_px,
+                                     CornerBias corners);
+
+/// The tags' estimate (its sigma, and with CornerBias::kAssumed its blind spot in quadrature: the
+/// blind spot is a bias that no resampling shows) combined, axis by axis and weighted by inverse
+/// variances, with the intrinsic calibration's stated sigma (a prior centred on the configured
+/// principal point; `stated_sigma_px` 0: none stated). A stated sigma the tags refute in the
+/// same reading (StatedPrincipalPointChiSquare beyond kStatedPrincipalPointChiSquare) counts as
+/// none: weighing it would pull the belief back towards a principal point the data reject.
+/// Neither known: the sigma is infinite.
+PrincipalPointBelief CombinePrincipalPoint(const PrincipalPointEstimate& tags,
+                                           double stated_sigma_px, CornerBias corners);
 
 /// The turn a principal point shift of `shift_px` (or its sigma) gives the result, deg: about
 /// |(dx / fx, dy / fy)|, which the LiDAR cannot see.

@@ -5,13 +5,19 @@
 /// beyond the paper), each documented where it is declared.
 
 #include <Eigen/Core>
+#include <array>
 #include <cmath>
 #include <limits>
+
+#include "calibd/core/verdict/principal_point_check.hpp"
 
 namespace calibd {
 
 struct QualityFigures {
   double reprojection_mean_px = 0.0, reprojection_p95_px = 0.0;  ///< paper Table I metric
+  /// Its median: a few boards the LiDAR resolves coarsely (one or two rings on them) raise the
+  /// mean and the p95, a wrong extrinsic or board moves every board's corners.
+  double reprojection_median_px = 0.0;
   /// The LiDAR's point spacing on the boards as the camera sees it, px: per board f sqrt(A / n) / d
   /// (A the board's area, n its LiDAR points, d its distance from the camera), mean over the
   /// boards. Each board's own fit, which the Table I metric measures, is as good as a share of it.
@@ -36,6 +42,10 @@ struct QualityFigures {
   /// measure_quality.hpp): the principal point's turn, the range offset, the camera's scale and
   /// the time offset left, their estimates plus their sigmas at the bound's quantile.
   double rotation_systematic_deg = 0.0, translation_systematic_m = 0.0;
+  /// The rotation bound's statistical part alone: the 99 % quantile of the norm of the clustered
+  /// covariance's rotation error, deg (infinite where it cannot be estimated). Within the
+  /// tolerance while the whole bound is not: the systematic part took it beyond.
+  double rotation_statistical_deg = std::numeric_limits<double>::infinity();
   /// The mean direction from the camera to the boards (unit, camera frame): the one along which
   /// a range offset, a scale error or a time offset moves the translation.
   Eigen::Vector3d board_direction = Eigen::Vector3d::UnitZ();
@@ -115,14 +125,20 @@ struct QualityFigures {
   double principal_point_stated_sigma_px = 0.0;
   /// The tags' shift against that sigma and their own (StatedPrincipalPointChiSquare).
   double principal_point_stated_chi2 = 0.0;
-  /// What the result takes the principal point to be (CombinePrincipalPoint: the tags, their
-  /// blind spot and the stated sigma), as the turn it gives the result (deg) and that shift's
-  /// sigma per axis as a turn (rad: along u, about the camera's y axis; along v): the error
-  /// bound's rotation terms. Infinite sigma: known neither from the tags nor from the intrinsic
-  /// calibration.
-  double principal_point_belief_turn_deg = 0.0;
-  Eigen::Vector2d principal_point_belief_sigma_rad =
-      Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  /// What the result takes the principal point to be (CombinePrincipalPoint: the tags and the
+  /// stated sigma), as the turn it gives the result (deg) and that shift's sigma per axis as a
+  /// turn (rad: along u, about the camera's y axis; along v): one per reading of the tags'
+  /// corners, indexed by CornerBias. Infinite sigma: known neither from the tags nor from the
+  /// intrinsic calibration.
+  struct PrincipalPointTurn {
+    double turn_deg = 0.0;
+    Eigen::Vector2d sigma_rad = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  };
+  std::array<PrincipalPointTurn, kNumCornerBiasReadings> principal_point_beliefs{};
+  /// The reading the error bound took (ErrorBound: the one whose bound is the larger), and its
+  /// belief: the bound's rotation terms.
+  CornerBias principal_point_bound_corners = CornerBias::kAssumed;
+  PrincipalPointTurn principal_point_belief{};
   double principal_point_ms = 0.0;
 };
 

@@ -33,9 +33,8 @@ inline constexpr double kPrincipalPointSigmaTurns = 2.0;
 inline constexpr double kLensMisfitResidualPx = 3.0 * kCornerNoisePx;
 
 /// The tags' shift against the intrinsic calibration's stated sigma and their own, blind spot
-/// included (StatedPrincipalPointChiSquare), is refused beyond this: chi-square with two degrees
-/// of freedom at 99 %.
-inline constexpr double kStatedPrincipalPointChiSquare = 9.21;
+/// included (StatedPrincipalPointChiSquare with CornerBias::kAssumed), is refused beyond
+/// kStatedPrincipalPointChiSquare (principal_point_check.hpp).
 
 /// The tags disagree on the principal point and misfit the lens: a wrong lens model.
 Reason CheckLensModel(const GateInput& in, std::string* detail);
