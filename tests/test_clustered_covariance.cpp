@@ -129,10 +129,13 @@ TEST(ClusteredCovarianceTest, TheErrorBoundTakesTheLargerReadingOfTheTagsCorners
   direct.clustered.covariance.setIdentity();
   direct.clustered.covariance *= 1e-8;  // 0.1 mrad, 0.1 mm: the principal point dominates
   constexpr double kF = 1200.0;
+  // A belief of a shift along u, as the bound without a measured response takes it: the turn.
   const auto turn = [](double turn_deg, double sigma_px) {
     QualityFigures::PrincipalPointTurn t;
     t.turn_deg = turn_deg;
     t.sigma_rad = Eigen::Vector2d::Constant(sigma_px / kF);
+    t.shift_px = {turn_deg / kRad2Deg * kF, 0.0};
+    t.sigma_px = Eigen::Vector2d::Constant(sigma_px);
     return t;
   };
   QualityFigures q;
@@ -161,6 +164,21 @@ TEST(ClusteredCovarianceTest, TheErrorBoundTakesTheLargerReadingOfTheTagsCorners
   ErrorBound(direct, &q);
   EXPECT_EQ(q.principal_point_bound_corners, CornerBias::kAssumed);
   EXPECT_NEAR(q.rotation_bound_deg, biased, 1e-12);
+  // With the response measured, the belief is carried through it: a response of a pure turn
+  // about the camera's y axis (1 / f rad per px along u) and 4 m of translation along x per rad
+  // adds to the translation bound what it adds to the rotation's, times 4 m.
+  const double translation_before = q.translation_bound_m;
+  q.principal_point_response_measured = true;
+  q.principal_point_response.setZero();
+  q.principal_point_response(4, 0) = 1.0 / kF;
+  q.principal_point_response(3, 1) = 1.0 / kF;
+  q.principal_point_response(0, 0) = 4.0 / kF;
+  ErrorBound(direct, &q);
+  EXPECT_NEAR(q.rotation_bound_deg, biased, 1e-9);
+  const QualityFigures::PrincipalPointTurn& taken = q.principal_point_beliefs[0];
+  EXPECT_NEAR(q.translation_bound_principal_point_m,
+              4.0 / kF * (std::fabs(taken.shift_px.x()) + 2.5758 * taken.sigma_px.x()), 1e-4);
+  EXPECT_GT(q.translation_bound_m, translation_before);
 }
 
 }  // namespace

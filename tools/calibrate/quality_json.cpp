@@ -88,6 +88,7 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["translation_bound_range_offset_m"] = q.translation_bound_range_offset_m;
   j["translation_bound_scale_m"] = q.translation_bound_scale_m;
   j["translation_bound_time_offset_m"] = q.translation_bound_time_offset_m;
+  j["translation_bound_principal_point_m"] = q.translation_bound_principal_point_m;
   j["rotation_bound_deg"] = finite(q.rotation_bound_deg);
   j["translation_bound_m"] = finite(q.translation_bound_m);
   return j;

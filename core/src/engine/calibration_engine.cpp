@@ -123,7 +123,8 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
                                                           : 0};
   // The figures of the solution share the threads with its re-solves.
   const auto measure = [&] {
-    MeasureQuality(config, session, projection, corr, solution.boards, solution.direct, &q);
+    MeasureQuality(config, session, projection, corr, solution.boards, solution.direct,
+                   engine.direct, &q);
   };
   MeasureStabilityAndReprojection(checks, engine.direct, engine.verdict, solution.boards, camera,
                                   corr, solution.direct, measure, &q, reprojection_px);

@@ -138,6 +138,8 @@ void PrincipalPointFigures(const CalibConfig& config, const SessionObservations&
     turn.turn_deg = PrincipalPointTurnDeg(belief.shift_px, config.camera);
     turn.sigma_rad = {belief.sigma_px.x() / config.camera.fx,
                       belief.sigma_px.y() / config.camera.fy};
+    turn.shift_px = belief.shift_px;
+    turn.sigma_px = belief.sigma_px;
   }
   q.principal_point_ms = MsSince(t_pp);
 }
@@ -269,7 +271,7 @@ void CoverageFigures(const CalibConfig& config, const ObservationSet& set, Quali
 void MeasureQuality(const CalibConfig& config, const SessionObservations& session,
                     const RangeImage& projection, const ObservationSet& corr,
                     const std::vector<BoardGeometry>& boards, const DirectResult& direct,
-                    QualityFigures* q) {
+                    const DirectOptimizerConfig& solver, QualityFigures* q) {
   q->residual_rms_m = direct.residual_rms_m;
   q->information = direct.information;
   q->min_information_eigenvalue = direct.min_information_eigenvalue;
@@ -279,14 +281,61 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
   RingElevationFigures(boards, corr, projection, direct, q);
   BoardBendFigures(boards, corr, direct, q);
   PrincipalPointFigures(config, session, q);
+  q->principal_point_response_measured = PrincipalPointResponse(
+      config.camera, boards, corr, direct, solver, &q->principal_point_response);
   TimeOffsetFigures(corr, distances, q);
   q->plane_conditioning = PlaneConditioning(direct);
   q->board_direction = BoardDirection(corr);
   ErrorBound(direct, q);
 }
 
+namespace {
+
+// What the principal point, as one reading of the tags believes it, adds to the bound: biases
+// (deg, m) and covariances (rad^2, m^2) of the rotation and the translation.
+struct PrincipalPointPart {
+  double rotation_bias_deg = 0.0, translation_bias_m = 0.0;
+  Eigen::Matrix3d rotation_cov = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d translation_cov = Eigen::Matrix3d::Zero();
+};
+
+// How the principal point's shift is carried into the result: as the turn d / f (exact while
+// every board's pose moves as one rigid turn about the camera), or through the response the
+// solve was measured to have (PrincipalPointResponse: the tags' slant read differently as well).
+enum class ResponseModel { kTurn, kMeasured };
+
+PrincipalPointPart PrincipalPointBoundPart(const QualityFigures& q,
+                                           const QualityFigures::PrincipalPointTurn& pp,
+                                           ResponseModel model) {
+  PrincipalPointPart part;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (!pp.sigma_px.allFinite() || !pp.sigma_rad.allFinite()) {
+    part.rotation_cov = part.translation_cov = Eigen::Matrix3d::Constant(kInf);
+    return part;
+  }
+  if (model == ResponseModel::kTurn) {
+    // A shift along u turns the camera frame about its y axis, along v about its x axis.
+    part.rotation_bias_deg = pp.turn_deg;
+    part.rotation_cov = Eigen::Vector3d(pp.sigma_rad.y() * pp.sigma_rad.y(),
+                                        pp.sigma_rad.x() * pp.sigma_rad.x(), 0.0)
+                            .asDiagonal();
+    return part;
+  }
+  const Eigen::Matrix<double, 6, 2>& R = q.principal_point_response;
+  const Eigen::Matrix<double, 6, 1> bias = R * pp.shift_px;
+  const Eigen::Matrix<double, 6, 6> cov = R * pp.sigma_px.cwiseAbs2().asDiagonal() * R.transpose();
+  part.translation_bias_m = bias.head<3>().norm();
+  part.rotation_bias_deg = bias.tail<3>().norm() * kRad2Deg;
+  part.translation_cov = cov.topLeftCorner<3, 3>();
+  part.rotation_cov = cov.bottomRightCorner<3, 3>();
+  return part;
+}
+
+}  // namespace
+
 void ErrorBound(const DirectResult& direct, QualityFigures* q) {
   const auto finite = [](double x) { return std::isfinite(x) ? x : 0.0; };
+  constexpr double kInf = std::numeric_limits<double>::infinity();
   // What a check estimated and left uncorrected is a bias, added as it is; how uncertain each
   // estimate is joins the statistical part's covariance.
   // The statistical part: the clustered covariance, widened for the few stretches it rests on.
@@ -297,35 +346,10 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
     q->rotation_statistical_deg =
         GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>()) * kRad2Deg;
   }
-  // The rotation: the principal point, which the LiDAR cannot see, as the tags and the
-  // intrinsic calibration know it (infinite when neither does: no bound); a shift along u turns
-  // the camera frame about its y axis, along v about its x axis. Of the two readings of the tags'
-  // corners (CornerBias), the one whose bound is the larger: the bound holds whichever is true.
-  q->rotation_systematic_deg = q->rotation_bound_deg = -1.0;
-  for (const CornerBias corners : {CornerBias::kAssumed, CornerBias::kNone}) {
-    const QualityFigures::PrincipalPointTurn& pp =
-        q->principal_point_beliefs[static_cast<size_t>(corners)];
-    const Eigen::Matrix3d pp_cov = Eigen::Vector3d(pp.sigma_rad.y() * pp.sigma_rad.y(),
-                                                   pp.sigma_rad.x() * pp.sigma_rad.x(), 0.0)
-                                       .asDiagonal();
-    const double systematic_deg = pp.turn_deg + GaussianNormQuantile99(pp_cov) * kRad2Deg;
-    const double bound_deg =
-        direct.clustered.valid
-            ? pp.turn_deg +
-                  GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>() + pp_cov) * kRad2Deg
-            : std::numeric_limits<double>::infinity();
-    // Ties (both infinite, or equal) keep the first: the blind spot assumed.
-    const bool larger = direct.clustered.valid ? bound_deg > q->rotation_bound_deg
-                                               : systematic_deg > q->rotation_systematic_deg;
-    if (!larger) continue;
-    q->principal_point_bound_corners = corners;
-    q->principal_point_belief = pp;
-    q->rotation_systematic_deg = systematic_deg;
-    q->rotation_bound_deg = bound_deg;
-  }
-  // The translation: the range offset (moves it by about itself), the scale error left after
-  // its correction and its sigma (by themselves times the boards' distance), the time offset's
-  // sigma (times the boards' speed along their normals); each along the boards' direction.
+  // The translation's own terms: the range offset (moves it by about itself), the scale error
+  // left after its correction and its sigma (by themselves times the boards' distance), the time
+  // offset's sigma (times the boards' speed along their normals); each along the boards'
+  // direction.
   struct Term {
     double bias_m = 0.0, sigma_m = 0.0;
   };
@@ -348,17 +372,57 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
   const double translation_bias_m = range.bias_m + scale.bias_m + time.bias_m;
   const double translation_var =
       range.sigma_m * range.sigma_m + scale.sigma_m * scale.sigma_m + time.sigma_m * time.sigma_m;
-  q->translation_systematic_m = translation_bias_m + k1 * std::sqrt(translation_var);
-  if (!direct.clustered.valid) {
-    q->translation_bound_m = std::numeric_limits<double>::infinity();
-    return;
+  const Eigen::Matrix3d translation_cov =
+      translation_var * q->board_direction * q->board_direction.transpose();
+  // The principal point, which the LiDAR cannot see, as the tags and the intrinsic calibration
+  // know it (infinite when neither does: no bound), carried into the result as a turn and
+  // through its measured response. Of the two readings of the tags' corners (CornerBias) and the
+  // two responses, each bound takes the pair that makes it the larger: it holds whichever is
+  // true. Ties keep the first: the blind spot assumed, the turn.
+  q->rotation_systematic_deg = q->rotation_bound_deg = q->translation_bound_m = -1.0;
+  q->translation_bound_principal_point_m = -1.0;
+  for (const auto& [corners, model] : {std::pair{CornerBias::kAssumed, ResponseModel::kTurn},
+                                       std::pair{CornerBias::kAssumed, ResponseModel::kMeasured},
+                                       std::pair{CornerBias::kNone, ResponseModel::kTurn},
+                                       std::pair{CornerBias::kNone, ResponseModel::kMeasured}}) {
+    if (model == ResponseModel::kMeasured && !q->principal_point_response_measured) continue;
+    const QualityFigures::PrincipalPointTurn& pp =
+        q->principal_point_beliefs[static_cast<size_t>(corners)];
+    const PrincipalPointPart part = PrincipalPointBoundPart(*q, pp, model);
+    const double systematic_deg =
+        part.rotation_bias_deg + GaussianNormQuantile99(part.rotation_cov) * kRad2Deg;
+    const double rotation_deg =
+        direct.clustered.valid
+            ? part.rotation_bias_deg +
+                  GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>() + part.rotation_cov) *
+                      kRad2Deg
+            : kInf;
+    const double translation_m =
+        direct.clustered.valid ? translation_bias_m + part.translation_bias_m +
+                                     GaussianNormQuantile99(clustered.topLeftCorner<3, 3>() +
+                                                            translation_cov + part.translation_cov)
+                               : kInf;
+    const double pp_translation_m =
+        part.translation_bias_m + GaussianNormQuantile99(part.translation_cov);
+    const bool rotation_larger = direct.clustered.valid
+                                     ? rotation_deg > q->rotation_bound_deg
+                                     : systematic_deg > q->rotation_systematic_deg;
+    if (rotation_larger) {
+      q->principal_point_bound_corners = corners;
+      q->principal_point_belief = pp;
+      q->rotation_systematic_deg = systematic_deg;
+      q->rotation_bound_deg = rotation_deg;
+    }
+    const bool translation_larger = direct.clustered.valid
+                                        ? translation_m > q->translation_bound_m
+                                        : pp_translation_m > q->translation_bound_principal_point_m;
+    if (translation_larger) {
+      q->translation_bound_m = translation_m;
+      q->translation_bound_principal_point_m = pp_translation_m;
+    }
   }
-  // The translation bound: the biases, plus the 99 % quantile of the norm of the whole
-  // covariance's error.
-  q->translation_bound_m =
-      translation_bias_m +
-      GaussianNormQuantile99(clustered.topLeftCorner<3, 3>() +
-                             translation_var * q->board_direction * q->board_direction.transpose());
+  q->translation_systematic_m =
+      translation_bias_m + k1 * std::sqrt(translation_var) + q->translation_bound_principal_point_m;
 }
 
 }  // namespace calibd

@@ -60,6 +60,18 @@ std::string TranslationCause(const QualityFigures& q) {
   const double range_m = q.translation_bound_range_offset_m;
   const double scale_m = q.translation_bound_scale_m;
   const double time_m = q.translation_bound_time_offset_m;
+  const double principal_point_m = q.translation_bound_principal_point_m;
+  if (principal_point_m >= statistical_m && principal_point_m >= range_m &&
+      principal_point_m >= scale_m && principal_point_m >= time_m)
+    return "most of it the camera's principal point (" +
+           FixedDecimal(q.principal_point_belief.shift_px.x(), 1) + ", " +
+           FixedDecimal(q.principal_point_belief.shift_px.y(), 1) + " px +-" +
+           FixedDecimal(q.principal_point_belief.sigma_px.x(), 1) + " / +-" +
+           FixedDecimal(q.principal_point_belief.sigma_px.y(), 1) +
+           " from the configured one, as the tags and the intrinsic calibration know it), which "
+           "the boards' poses carry into the translation: check the camera's intrinsic "
+           "calibration, or add still poses with boards close to the camera (1.5-3 m) turned "
+           "20-40 deg";
   if (range_m >= statistical_m && range_m >= scale_m && range_m >= time_m)
     return "most of it the LiDAR's range offset (" + FixedDecimal(q.lidar_range_offset_m * 100, 1) +
            " +-" + FixedDecimal(q.lidar_range_offset_sigma_m * 100, 1) +

@@ -26,11 +26,12 @@ void CoverageFigures(const CalibConfig& config, const ObservationSet& set, Quali
 
 /// The quality figures of a solution (`direct`, over `boards` as the solve saw them): its formal
 /// sigmas and residual, the camera's scale and the LiDAR's range offset, ring elevations, board
-/// flatness, the principal point, the time offset left and the planes' conditioning.
+/// flatness, the principal point and the result's response to it (re-solved with `solver`'s
+/// settings), the time offset left and the planes' conditioning.
 void MeasureQuality(const CalibConfig& config, const SessionObservations& session,
                     const RangeImage& projection, const ObservationSet& corr,
                     const std::vector<BoardGeometry>& boards, const DirectResult& direct,
-                    QualityFigures* q);
+                    const DirectOptimizerConfig& solver, QualityFigures* q);
 
 /// How much wider the clustered covariance is taken for the bound, as a variance factor, when it
 /// rests on `clusters` stretches of frames: a covariance estimated from G clusters has G - 1

@@ -18,7 +18,9 @@
 
 #include "calibd/core/camera/camera_model.hpp"
 #include "calibd/core/common/board.hpp"
+#include "calibd/core/session/board_observation.hpp"
 #include "calibd/core/session/session_observations.hpp"
+#include "calibd/core/solve/direct_optimizer.hpp"
 
 namespace calibd {
 
@@ -96,5 +98,27 @@ double PrincipalPointTurnDeg(const Eigen::Vector2d& shift_px, const CameraIntrin
 PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
                                               const std::vector<BoardGeometry>& boards,
                                               const SessionObservations& session);
+
+/// How the result moves when the principal point does (principal_point_response.cpp). A principal
+/// point off by d px turns every camera ray by about d / f; each board's PnP pose then moves by
+/// that turn and by what the tag's perspective makes of the shift (its slant read differently), and
+/// the direct solve takes up both: in rotation mostly, in translation by up to the turn times the
+/// boards' distance where their poses disagree with a pure turn (still poses at 1.5-8 m of a
+/// principal point 13-19 px off: 4.5-5.7 cm). The response is measured, not modelled: every
+/// observation's board pose is estimated again from its corners with the principal point moved,
+/// and the extrinsic re-solved with those poses held (forward differences against a re-solve with
+/// the poses unmoved, so that the re-solve's own settings cancel).
+
+/// The step the principal point is moved by, px per axis: large enough against the re-solve's
+/// convergence, small enough for the response to be linear.
+inline constexpr double kPrincipalPointResponseStepPx = 2.0;
+
+/// The extrinsic's change per px of principal point shift along u (column 0) and v (column 1),
+/// in the solve's tangent [dt (m), dtheta (rad), left perturbation]; false when a pose or a
+/// re-solve failed. `solver` as the direct solve's (one thread is used).
+bool PrincipalPointResponse(const CameraIntrinsics& camera,
+                            const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
+                            const DirectResult& direct, const DirectOptimizerConfig& solver,
+                            Eigen::Matrix<double, 6, 2>* response);
 
 }  // namespace calibd

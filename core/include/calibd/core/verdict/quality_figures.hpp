@@ -54,6 +54,8 @@ struct QualityFigures {
   double translation_bound_range_offset_m = 0.0;
   double translation_bound_scale_m = 0.0;
   double translation_bound_time_offset_m = 0.0;
+  /// ... and the principal point's, through its measured response (principal_point_response).
+  double translation_bound_principal_point_m = 0.0;
   /// The predicted bound on this result's own error (99 %): the systematic terms' estimates
   /// plus the 99 % quantile of the norm of the error the clustered covariance and their sigmas
   /// give (ErrorBound in measure_quality.hpp).
@@ -133,12 +135,21 @@ struct QualityFigures {
   struct PrincipalPointTurn {
     double turn_deg = 0.0;
     Eigen::Vector2d sigma_rad = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+    /// The same as a shift from the configured principal point and its sigma, px.
+    Eigen::Vector2d shift_px = Eigen::Vector2d::Zero();
+    Eigen::Vector2d sigma_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   };
   std::array<PrincipalPointTurn, kNumCornerBiasReadings> principal_point_beliefs{};
   /// The reading the error bound took (ErrorBound: the one whose bound is the larger), and its
   /// belief: the bound's rotation terms.
   CornerBias principal_point_bound_corners = CornerBias::kAssumed;
   PrincipalPointTurn principal_point_belief{};
+  /// How the result moves per px of principal point shift along u and v, [dt (m), dtheta (rad)]
+  /// (PrincipalPointResponse, principal_point_check.hpp): the bound carries the belief through it
+  /// into both the rotation and the translation. Not measured: the rotation takes the turn d / f
+  /// alone.
+  bool principal_point_response_measured = false;
+  Eigen::Matrix<double, 6, 2> principal_point_response = Eigen::Matrix<double, 6, 2>::Zero();
   double principal_point_ms = 0.0;
 };
 

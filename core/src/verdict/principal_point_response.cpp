@@ -1,0 +1,75 @@
+#include "calibd/core/verdict/principal_point_check.hpp"
+
+#include <Eigen/Geometry>
+
+#include "calibd/core/camera/camera_pnp.hpp"
+
+namespace calibd {
+
+namespace {
+
+// The extrinsic re-solved from `direct`'s with every observation's held board pose moved as its
+// PnP pose moves when the principal point is shifted by `shift_px`.
+bool ResolveShifted(const CameraIntrinsics& camera, const std::vector<BoardGeometry>& boards,
+                    const ObservationSet& corr, const DirectResult& direct,
+                    const DirectOptimizerConfig& one, const Eigen::Vector2d& shift_px,
+                    Pose* T_camera_lidar) {
+  const CameraModel configured(camera);
+  CameraIntrinsics moved_intrinsics = camera;
+  moved_intrinsics.cx += shift_px.x();
+  moved_intrinsics.cy += shift_px.y();
+  const CameraModel moved(moved_intrinsics);
+  const size_t n = corr.observations.size();
+  const bool refined = direct.T_camera_board.size() == n;
+  std::vector<Pose> held(n);
+  for (size_t k = 0; k < n; ++k) {
+    const BoardObservation& o = corr.observations[k];
+    const Pose& solved = refined ? direct.T_camera_board[k] : o.T_camera_board;
+    held[k] = solved;
+    if (shift_px.isZero()) continue;
+    const BoardGeometry& board = boards[static_cast<size_t>(o.board_index)];
+    Pose before, after;
+    double rms = 0.0;
+    if (!EstimateTagPose(configured, board, o.corners_px, &before, &rms) ||
+        !EstimateTagPose(moved, board, o.corners_px, &after, &rms))
+      return false;
+    held[k] = after * before.inverse() * solved;
+  }
+  const DirectResult r =
+      ResolveWithHeldBoards(boards, corr, direct.T_camera_lidar, one, held, nullptr);
+  if (!r.usable) return false;
+  *T_camera_lidar = r.T_camera_lidar;
+  return true;
+}
+
+// The tangent [dt, dtheta] (left perturbation) from `from` to `to`.
+Eigen::Matrix<double, 6, 1> TangentBetween(const Pose& from, const Pose& to) {
+  Eigen::Matrix<double, 6, 1> d;
+  d.head<3>() = to.translation() - from.translation();
+  const Eigen::AngleAxisd turn(to.linear() * from.linear().transpose());
+  d.tail<3>() = turn.angle() * turn.axis();
+  return d;
+}
+
+}  // namespace
+
+bool PrincipalPointResponse(const CameraIntrinsics& camera,
+                            const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
+                            const DirectResult& direct, const DirectOptimizerConfig& solver,
+                            Eigen::Matrix<double, 6, 2>* response) {
+  if (!direct.usable || corr.observations.empty()) return false;
+  DirectOptimizerConfig one = solver;
+  one.threads = 1;
+  Pose unmoved;
+  if (!ResolveShifted(camera, boards, corr, direct, one, Eigen::Vector2d::Zero(), &unmoved))
+    return false;
+  for (int a = 0; a < 2; ++a) {
+    Pose shifted;
+    const Eigen::Vector2d step = Eigen::Vector2d::Unit(a) * kPrincipalPointResponseStepPx;
+    if (!ResolveShifted(camera, boards, corr, direct, one, step, &shifted)) return false;
+    response->col(a) = TangentBetween(unmoved, shifted) / kPrincipalPointResponseStepPx;
+  }
+  return true;
+}
+
+}  // namespace calibd
