@@ -584,17 +584,27 @@ std::string CameraDetectorKey(const CalibConfig& config) {
 void RunSessions(const sim::SessionOptions& clean, const std::vector<Session>& sessions,
                  const std::vector<SessionResult*>& out) {
   const size_t n = sessions.size();
-  DetectedSession base;
-  std::string error;
-  if (!base.Init(clean, &error)) {
-    for (SessionResult* r : out) r->error = "the round's clean session: " + error;
-    return;
-  }
   std::vector<std::unique_ptr<CampaignSession>> runs;
   std::vector<char> active(n, 0);
   for (size_t m = 0; m < n; ++m) {
     runs.push_back(std::make_unique<CampaignSession>(sessions[m], out[m]));
     active[m] = runs[m]->Init() ? 1 : 0;
+  }
+  // The shared frames come from a session that records the clean recording itself (a session
+  // alone is its own); only a round whose every session changes the sweeps or the images needs
+  // a simulator of its own (building one builds its detectors too: the LiDAR's references).
+  DetectedSession own_base;
+  DetectedSession* base = nullptr;
+  for (size_t m = 0; m < n && !base; ++m)
+    if (active[m] && (n == 1 || sessions[m].shares == Shares::kRecording))
+      base = &runs[m]->recorder().session();
+  if (!base) {
+    std::string error;
+    if (!own_base.Init(clean, &error)) {
+      for (SessionResult* r : out) r->error = "the round's clean session: " + error;
+      return;
+    }
+    base = &own_base;
   }
   auto own_sweep = [&](size_t m) { return sessions[m].shares == Shares::kImages; };
   auto own_image = [&](size_t m) { return sessions[m].shares == Shares::kSweeps; };
@@ -617,7 +627,7 @@ void RunSessions(const sim::SessionOptions& clean, const std::vector<Session>& s
   // Each with a buffer of its own to render into: an image rendered into a cv::Mat that shares
   // its buffer with another frame's would overwrite that one.
   SimulatedFrame shared, own_sweep_frame, own_image_frame;
-  const int frames = base.session().num_frames();
+  const int frames = base->session().num_frames();
   for (int k = 0; k < frames; ++k) {
     // Detectors others copy from keep detecting while those sessions record.
     std::vector<char> lidar_needed(n, 0), camera_needed(n, 0);
@@ -629,7 +639,7 @@ void RunSessions(const sim::SessionOptions& clean, const std::vector<Session>& s
     }
     if (recording == 0) break;
     auto t0 = std::chrono::steady_clock::now();
-    base.Simulate(k, true, &shared);
+    base->Simulate(k, true, &shared);
     const double shared_s = SecondsSince(t0);
     for (size_t m = 0; m < n; ++m) {
       if (!active[m] && !lidar_needed[m] && !camera_needed[m]) continue;
