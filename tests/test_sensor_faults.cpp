@@ -186,10 +186,18 @@ class Rig {
 
   // Solves and requires the truth within the verification tolerances (the small camera's near
   // boards give a little less rotation than test_agent_replay's full-size drive).
-  void ExpectCorrectCalibration() {
+  // `bound_may_refuse`: the session keeps few enough pairs that its own error bound may lie
+  // beyond the accuracy a result must be known to, refused as `poor_observability` (the truth
+  // still within the verification tolerances).
+  void ExpectCorrectCalibration(bool bound_may_refuse = false) {
     ASSERT_EQ(machine_.state(), SessionState::kSolving) << machine_.reason() << machine_.detail();
     const CalibrationOutcome o = Solve();
-    EXPECT_EQ(o.verdict, CalibrationOutcome::Verdict::kUpdated) << o.reason << ": " << o.detail;
+    if (bound_may_refuse && o.verdict == CalibrationOutcome::Verdict::kRejected) {
+      EXPECT_EQ(o.reason, Reason::kPoorObservability) << o.detail;
+      EXPECT_NE(o.detail.find("its 99 % bound"), std::string::npos) << o.detail;
+    } else {
+      EXPECT_EQ(o.verdict, CalibrationOutcome::Verdict::kUpdated) << o.reason << ": " << o.detail;
+    }
     const double rot_deg =
         RotationAngle(o.T_camera_lidar.linear(), drive_.T_camera_lidar.linear()) * kRad2Deg;
     const double trans_m =
@@ -509,7 +517,9 @@ TEST(SensorFaultsTest, DetectionLaggingBeyondTheSensorTimeoutIsNotNoPairs) {
   EXPECT_EQ(c.pairs_formed, kPairs);
   EXPECT_GT(c.dropped_queue_full, 0) << "the lag outlasts the intake's slots";
   EXPECT_EQ(c.pairs_detected + c.dropped_queue_full, kPairs);
-  rig.ExpectCorrectCalibration();
+  // 65 of the 80 pairs of the small camera's drive: its principal point read from the tags
+  // without their corner bias (docs/error-bound.md) may take the bound over 0.30 deg.
+  rig.ExpectCorrectCalibration(/*bound_may_refuse=*/true);
 }
 
 // (g) The camera runs at 3x its rate (12 Hz against the LiDAR's 4 Hz pairs): each sweep pairs
