@@ -560,16 +560,16 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
                Num(q.image_coverage * 100.0, 0) + " %");
   s += InfoRow("smallest information eigenvalue", Sci(q.min_information_eigenvalue));
   if (std::isfinite(q.rotation_bound_deg))
-    s += InfoRow(
-        "error bound's parts (rotation, translation)",
-        "clustered sigma " + Num(q.rotation_clustered_sigma_deg, 4) + " deg, " +
-            Num(q.translation_clustered_sigma_m, 4) + " m; systematic " +
-            Num(q.rotation_systematic_deg, 3) + " deg (the principal point, its tags' corners " +
-            (q.principal_point_bound_corners == CornerBias::kAssumed ? "biased" : "unbiased") +
-            "), " + Num(q.translation_systematic_m, 4) + " m (range offset " +
-            Num(q.translation_bound_range_offset_m, 4) + ", scale " +
-            Num(q.translation_bound_scale_m, 4) + ", time offset " +
-            Num(q.translation_bound_time_offset_m, 4) + ")");
+    s += InfoRow("error bound's parts (rotation, translation)",
+                 "clustered sigma " + Num(q.rotation_clustered_sigma_deg, 4) + " deg, " +
+                     Num(q.translation_clustered_sigma_m, 4) + " m; systematic " +
+                     Num(q.rotation_systematic_deg, 3) +
+                     " deg (the principal point, its tags' corners " +
+                     CornerBiasName(q.principal_point_bound_corners) + "), " +
+                     Num(q.translation_systematic_m, 4) + " m (range offset " +
+                     Num(q.translation_bound_range_offset_m, 4) + ", scale " +
+                     Num(q.translation_bound_scale_m, 4) + ", time offset " +
+                     Num(q.translation_bound_time_offset_m, 4) + ")");
   s += InfoRow("grid search: perturbation of the prior (roll, pitch, yaw) [deg]",
                Num(out.grid.perturbation_rpy_deg.x(), 2) + ", " +
                    Num(out.grid.perturbation_rpy_deg.y(), 2) + ", " +

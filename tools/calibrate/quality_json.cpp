@@ -75,8 +75,7 @@ nlohmann::json QualityJson(const QualityFigures& q) {
       std::isfinite(belief_turn_sigma_deg) ? nlohmann::json(belief_turn_sigma_deg) : nullptr;
   // Which reading of the tags' corners the bound took (CornerBias): "biased" when their blind
   // spot joined their variance, "unbiased" when they alone weighed more.
-  j["principal_point_bound_corners"] =
-      q.principal_point_bound_corners == CornerBias::kAssumed ? "biased" : "unbiased";
+  j["principal_point_bound_corners"] = CornerBiasName(q.principal_point_bound_corners);
   j["principal_point_ms"] = q.principal_point_ms;
   // The predicted 99 % bound on the result's own error and its parts (ErrorBound); null where
   // the clustered covariance could not be estimated.

@@ -68,6 +68,11 @@ enum class CornerBias {
 };
 inline constexpr int kNumCornerBiasReadings = 2;
 
+/// The reading's name in report.json and the HTML report: "biased" or "unbiased".
+inline const char* CornerBiasName(CornerBias corners) {
+  return corners == CornerBias::kAssumed ? "biased" : "unbiased";
+}
+
 /// The tags' shift against the stated sigma and their own (with CornerBias::kAssumed, blind spot
 /// included) is a refutation of the stated sigma beyond this: chi-square with two degrees of
 /// freedom at 99 %.
