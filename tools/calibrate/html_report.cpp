@@ -569,7 +569,20 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
                      Num(q.translation_systematic_m, 4) + " m (range offset " +
                      Num(q.translation_bound_range_offset_m, 4) + ", scale " +
                      Num(q.translation_bound_scale_m, 4) + ", time offset " +
-                     Num(q.translation_bound_time_offset_m, 4) + ")");
+                     Num(q.translation_bound_time_offset_m, 4) + ", principal point " +
+                     Num(q.translation_bound_principal_point_m, 4) + ", boards' centres " +
+                     Num(q.translation_bound_board_centre_m, 4) + ")");
+  if (q.board_centre_offset_id >= 0) {
+    // An axis the camera could not see on both edges: "-".
+    auto mm = [](double m, double sigma) {
+      return std::isfinite(sigma) ? Num(m * 1e3, 1) + " +-" + Num(sigma * 1e3, 1)
+                                  : std::string("-");
+    };
+    s += InfoRow("board centre about its tag, as the camera sees the board's edges (board " +
+                     std::to_string(q.board_centre_offset_id) + ", right, up) [mm]",
+                 mm(q.board_centre_offset_m.x(), q.board_centre_offset_sigma_m.x()) + ", " +
+                     mm(q.board_centre_offset_m.y(), q.board_centre_offset_sigma_m.y()));
+  }
   s += InfoRow("grid search: perturbation of the prior (roll, pitch, yaw) [deg]",
                Num(out.grid.perturbation_rpy_deg.x(), 2) + ", " +
                    Num(out.grid.perturbation_rpy_deg.y(), 2) + ", " +

@@ -62,6 +62,21 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["board_bend_id"] = q.board_bend_id;
   j["board_bend_m"] = q.board_bend_id >= 0 ? nlohmann::json(q.board_bend_m) : nullptr;
   j["board_bend_sigma_m"] = q.board_bend_id >= 0 ? nlohmann::json(q.board_bend_sigma_m) : nullptr;
+  // Where the camera sees the board's centre about its tag (board_centre_offset.hpp); an axis
+  // it could not measure is null.
+  j["board_centre_offset_id"] = q.board_centre_offset_id;
+  nlohmann::json centre = nullptr, centre_sigma = nullptr;
+  if (q.board_centre_offset_id >= 0) {
+    centre = nlohmann::json::array();
+    centre_sigma = nlohmann::json::array();
+    for (int a = 0; a < 2; ++a) {
+      const bool seen = std::isfinite(q.board_centre_offset_sigma_m(a));
+      centre.push_back(seen ? nlohmann::json(q.board_centre_offset_m(a)) : nullptr);
+      centre_sigma.push_back(seen ? nlohmann::json(q.board_centre_offset_sigma_m(a)) : nullptr);
+    }
+  }
+  j["board_centre_offset_m"] = centre;
+  j["board_centre_offset_sigma_m"] = centre_sigma;
   j["principal_point_turn_deg"] = q.principal_point_turn_deg;
   j["principal_point_turn_sigma_deg"] =
       q.principal_point_fitted ? nlohmann::json(q.principal_point_turn_sigma_deg) : nullptr;
@@ -88,6 +103,7 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["translation_bound_scale_m"] = q.translation_bound_scale_m;
   j["translation_bound_time_offset_m"] = q.translation_bound_time_offset_m;
   j["translation_bound_principal_point_m"] = q.translation_bound_principal_point_m;
+  j["translation_bound_board_centre_m"] = q.translation_bound_board_centre_m;
   j["rotation_bound_deg"] = finite(q.rotation_bound_deg);
   j["translation_bound_m"] = finite(q.translation_bound_m);
   return j;

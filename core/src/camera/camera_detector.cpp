@@ -475,6 +475,10 @@ const std::string& CameraDetector::error() const { return impl_->error; }
 
 void CameraDetector::Detect(const ImageView& image, CameraDetections* out, int64_t capture_utime) {
   impl_->Detect(image, out, capture_utime);
+  for (BoardDetection2D& det : out->boards)
+    for (const BoardGeometry& g : impl_->boards)
+      if (g.board_id == det.board_id)
+        det.outline = MeasureBoardOutline(image, impl_->model, g, det.T_camera_board);
 }
 
 void CameraDetector::ReserveOutput(CameraDetections* out) const {

@@ -73,6 +73,7 @@ bool SessionObservations::AddFrame(const CameraDetections& cam, const LidarDetec
     b.board_index = index;
     b.T_camera_board = d.T_camera_board;
     b.corners_px = d.corners_px;
+    b.outline = d.outline;
     ok = AddCameraBoard(b) && ok;
   }
   for (const auto& c : lid.boards)

@@ -334,6 +334,7 @@ GridSearchResult GridSearch::Run(const SessionObservations& s, const Pose& T_pri
         o.board_index = s.camera[b].board_index;
         o.T_camera_board = s.camera[b].T_camera_board;
         o.corners_px = s.camera[b].corners_px;
+        o.outline = s.camera[b].outline;
         o.lidar_cluster = k;
         const int first = s.lidar[k].first_point;
         correspondences->Add(

@@ -9,12 +9,14 @@
 #include <set>
 
 #include "calibd/core/common/stopwatch.hpp"
+#include "calibd/core/session/board_centre_offset.hpp"
 #include "calibd/core/session/board_distances.hpp"
 #include "calibd/core/session/board_motion.hpp"
 #include "calibd/core/verdict/board_flatness.hpp"
 #include "calibd/core/verdict/camera_scale.hpp"
 #include "calibd/core/verdict/principal_point_check.hpp"
 #include "calibd/core/verdict/range_offset.hpp"
+#include "calibd/core/verdict/reprojection.hpp"
 #include "calibd/core/verdict/ring_elevations.hpp"
 
 namespace calibd {
@@ -112,6 +114,30 @@ void BoardBendFigures(const std::vector<BoardGeometry>& boards, const Observatio
       }
     }
   }
+}
+
+// Where the boards' centres lie about their tags, as the camera sees their edges
+// (board_centre_offset.hpp): the board furthest off in its sigmas, and what they move the
+// translation by.
+void BoardCentreFigures(const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
+                        QualityFigures* quality) {
+  QualityFigures& q = *quality;
+  const BoardCentreOffsets offsets =
+      EstimateBoardCentreOffsets(corr, static_cast<int>(boards.size()));
+  double worst = -1.0;
+  for (const BoardCentreOffset& b : offsets.boards) {
+    double chi2 = 0.0;
+    for (int a = 0; a < 2; ++a)
+      if (std::isfinite(b.sigma_m(a)) && b.sigma_m(a) > 0.0)
+        chi2 += b.offset_m(a) * b.offset_m(a) / (b.sigma_m(a) * b.sigma_m(a));
+    if (chi2 <= worst) continue;
+    worst = chi2;
+    q.board_centre_offset_id = boards[static_cast<size_t>(b.board_index)].board_id;
+    q.board_centre_offset_m = b.offset_m;
+    q.board_centre_offset_sigma_m = b.sigma_m;
+  }
+  q.board_centre_translation_m = offsets.translation_m;
+  q.board_centre_translation_cov = offsets.translation_cov;
 }
 
 // The principal point the tags fit (principal_point_check.hpp) and the turn it gives the result.
@@ -246,7 +272,10 @@ void CoverageFigures(const CalibConfig& config, const ObservationSet& set, Quali
     if (o.num_points > 0 && d > 0.0 && o.board_index >= 0 &&
         o.board_index < static_cast<int>(config.boards.size())) {
       const BoardGeometry& b = config.boards[static_cast<size_t>(o.board_index)];
-      spacing_sum += f * std::sqrt(b.width_m * b.height_m / o.num_points) / d;
+      spacing_sum += f *
+                     BoardPointSpacingM(set.points.data() + o.first_point, o.num_points, b.width_m,
+                                        b.height_m) /
+                     d;
       ++spaced;
     }
     q->min_distance_m = std::min(q->min_distance_m, d);
@@ -280,6 +309,7 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
   ScaleAndRangeOffset(corr, distances, q);
   RingElevationFigures(boards, corr, projection, direct, q);
   BoardBendFigures(boards, corr, direct, q);
+  BoardCentreFigures(boards, corr, q);
   PrincipalPointFigures(config, session, q);
   q->principal_point_response_measured = PrincipalPointResponse(
       config.camera, boards, corr, direct, solver, &q->principal_point_response);
@@ -369,11 +399,17 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
   q->translation_bound_range_offset_m = range.bias_m + k1 * range.sigma_m;
   q->translation_bound_scale_m = scale.bias_m + k1 * scale.sigma_m;
   q->translation_bound_time_offset_m = time.bias_m + k1 * time.sigma_m;
-  const double translation_bias_m = range.bias_m + scale.bias_m + time.bias_m;
+  // The boards' centres about their tags: what the camera sees of them, taken whole into the
+  // translation (board_centre_offset.hpp).
+  const double board_centre_m = q->board_centre_translation_m.norm();
+  q->translation_bound_board_centre_m =
+      board_centre_m + GaussianNormQuantile99(q->board_centre_translation_cov);
+  const double translation_bias_m = range.bias_m + scale.bias_m + time.bias_m + board_centre_m;
   const double translation_var =
       range.sigma_m * range.sigma_m + scale.sigma_m * scale.sigma_m + time.sigma_m * time.sigma_m;
   const Eigen::Matrix3d translation_cov =
-      translation_var * q->board_direction * q->board_direction.transpose();
+      translation_var * q->board_direction * q->board_direction.transpose() +
+      q->board_centre_translation_cov;
   // The principal point, which the LiDAR cannot see, as the tags and the intrinsic calibration
   // know it (infinite when neither does: no bound), carried into the result as a turn and
   // through its measured response. Of the two readings of the tags' corners (CornerBias) and the
@@ -421,8 +457,9 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
       q->translation_bound_principal_point_m = pp_translation_m;
     }
   }
-  q->translation_systematic_m =
-      translation_bias_m + k1 * std::sqrt(translation_var) + q->translation_bound_principal_point_m;
+  q->translation_systematic_m = translation_bias_m + k1 * std::sqrt(translation_var) +
+                                (q->translation_bound_board_centre_m - board_centre_m) +
+                                q->translation_bound_principal_point_m;
 }
 
 }  // namespace calibd

@@ -64,6 +64,44 @@ void ReprojectionFigures(std::vector<double> errors_px, QualityFigures* q) {
   q->reprojection_median_px = Quantile(errors_px, 0.5);
 }
 
+namespace {
+
+// The widest step between neighbouring values of `angles`, sorted in place, the outermost value
+// on each side left out.
+double WidestInnerGap(std::vector<double>& angles) {
+  std::sort(angles.begin(), angles.end());
+  double widest = 0.0;
+  for (size_t i = 2; i + 1 < angles.size(); ++i)
+    widest = std::max(widest, angles[i] - angles[i - 1]);
+  return widest;
+}
+
+}  // namespace
+
+double BoardPointSpacingM(const Eigen::Vector3f* points, int count, double width_m,
+                          double height_m) {
+  if (count <= 0) return 0.0;
+  const double isotropic = std::sqrt(width_m * height_m / count);
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (int i = 0; i < count; ++i) centre += points[i].cast<double>();
+  centre /= count;
+  const double range = centre.norm();
+  if (count < 4 || !(range > 0.0)) return isotropic;
+  // Azimuth about the board's own direction, so that a board behind the LiDAR does not wrap.
+  const double centre_azimuth = std::atan2(centre.y(), centre.x());
+  std::vector<double> elevation(static_cast<size_t>(count)), azimuth(static_cast<size_t>(count));
+  for (int i = 0; i < count; ++i) {
+    const Eigen::Vector3d p = points[i].cast<double>();
+    elevation[static_cast<size_t>(i)] = std::atan2(p.z(), std::hypot(p.x(), p.y()));
+    azimuth[static_cast<size_t>(i)] =
+        std::remainder(std::atan2(p.y(), p.x()) - centre_azimuth, 2.0 * M_PI);
+  }
+  const double gap_m = range * std::max(WidestInnerGap(elevation), WidestInnerGap(azimuth));
+  const double coarse = std::clamp(gap_m, isotropic, std::max({width_m, height_m, isotropic}));
+  const double fine = isotropic * isotropic / coarse;
+  return std::sqrt(0.5 * (coarse * coarse + fine * fine));
+}
+
 void MeanCornerErrors(const std::vector<double>& errors_px, std::vector<double>* mean_px) {
   const size_t n = errors_px.size() / 4;
   mean_px->assign(n, std::numeric_limits<double>::quiet_NaN());

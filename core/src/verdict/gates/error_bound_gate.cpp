@@ -1,6 +1,7 @@
 #include "calibd/core/verdict/gates/error_bound_gate.hpp"
 
 #include <cmath>
+#include <string>
 
 #include "calibd/core/common/text_format.hpp"
 #include "calibd/core/verdict/measure_quality.hpp"
@@ -61,6 +62,17 @@ std::string TranslationCause(const QualityFigures& q) {
   const double scale_m = q.translation_bound_scale_m;
   const double time_m = q.translation_bound_time_offset_m;
   const double principal_point_m = q.translation_bound_principal_point_m;
+  const double board_centre_m = q.translation_bound_board_centre_m;
+  if (board_centre_m >= statistical_m && board_centre_m >= range_m && board_centre_m >= scale_m &&
+      board_centre_m >= time_m && board_centre_m >= principal_point_m)
+    return "most of it where the boards' centres lie about their tags: the camera sees board " +
+           std::to_string(q.board_centre_offset_id) + "'s edges put its centre " +
+           FixedDecimal(q.board_centre_offset_m.x() * 1e3, 1) + " mm right and " +
+           FixedDecimal(q.board_centre_offset_m.y() * 1e3, 1) + " mm up (+-" +
+           FixedDecimal(q.board_centre_offset_sigma_m.x() * 1e3, 1) + " / +-" +
+           FixedDecimal(q.board_centre_offset_sigma_m.y() * 1e3, 1) +
+           " mm) of where the config's board size and tag offset put it, facing the tag: measure "
+           "the tag's position on the board (boards[].tag_offset_m) and the board's size";
   if (principal_point_m >= statistical_m && principal_point_m >= range_m &&
       principal_point_m >= scale_m && principal_point_m >= time_m)
     return "most of it the camera's principal point (" +

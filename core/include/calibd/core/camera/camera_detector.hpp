@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "calibd/core/camera/board_outline.hpp"
 #include "calibd/core/camera/camera_model.hpp"
 #include "calibd/core/common/board.hpp"
 #include "calibd/core/common/geometry.hpp"
@@ -89,6 +90,7 @@ struct BoardDetection2D {
   Pose T_camera_board = Pose::Identity();               ///< from PnP over the corners
   double reprojection_rms_px = 0.0;  ///< of the corners (checkerboard: all inner corners)
   double decision_margin = 0.0;      ///< AprilTag's decision margin (0 for checkerboards)
+  BoardOutline outline;  ///< the board's edges against the configured ones (board_outline.hpp)
 };
 
 struct CameraDetections {

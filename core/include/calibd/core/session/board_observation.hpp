@@ -7,6 +7,7 @@
 #include <array>
 #include <vector>
 
+#include "calibd/core/camera/board_outline.hpp"
 #include "calibd/core/common/geometry.hpp"
 
 namespace calibd {
@@ -17,7 +18,8 @@ struct BoardObservation {
   int board_index = -1;                       ///< index into the configured boards
   Pose T_camera_board = Pose::Identity();     ///< from the camera detection (PnP)
   std::array<Eigen::Vector2d, 4> corners_px;  ///< detected tag corners (AprilTag order)
-  int first_point = 0;  ///< this board's LiDAR points in ObservationSet::points
+  BoardOutline outline;  ///< the board's edges as the camera saw them (board_outline.hpp)
+  int first_point = 0;   ///< this board's LiDAR points in ObservationSet::points
   int num_points = 0;
   /// The LiDAR cluster the points came from: its index in the SessionObservations::lidar the
   /// engine was given (-1 when the points did not come from a session's cluster).

@@ -29,6 +29,7 @@ struct SessionObservations {
     int board_index = -1;  ///< index into the configured boards
     Pose T_camera_board = Pose::Identity();
     std::array<Eigen::Vector2d, 4> corners_px;  ///< AprilTag order, OpenCV pixel convention
+    BoardOutline outline;                       ///< BoardDetection2D::outline
   };
   struct LidarCluster {
     int frame = 0;

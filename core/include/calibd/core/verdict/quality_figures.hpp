@@ -18,9 +18,9 @@ struct QualityFigures {
   /// Its median: a few boards the LiDAR resolves coarsely (one or two rings on them) raise the
   /// mean and the p95, a wrong extrinsic or board moves every board's corners.
   double reprojection_median_px = 0.0;
-  /// The LiDAR's point spacing on the boards as the camera sees it, px: per board f sqrt(A / n) / d
-  /// (A the board's area, n its LiDAR points, d its distance from the camera), mean over the
-  /// boards. Each board's own fit, which the Table I metric measures, is as good as a share of it.
+  /// The LiDAR's point spacing on the boards as the camera sees it, px: per board f s / d (s its
+  /// BoardPointSpacingM, d its distance from the camera), mean over the boards. Each board's own
+  /// fit, which the Table I metric measures, is as good as a share of it.
   double lidar_spacing_px = 0.0;
   /// The reprojection gate the verdict applied: VerdictConfig::max_reprojection_mean_deg at the
   /// camera's focal length, or kReprojectionSpacingShare of lidar_spacing_px where the LiDAR
@@ -56,6 +56,19 @@ struct QualityFigures {
   double translation_bound_time_offset_m = 0.0;
   /// ... and the principal point's, through its measured response (principal_point_response).
   double translation_bound_principal_point_m = 0.0;
+  /// ... and the boards' centres about their tags, as the camera sees the boards' edges
+  /// (board_centre_offset.hpp).
+  double translation_bound_board_centre_m = 0.0;
+  /// The board whose centre the camera sees furthest from the configured one in its sigmas: its
+  /// id (-1: no board's outline measured), offset and sigma along x_B and y_B, m.
+  int board_centre_offset_id = -1;
+  Eigen::Vector2d board_centre_offset_m = Eigen::Vector2d::Zero();
+  Eigen::Vector2d board_centre_offset_sigma_m =
+      Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  /// What the boards' centre offsets move the translation by where the solve takes them whole,
+  /// m, and its covariance (BoardCentreOffsets): the error bound's board centre term.
+  Eigen::Vector3d board_centre_translation_m = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d board_centre_translation_cov = Eigen::Matrix3d::Zero();
   /// The predicted bound on this result's own error (99 %): the systematic terms' estimates
   /// plus the 99 % quantile of the norm of the error the clustered covariance and their sigmas
   /// give (ErrorBound in measure_quality.hpp).

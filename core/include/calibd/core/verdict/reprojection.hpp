@@ -39,6 +39,16 @@ void ReprojectionErrors(const std::vector<BoardGeometry>& boards, const CameraMo
 /// The mean and p95 over every corner error that is not NaN (QualityFigures::reprojection_*).
 void ReprojectionFigures(std::vector<double> errors_px, QualityFigures* q);
 
+/// The LiDAR's point spacing on one board, m in the board's plane: the root mean square of its
+/// coarsest and its finest axis. A ring LiDAR's rows leave gaps on a board far wider than its
+/// spacing along a row, and each board's own fit (the Table I metric) can slide across a gap:
+/// the isotropic sqrt(A / n) (A the board's area, n its points) understates where it lies. The
+/// coarse axis is the widest gap between neighbouring points in elevation or in azimuth as the
+/// LiDAR sees them (the outermost point on each side left out, so that one stray point does not
+/// make a gap), no finer than sqrt(A / n) nor wider than the board; the fine one keeps A / n.
+double BoardPointSpacingM(const Eigen::Vector3f* points, int count, double width_m,
+                          double height_m);
+
 /// Per observation, the mean of its four corners' errors (those not NaN; NaN when none is).
 void MeanCornerErrors(const std::vector<double>& errors_px, std::vector<double>* mean_px);
 
