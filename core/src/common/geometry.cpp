@@ -46,4 +46,12 @@ Eigen::Matrix3d RotationFromAxisAngle(const Eigen::Vector3d& axis, double angle)
   return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
 }
 
+Eigen::Matrix<double, 6, 1> PoseTangent(const Pose& from, const Pose& to) {
+  Eigen::Matrix<double, 6, 1> d;
+  d.head<3>() = to.translation() - from.translation();
+  const Eigen::AngleAxisd turn(to.linear() * from.linear().transpose());
+  d.tail<3>() = turn.angle() * turn.axis();
+  return d;
+}
+
 }  // namespace calibd

@@ -314,6 +314,9 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
   q->principal_point_response_measured = PrincipalPointResponse(
       config.camera, boards, corr, direct, solver, &q->principal_point_response);
   TimeOffsetFigures(corr, distances, q);
+  if (q->time_offset_fitted)
+    q->time_offset_response_measured =
+        TimeOffsetResponse(boards, corr, direct, solver, &q->time_offset_response);
   q->plane_conditioning = PlaneConditioning(direct);
   q->board_direction = BoardDirection(corr);
   ErrorBound(direct, q);
@@ -393,12 +396,28 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
     scale.bias_m = std::fabs(left) * distance_m;
   }
   scale.sigma_m = finite(q->camera_scale_translation_m);
-  if (q->time_offset_fitted)
+  // The time offset through its measured response where there is one: the offset left after the
+  // correction as a bias, its sigma through the response; both turn the result too.
+  Eigen::Matrix<double, 6, 1> time_bias = Eigen::Matrix<double, 6, 1>::Zero();
+  Eigen::Matrix<double, 6, 6> time_cov = Eigen::Matrix<double, 6, 6>::Zero();
+  if (q->time_offset_fitted && q->time_offset_response_measured &&
+      std::isfinite(q->time_offset_sigma_s)) {
+    const Eigen::Matrix<double, 6, 1>& r = q->time_offset_response;
+    time_bias = r * (q->time_offset_s - q->time_offset_corrected_s);
+    time_cov = r * r.transpose() * (q->time_offset_sigma_s * q->time_offset_sigma_s);
+  } else if (q->time_offset_fitted) {
     time.sigma_m = finite(q->time_offset_sigma_s) * q->board_normal_speed_mps;
+  }
+  const double time_rotation_bias_deg = time_bias.tail<3>().norm() * kRad2Deg;
+  time.bias_m = time_bias.head<3>().norm();
+  q->rotation_bound_time_offset_deg =
+      time_rotation_bias_deg +
+      GaussianNormQuantile99(time_cov.bottomRightCorner<3, 3>()) * kRad2Deg;
   const double k1 = kBoundQuantile1d;
   q->translation_bound_range_offset_m = range.bias_m + k1 * range.sigma_m;
   q->translation_bound_scale_m = scale.bias_m + k1 * scale.sigma_m;
-  q->translation_bound_time_offset_m = time.bias_m + k1 * time.sigma_m;
+  q->translation_bound_time_offset_m =
+      time.bias_m + k1 * time.sigma_m + GaussianNormQuantile99(time_cov.topLeftCorner<3, 3>());
   // The boards' centres about their tags: what the camera sees of them, taken whole into the
   // translation (board_centre_offset.hpp).
   const double board_centre_m = q->board_centre_translation_m.norm();
@@ -409,7 +428,7 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
       range.sigma_m * range.sigma_m + scale.sigma_m * scale.sigma_m + time.sigma_m * time.sigma_m;
   const Eigen::Matrix3d translation_cov =
       translation_var * q->board_direction * q->board_direction.transpose() +
-      q->board_centre_translation_cov;
+      q->board_centre_translation_cov + time_cov.topLeftCorner<3, 3>();
   // The principal point, which the LiDAR cannot see, as the tags and the intrinsic calibration
   // know it (infinite when neither does: no bound), carried into the result as a turn and
   // through its measured response. Of the two readings of the tags' corners (CornerBias) and the
@@ -425,12 +444,14 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
     const QualityFigures::PrincipalPointTurn& pp =
         q->principal_point_beliefs[static_cast<size_t>(corners)];
     const PrincipalPointPart part = PrincipalPointBoundPart(*q, pp, model);
+    const Eigen::Matrix3d systematic_cov = part.rotation_cov + time_cov.bottomRightCorner<3, 3>();
+    const double rotation_bias_deg = part.rotation_bias_deg + time_rotation_bias_deg;
     const double systematic_deg =
-        part.rotation_bias_deg + GaussianNormQuantile99(part.rotation_cov) * kRad2Deg;
+        rotation_bias_deg + GaussianNormQuantile99(systematic_cov) * kRad2Deg;
     const double rotation_deg =
         direct.clustered.valid
-            ? part.rotation_bias_deg +
-                  GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>() + part.rotation_cov) *
+            ? rotation_bias_deg +
+                  GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>() + systematic_cov) *
                       kRad2Deg
             : kInf;
     const double translation_m =
@@ -458,6 +479,7 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
     }
   }
   q->translation_systematic_m = translation_bias_m + k1 * std::sqrt(translation_var) +
+                                GaussianNormQuantile99(time_cov.topLeftCorner<3, 3>()) +
                                 (q->translation_bound_board_centre_m - board_centre_m) +
                                 q->translation_bound_principal_point_m;
 }

@@ -41,15 +41,6 @@ bool ResolveShifted(const CameraIntrinsics& camera, const std::vector<BoardGeome
   return true;
 }
 
-// The tangent [dt, dtheta] (left perturbation) from `from` to `to`.
-Eigen::Matrix<double, 6, 1> TangentBetween(const Pose& from, const Pose& to) {
-  Eigen::Matrix<double, 6, 1> d;
-  d.head<3>() = to.translation() - from.translation();
-  const Eigen::AngleAxisd turn(to.linear() * from.linear().transpose());
-  d.tail<3>() = turn.angle() * turn.axis();
-  return d;
-}
-
 }  // namespace
 
 bool PrincipalPointResponse(const CameraIntrinsics& camera,
@@ -77,7 +68,7 @@ bool PrincipalPointResponse(const CameraIntrinsics& camera,
     Pose shifted;
     const Eigen::Vector2d step = Eigen::Vector2d::Unit(a) * kPrincipalPointResponseStepPx;
     if (!ResolveShifted(camera, boards, corr, direct, one, before, step, &shifted)) return false;
-    response->col(a) = TangentBetween(unmoved, shifted) / kPrincipalPointResponseStepPx;
+    response->col(a) = PoseTangent(unmoved, shifted) / kPrincipalPointResponseStepPx;
   }
   return true;
 }

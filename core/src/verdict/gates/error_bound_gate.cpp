@@ -25,6 +25,14 @@ std::string RotationCause(const GateInput& in) {
     return "most of it the boards' own scatter (+-" +
            FixedDecimal(q.rotation_clustered_sigma_deg, 3) +
            " deg): more boards, closer and at more varied angles";
+  // The time offset where it outweighs the principal point's part of the systematic bound.
+  if (q.rotation_bound_time_offset_deg > 0.5 * q.rotation_systematic_deg)
+    return "most of it the camera's time offset against the LiDAR while the boards move (" +
+           FixedDecimal((q.time_offset_s - q.time_offset_corrected_s) * 1e3, 1) + " +-" +
+           FixedDecimal(q.time_offset_sigma_s * 1e3, 1) +
+           " ms left after the correction, which turns the result by up to " +
+           FixedDecimal(q.rotation_bound_time_offset_deg, 2) +
+           " deg): boards held still during each pose, or stamps of the camera's capture time";
   const Eigen::Vector2d d = q.principal_point_shift_px;
   if (q.principal_point_bound_corners == CornerBias::kNone)
     return "most of it the camera's principal point, which the LiDAR cannot see: the tags put it " +

@@ -31,6 +31,10 @@ Pose PoseFromXyzRpy(const Eigen::Vector3d& xyz, const Eigen::Vector3d& rpy);
 /// Angle of R_a^T R_b in radians: the rotation error between two estimates.
 double RotationAngle(const Eigen::Matrix3d& R_a, const Eigen::Matrix3d& R_b);
 
+/// The tangent [dt (m), dtheta (rad)] from `from` to `to` (left perturbation: to = exp(dtheta)
+/// from, translations subtracted): how far a re-solve moved a result.
+Eigen::Matrix<double, 6, 1> PoseTangent(const Pose& from, const Pose& to);
+
 /// Rotation of `angle` radians about the unit `axis`.
 Eigen::Matrix3d RotationFromAxisAngle(const Eigen::Vector3d& axis, double angle);
 

@@ -33,6 +33,20 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
                     const std::vector<BoardGeometry>& boards, const DirectResult& direct,
                     const DirectOptimizerConfig& solver, QualityFigures* q);
 
+/// The time offset's step for TimeOffsetResponse, s: small against the boards' motion between
+/// frames, large against the solve's tolerance.
+inline constexpr double kTimeOffsetResponseStepS = 0.01;
+
+/// How the result moves per second of camera time offset, [dt (m), dtheta (rad)]: the extrinsic
+/// re-solved, board poses held, with the compensated points moved to a capture time
+/// kTimeOffsetResponseStepS later (ShiftToCaptureTime), against the same re-solve unmoved. Boards
+/// carried during still poses move across the view as well as along their normals: the offset
+/// left after the correction turns the result, which the boards' normal speed alone misses.
+/// False without motion compensation or when a re-solve fails.
+bool TimeOffsetResponse(const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
+                        const DirectResult& direct, const DirectOptimizerConfig& solver,
+                        Eigen::Matrix<double, 6, 1>* response);
+
 /// How much wider the clustered covariance is taken for the bound, as a variance factor, when it
 /// rests on `clusters` stretches of frames: a covariance estimated from G clusters has G - 1
 /// degrees of freedom, so its 3-D Wald statistic is referred to 3 F(3, G - 1) instead of
@@ -47,13 +61,6 @@ inline constexpr double kBoundNormQuantile3d = 3.368;
 /// The two-sided 99 % quantile of a 1-D Gaussian: a systematic term's share of the bound
 /// (QualityFigures::translation_bound_range_offset_m and the like).
 inline constexpr double kBoundQuantile1d = 2.576;
-
-/// How much wider the clustered covariance is taken for the bound, as a variance factor, when it
-/// rests on `clusters` stretches of frames: a covariance estimated from G clusters has G - 1
-/// degrees of freedom, so its 3-D Wald statistic is referred to 3 F(3, G - 1) instead of
-/// chi-square(3) (Cameron & Miller, "A practitioner's guide to cluster-robust inference", 2015):
-/// 3 F(3, G - 1; 0.99) / chi2(3; 0.99), 2.24 for the direct solve's 8 stretches.
-double FewClustersVarianceFactor(int clusters);
 
 /// The 99 % quantile of the norm of a 3-D Gaussian error of `covariance` (zero mean): between
 /// the square root of its largest eigenvalue times 2.576 (one direction) and times

@@ -56,6 +56,10 @@ struct QualityFigures {
   double translation_bound_time_offset_m = 0.0;
   /// ... and the principal point's, through its measured response (principal_point_response).
   double translation_bound_principal_point_m = 0.0;
+  /// The rotation's time offset term alone (the offset left and its sigma through
+  /// TimeOffsetResponse), deg: named by the error bound's gate where it outweighs the principal
+  /// point's.
+  double rotation_bound_time_offset_deg = 0.0;
   /// ... and the boards' centres about their tags, as the camera sees the boards' edges
   /// (board_centre_offset.hpp).
   double translation_bound_board_centre_m = 0.0;
@@ -164,6 +168,12 @@ struct QualityFigures {
   bool principal_point_response_measured = false;
   Eigen::Matrix<double, 6, 2> principal_point_response = Eigen::Matrix<double, 6, 2>::Zero();
   double principal_point_ms = 0.0;
+  /// How the result moves per second of camera time offset, [dt (m), dtheta (rad)]
+  /// (TimeOffsetResponse, measure_quality.hpp): the bound carries the offset left after the
+  /// correction and its sigma through it. Not measured: the translation takes the sigma times
+  /// the boards' normal speed.
+  bool time_offset_response_measured = false;
+  Eigen::Matrix<double, 6, 1> time_offset_response = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 /// The image coverage grid (QualityFigures::image_coverage, the agent's coverage gate): the image
