@@ -1,7 +1,9 @@
 #include "calibd/core/engine/calibration_engine.hpp"
 
 #include <cmath>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "calibd/core/common/stopwatch.hpp"
 #include "calibd/core/common/text_format.hpp"
@@ -121,13 +123,20 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   const StabilityChecks checks{engine.stability_runs, engine.method == EngineConfig::Method::kDirect
                                                           ? engine.start_checks
                                                           : 0};
-  // The figures of the solution share the threads with its re-solves.
-  const auto measure = [&] {
-    MeasureQuality(config, session, projection, corr, solution.boards, solution.direct,
-                   engine.direct, &q);
-  };
+  // The figures of the solution and the re-solves of the error bound's responses share the
+  // threads with its stability re-solves; the bound follows from them all.
+  std::vector<std::function<void()>> alongside = {[&] {
+    MeasureQuality(config, session, projection, corr, solution.boards, solution.direct, &q);
+  }};
+  ResponseSolves responses;
+  for (int i = 0; i < kNumResponseSolves; ++i)
+    alongside.push_back([&, i] {
+      SolveForResponse(static_cast<ResponseSolve>(i), config.camera, solution.boards, corr,
+                       solution.direct, engine.direct, &responses);
+    });
   MeasureStabilityAndReprojection(checks, engine.direct, engine.verdict, solution.boards, camera,
-                                  corr, solution.direct, measure, &q, reprojection_px);
+                                  corr, solution.direct, alongside, &q, reprojection_px);
+  ResponsesAndBound(responses, solution.direct, &q);
   out.quality_ms = MsSince(t_q);
   const GateInput judged{config.camera, engine.verdict, q, out.delta_rotation_deg,
                          out.delta_translation_m};

@@ -314,4 +314,20 @@ DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
   return result;
 }
 
+DirectOptimizerConfig ReSolveSettings(const DirectOptimizerConfig& solver) {
+  DirectOptimizerConfig one = solver;
+  one.threads = 1;
+  one.max_points_per_observation = std::max(3, one.max_points_per_observation / 2);
+  one.max_points_per_solve /= 2;
+  return one;
+}
+
+std::vector<Pose> HeldBoardPoses(const ObservationSet& set, const DirectResult& direct) {
+  const size_t n = set.observations.size();
+  if (direct.T_camera_board.size() == n) return direct.T_camera_board;
+  std::vector<Pose> held(n);
+  for (size_t k = 0; k < n; ++k) held[k] = set.observations[k].T_camera_board;
+  return held;
+}
+
 }  // namespace calibd

@@ -23,16 +23,6 @@ Pose StartCheckPose(const Pose& T_camera_lidar, int k) {
   return start;
 }
 
-// The solver's settings for one re-solve on one thread. Re-solves on random halves need the
-// spread of the extrinsic over board subsets, not every point of each board: half the points do.
-DirectOptimizerConfig OneResolve(const DirectOptimizerConfig& solver) {
-  DirectOptimizerConfig one = solver;
-  one.threads = 1;
-  one.max_points_per_observation = std::max(3, one.max_points_per_observation / 2);
-  one.max_points_per_solve /= 2;
-  return one;
-}
-
 // The largest rotation (deg) and translation (m) between `T` and any of `ends`.
 void WidestSpread(const std::vector<Pose>& ends, const Pose& T, double* rotation_deg,
                   double* translation_m) {
@@ -50,8 +40,8 @@ void MeasureStabilityAndReprojection(const StabilityChecks& checks,
                                      const std::vector<BoardGeometry>& boards,
                                      const CameraModel& camera, const ObservationSet& corr,
                                      const DirectResult& direct,
-                                     const std::function<void()>& alongside, QualityFigures* q,
-                                     std::vector<double>* reprojection_px) {
+                                     const std::vector<std::function<void()>>& alongside,
+                                     QualityFigures* q, std::vector<double>* reprojection_px) {
   const Pose& T = direct.T_camera_lidar;
   const int runs = std::max(0, checks.half_data_runs);
   const int starts = std::max(0, checks.start_checks);
@@ -60,25 +50,26 @@ void MeasureStabilityAndReprojection(const StabilityChecks& checks,
   for (auto& u : use)
     for (auto& b : u) b = static_cast<char>(rng() & 1u);
   std::vector<DirectResult> half(static_cast<size_t>(runs)), started(static_cast<size_t>(starts));
-  const DirectOptimizerConfig one = OneResolve(solver);
+  const DirectOptimizerConfig one = ReSolveSettings(solver);
   const int threads = std::max(1, solver.threads);
   const size_t n = corr.observations.size();
   const int chunks = 4 * threads;
   std::vector<double> errors_px(4 * n);
   // Longest first, so that the workers finish together: tasks [0, starts): solves of every board
   // from other starts, board poses refined again from the camera's (does the solve end in the
-  // same minimum?); task `starts`: `alongside` (an empty task without it); tasks
+  // same minimum?); tasks [starts, first_half): `alongside`, one each; tasks
   // [first_half, first_half + runs): re-solves on random halves (deterministic seed) from the full
   // solution with its board poses held, i.e. how far the extrinsic moves when half the boards are
   // left out; then `chunks` tasks: reprojection errors of a slice of the observations each.
-  const int first_half = starts + 1, first_chunk = first_half + runs;
+  const int first_half = starts + static_cast<int>(alongside.size());
+  const int first_chunk = first_half + runs;
   ParallelFor(threads, first_chunk + chunks, [&](int, int task) {
     if (task < starts) {
       started[static_cast<size_t>(task)] =
           OptimizeDirect(boards, corr, StartCheckPose(T, task), one,
                          DirectSolveOptions::RefiningBoardPoses(camera));
-    } else if (task == starts) {
-      if (alongside) alongside();
+    } else if (task < first_half) {
+      if (const auto& f = alongside[static_cast<size_t>(task - starts)]) f();
     } else if (task < first_chunk) {
       const int k = task - first_half;
       half[k] = ResolveWithHeldBoards(boards, corr, T, one, direct.T_camera_board, &use[k]);

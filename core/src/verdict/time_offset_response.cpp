@@ -5,26 +5,18 @@
 
 namespace calibd {
 
-bool TimeOffsetResponse(const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
-                        const DirectResult& direct, const DirectOptimizerConfig& solver,
-                        Eigen::Matrix<double, 6, 1>* response) {
+bool TimeOffsetShiftedSolve(const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
+                            const DirectResult& direct, const DirectOptimizerConfig& solver,
+                            Pose* T_camera_lidar) {
   if (!direct.usable || !corr.motion_compensated || corr.observations.empty()) return false;
-  DirectOptimizerConfig one = solver;
-  one.threads = 1;
-  const size_t n = corr.observations.size();
-  std::vector<Pose> held(n);
-  for (size_t k = 0; k < n; ++k)
-    held[k] = direct.T_camera_board.size() == n ? direct.T_camera_board[k]
-                                                : corr.observations[k].T_camera_board;
-  const DirectResult unmoved =
-      ResolveWithHeldBoards(boards, corr, direct.T_camera_lidar, one, held, nullptr);
+  const DirectOptimizerConfig one = ReSolveSettings(solver);
   ObservationSet shifted = corr;
   ShiftToCaptureTime(corr.time_offset_s + kTimeOffsetResponseStepS, direct.T_camera_lidar,
                      &shifted);
-  const DirectResult moved =
-      ResolveWithHeldBoards(boards, shifted, direct.T_camera_lidar, one, held, nullptr);
-  if (!unmoved.usable || !moved.usable) return false;
-  *response = PoseTangent(unmoved.T_camera_lidar, moved.T_camera_lidar) / kTimeOffsetResponseStepS;
+  const DirectResult moved = ResolveWithHeldBoards(boards, shifted, direct.T_camera_lidar, one,
+                                                   HeldBoardPoses(corr, direct), nullptr);
+  if (!moved.usable) return false;
+  *T_camera_lidar = moved.T_camera_lidar;
   return true;
 }
 

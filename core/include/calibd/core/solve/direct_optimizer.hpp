@@ -138,4 +138,13 @@ DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
                                    const std::vector<Pose>& T_camera_board,
                                    const std::vector<char>* use);
 
+/// The solver's settings for one re-solve of a quality check, on one thread: the spread or the
+/// response of the extrinsic, not every point of each board: half the points do (half of
+/// max_points_per_observation and of max_points_per_solve, at least 3 a board).
+DirectOptimizerConfig ReSolveSettings(const DirectOptimizerConfig& solver);
+
+/// The board poses a re-solve of `direct` holds, one per observation of `set`: the solve's
+/// refined ones, or the camera's where it refined none.
+std::vector<Pose> HeldBoardPoses(const ObservationSet& set, const DirectResult& direct);
+
 }  // namespace calibd

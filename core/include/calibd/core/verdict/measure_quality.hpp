@@ -5,6 +5,7 @@
 /// scale, range offset, ring elevations, board flatness, principal point, time offset), the
 /// planes' conditioning, and the stability and reprojection figures.
 
+#include <array>
 #include <functional>
 #include <vector>
 
@@ -26,26 +27,49 @@ void CoverageFigures(const CalibConfig& config, const ObservationSet& set, Quali
 
 /// The quality figures of a solution (`direct`, over `boards` as the solve saw them): its formal
 /// sigmas and residual, the camera's scale and the LiDAR's range offset, ring elevations, board
-/// flatness, the principal point and the result's response to it (re-solved with `solver`'s
-/// settings), the time offset left and the planes' conditioning.
+/// flatness, the principal point, the boards' centres about their tags, the time offset left and
+/// the planes' conditioning. The responses and the error bound follow (ResponsesAndBound).
 void MeasureQuality(const CalibConfig& config, const SessionObservations& session,
                     const RangeImage& projection, const ObservationSet& corr,
                     const std::vector<BoardGeometry>& boards, const DirectResult& direct,
-                    const DirectOptimizerConfig& solver, QualityFigures* q);
+                    QualityFigures* q);
 
-/// The time offset's step for TimeOffsetResponse, s: small against the boards' motion between
+/// The time offset's step for TimeOffsetShiftedSolve, s: small against the boards' motion between
 /// frames, large against the solve's tolerance.
 inline constexpr double kTimeOffsetResponseStepS = 0.01;
 
-/// How the result moves per second of camera time offset, [dt (m), dtheta (rad)]: the extrinsic
-/// re-solved, board poses held, with the compensated points moved to a capture time
-/// kTimeOffsetResponseStepS later (ShiftToCaptureTime), against the same re-solve unmoved. Boards
+/// The extrinsic re-solved, board poses held (HeldBoardPoses), with the compensated points moved
+/// to a capture time kTimeOffsetResponseStepS later (ShiftToCaptureTime): the response per second
+/// of camera time offset is its tangent from the same re-solve unmoved, over the step. Boards
 /// carried during still poses move across the view as well as along their normals: the offset
 /// left after the correction turns the result, which the boards' normal speed alone misses.
-/// False without motion compensation or when a re-solve fails.
-bool TimeOffsetResponse(const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
-                        const DirectResult& direct, const DirectOptimizerConfig& solver,
-                        Eigen::Matrix<double, 6, 1>* response);
+/// False without motion compensation or when the re-solve fails.
+bool TimeOffsetShiftedSolve(const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
+                            const DirectResult& direct, const DirectOptimizerConfig& solver,
+                            Pose* T_camera_lidar);
+
+/// The re-solves the error bound's measured responses are differences of: the data as they are,
+/// the principal point shifted along u and along v (PrincipalPointShiftedSolve), the camera's
+/// time offset moved (TimeOffsetShiftedSolve). Each from the solution with its board poses held,
+/// on one thread, independent of the others: they share the threads with the stability
+/// re-solves (MeasureStabilityAndReprojection).
+enum class ResponseSolve { kUnmoved, kPrincipalPointU, kPrincipalPointV, kTimeOffset };
+inline constexpr int kNumResponseSolves = 4;
+struct ResponseSolves {
+  std::array<Pose, kNumResponseSolves> T_camera_lidar{};
+  std::array<bool, kNumResponseSolves> solved{};
+};
+
+/// Runs one of the response re-solves into `out` (its own entry only: the four may run at once).
+void SolveForResponse(ResponseSolve which, const CameraIntrinsics& camera,
+                      const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
+                      const DirectResult& direct, const DirectOptimizerConfig& solver,
+                      ResponseSolves* out);
+
+/// The responses from the re-solves (QualityFigures::principal_point_response,
+/// time_offset_response: forward differences against the unmoved one, so that the re-solve's own
+/// settings cancel), then the error bound (ErrorBound). After MeasureQuality.
+void ResponsesAndBound(const ResponseSolves& solves, const DirectResult& direct, QualityFigures* q);
 
 /// How much wider the clustered covariance is taken for the bound, as a variance factor, when it
 /// rests on `clusters` stretches of frames: a covariance estimated from G clusters has G - 1
@@ -92,16 +116,17 @@ struct StabilityChecks {
 
 /// The stability figures (re-solves on random halves, solves from other starts) and the
 /// reprojection errors (each board fitted alone, started from its refined pose): independent tasks
-/// shared out over the solver's threads (`solver.threads`). `alongside`, when given, runs as one
-/// more of those tasks (MeasureQuality, which writes other figures of `q`), so that it shares the
-/// threads too. `reprojection_px`, when given, gets each correspondence's mean corner error.
+/// shared out over the solver's threads (`solver.threads`). Each of `alongside` runs as one more
+/// of those tasks, in order after the start checks (MeasureQuality, which writes other figures of
+/// `q`, and the response re-solves), so that they share the threads too. `reprojection_px`, when
+/// given, gets each correspondence's mean corner error.
 void MeasureStabilityAndReprojection(const StabilityChecks& checks,
                                      const DirectOptimizerConfig& solver,
                                      const ReprojectionGateConfig& gate,
                                      const std::vector<BoardGeometry>& boards,
                                      const CameraModel& camera, const ObservationSet& corr,
                                      const DirectResult& direct,
-                                     const std::function<void()>& alongside, QualityFigures* q,
-                                     std::vector<double>* reprojection_px);
+                                     const std::vector<std::function<void()>>& alongside,
+                                     QualityFigures* q, std::vector<double>* reprojection_px);
 
 }  // namespace calibd

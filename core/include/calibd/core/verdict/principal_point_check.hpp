@@ -118,12 +118,15 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
 /// convergence, small enough for the response to be linear.
 inline constexpr double kPrincipalPointResponseStepPx = 2.0;
 
-/// The extrinsic's change per px of principal point shift along u (column 0) and v (column 1),
-/// in the solve's tangent [dt (m), dtheta (rad), left perturbation]; false when a pose or a
-/// re-solve failed. `solver` as the direct solve's (one thread is used).
-bool PrincipalPointResponse(const CameraIntrinsics& camera,
-                            const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
-                            const DirectResult& direct, const DirectOptimizerConfig& solver,
-                            Eigen::Matrix<double, 6, 2>* response);
+/// The extrinsic re-solved, board poses held (HeldBoardPoses), each moved as its PnP pose moves
+/// when the principal point is shifted kPrincipalPointResponseStepPx along u (`axis` 0) or v (1):
+/// the response per px is its tangent from the same re-solve unmoved, over the step
+/// (ResponseSolve, measure_quality.hpp). False when a pose or the re-solve failed. `solver` as
+/// the direct solve's (one thread is used).
+bool PrincipalPointShiftedSolve(const CameraIntrinsics& camera,
+                                const std::vector<BoardGeometry>& boards,
+                                const ObservationSet& corr, const DirectResult& direct,
+                                const DirectOptimizerConfig& solver, int axis,
+                                Pose* T_camera_lidar);
 
 }  // namespace calibd
