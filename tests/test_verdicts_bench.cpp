@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -143,6 +144,36 @@ TEST(VerdictsBenchTest, APrincipalPointTheDrivesTagsCannotRefuteIsNotAcceptedBey
             std::string::npos)
       << session["detail"];
   EXPECT_EQ(session["quality"]["principal_point_bound_corners"], "unbiased");
+  EXPECT_TRUE(session["inside_bound"].get<bool>()) << session["quality"].dump();
+}
+
+// Tuning seed 3's falcon drive whose config puts the tag 39.9 mm off the board's centre: every
+// board faces the camera alike, so the solve took the offset into the translation whole (3.7 cm
+// off) and no check saw it. The camera sees the boards' edges where the tag says they are not;
+// the bound takes that in, and the refusal names it.
+TEST(VerdictsBenchTest, ATagOffItsBoardsCentreIsSeenByTheCameraAndBoundsTheTranslation) {
+  testing::TempDir dir;
+  VerdictsBenchOptions o;
+  o.quick = true;
+  o.seed = 3;
+  o.only = {VerdictSessionIndex("tag_off_centre", 4)};
+  o.json_path = dir.file("tag.json");
+  std::ostringstream out;
+  std::string error;
+  EXPECT_TRUE(RunVerdictsBench(o, out, nullptr, &error)) << error << "\n" << out.str();
+  std::ifstream in(o.json_path);
+  const nlohmann::json session = nlohmann::json::parse(in)["sessions"][0];
+  ASSERT_EQ(session["fault"], "tag_off_centre");
+  EXPECT_EQ(session["mode"], "drive");
+  EXPECT_GT(session["translation_error_m"].get<double>(), 0.03) << session.dump();
+  EXPECT_EQ(session["reason"], "poor_observability") << session["detail"];
+  EXPECT_NE(session["detail"].get<std::string>().find("where the boards' centres lie"),
+            std::string::npos)
+      << session["detail"];
+  // The offset as the camera reads it, against the 39.9 mm configured (within 3 mm).
+  const nlohmann::json& centre = session["quality"]["board_centre_offset_m"];
+  ASSERT_TRUE(centre.is_array()) << session["quality"].dump();
+  EXPECT_NEAR(std::hypot(centre[0].get<double>(), centre[1].get<double>()), 0.0399, 0.003);
   EXPECT_TRUE(session["inside_bound"].get<bool>()) << session["quality"].dump();
 }
 
