@@ -20,17 +20,21 @@
 namespace calibd::bench {
 namespace {
 
+// Runs quick sessions `only` of `seed`; `table` gets the bench's table (after its error, if it
+// failed), `ok` whether it passed (no false accept); returns its JSON.
 nlohmann::json RunSessions(const std::vector<int>& only, const std::string& json,
-                           std::string* table, bool* ok, bool share_recordings = true) {
+                           std::string* table, bool* ok, bool share_recordings = true,
+                           unsigned long long seed = VerdictsBenchOptions{}.seed) {
   VerdictsBenchOptions o;
   o.quick = true;
+  o.seed = seed;
   o.only = only;
   o.share_recordings = share_recordings;
   o.json_path = json;
   std::ostringstream out;
   std::string error;
   *ok = RunVerdictsBench(o, out, nullptr, &error);
-  *table = out.str();
+  *table = error.empty() ? out.str() : error + "\n" + out.str();
   std::ifstream in(json);
   return nlohmann::json::parse(in);
 }
@@ -126,16 +130,12 @@ TEST(VerdictsBenchTest, SessionsSharingARecordingAnswerAsIfRecordedAlone) {
 // point, not accepted, its error inside its bound.
 TEST(VerdictsBenchTest, APrincipalPointTheDrivesTagsCannotRefuteIsNotAcceptedBeyondItsBound) {
   testing::TempDir dir;
-  VerdictsBenchOptions o;
-  o.quick = true;
-  o.seed = 15;
-  o.only = {VerdictSessionIndex("principal_point", 0)};
-  o.json_path = dir.file("pp.json");
-  std::ostringstream out;
-  std::string error;
-  EXPECT_TRUE(RunVerdictsBench(o, out, nullptr, &error)) << error << "\n" << out.str();
-  std::ifstream in(o.json_path);
-  const nlohmann::json session = nlohmann::json::parse(in)["sessions"][0];
+  std::string table;
+  bool ok = false;
+  const nlohmann::json session =
+      RunSessions({VerdictSessionIndex("principal_point", 0)}, dir.file("pp.json"), &table, &ok,
+                  true, 15)["sessions"][0];
+  EXPECT_TRUE(ok) << table;
   EXPECT_EQ(session["fault"], "principal_point");
   EXPECT_EQ(session["mode"], "drive");
   EXPECT_GT(session["rotation_error_deg"].get<double>(), 0.3) << session.dump();
@@ -153,16 +153,12 @@ TEST(VerdictsBenchTest, APrincipalPointTheDrivesTagsCannotRefuteIsNotAcceptedBey
 // the bound takes that in, and the refusal names it.
 TEST(VerdictsBenchTest, ATagOffItsBoardsCentreIsSeenByTheCameraAndBoundsTheTranslation) {
   testing::TempDir dir;
-  VerdictsBenchOptions o;
-  o.quick = true;
-  o.seed = 3;
-  o.only = {VerdictSessionIndex("tag_off_centre", 4)};
-  o.json_path = dir.file("tag.json");
-  std::ostringstream out;
-  std::string error;
-  EXPECT_TRUE(RunVerdictsBench(o, out, nullptr, &error)) << error << "\n" << out.str();
-  std::ifstream in(o.json_path);
-  const nlohmann::json session = nlohmann::json::parse(in)["sessions"][0];
+  std::string table;
+  bool ok = false;
+  const nlohmann::json session =
+      RunSessions({VerdictSessionIndex("tag_off_centre", 4)}, dir.file("tag.json"), &table, &ok,
+                  true, 3)["sessions"][0];
+  EXPECT_TRUE(ok) << table;
   ASSERT_EQ(session["fault"], "tag_off_centre");
   EXPECT_EQ(session["mode"], "drive");
   EXPECT_GT(session["translation_error_m"].get<double>(), 0.03) << session.dump();
@@ -183,18 +179,15 @@ TEST(VerdictsBenchTest, ATagOffItsBoardsCentreIsSeenByTheCameraAndBoundsTheTrans
 // beyond the accuracy a result must be known to (RunVerdictsBench fails on a false accept).
 TEST(VerdictsBenchTest, HeldOutCleanSessionsLieInsideTheirBounds) {
   testing::TempDir dir;
-  VerdictsBenchOptions o;
-  o.quick = true;
-  o.seed = kHeldOutTestSeed;
   // Rounds: ot128 drive, m1 stills, falcon drive, vlp32c stills, os1-64 drive, avia stills.
-  for (int round : {0, 3, 4, 9, 10, 13}) o.only.push_back(VerdictSessionIndex("none", round));
-  o.json_path = dir.file("held_out.json");
-  std::ostringstream out;
-  std::string error;
-  EXPECT_TRUE(RunVerdictsBench(o, out, nullptr, &error)) << error << "\n" << out.str();
-  EXPECT_NE(out.str().find(", held-out)"), std::string::npos) << out.str();
-  std::ifstream in(o.json_path);
-  const nlohmann::json doc = nlohmann::json::parse(in);
+  std::vector<int> only;
+  for (int round : {0, 3, 4, 9, 10, 13}) only.push_back(VerdictSessionIndex("none", round));
+  std::string table;
+  bool ok = false;
+  const nlohmann::json doc =
+      RunSessions(only, dir.file("held_out.json"), &table, &ok, true, kHeldOutTestSeed);
+  EXPECT_TRUE(ok) << table;
+  EXPECT_NE(table.find(", held-out)"), std::string::npos) << table;
   int solved = 0;
   for (const nlohmann::json& session : doc["sessions"]) {
     EXPECT_FALSE(session["false_accept"].get<bool>()) << session.dump();
@@ -202,8 +195,8 @@ TEST(VerdictsBenchTest, HeldOutCleanSessionsLieInsideTheirBounds) {
     ++solved;
     EXPECT_TRUE(session["inside_bound"].get<bool>()) << session.dump();
   }
-  EXPECT_GE(solved, 4) << out.str();
-  std::printf("%s", out.str().c_str());
+  EXPECT_GE(solved, 4) << table;
+  std::printf("%s", table.c_str());
 }
 
 }  // namespace

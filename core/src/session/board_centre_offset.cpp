@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "calibd/core/common/stats.hpp"
+
 namespace calibd {
 
 namespace {
@@ -54,16 +56,9 @@ BoardCentreOffsets EstimateBoardCentreOffsets(const ObservationSet& set, int num
   BoardCentreOffsets out;
   const auto& obs = set.observations;
   if (obs.empty() || num_boards <= 0) return out;
-  // Stretches of consecutive frames: each distinct frame's rank, in kStretches runs.
-  std::vector<int> frames;
-  for (const BoardObservation& o : obs) frames.push_back(o.frame);
-  std::sort(frames.begin(), frames.end());
-  frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
-  std::vector<int> stretch_of(obs.size());
-  for (size_t k = 0; k < obs.size(); ++k) {
-    const long rank = std::lower_bound(frames.begin(), frames.end(), obs[k].frame) - frames.begin();
-    stretch_of[k] = static_cast<int>(rank * kStretches / static_cast<long>(frames.size()));
-  }
+  std::vector<int> frame_of(obs.size());
+  for (size_t k = 0; k < obs.size(); ++k) frame_of[k] = obs[k].frame;
+  const std::vector<int> stretch_of = FrameStretches(frame_of, kStretches);
   std::vector<double> x(obs.size()), y(obs.size());
   for (int b = 0; b < num_boards; ++b) {
     BoardCentreOffset c;

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <map>
 
+#include "calibd/core/common/stats.hpp"
+
 namespace calibd {
 
 namespace {
@@ -42,18 +44,12 @@ ClusteredCovariance ClusterRobustCovariance(const Matrix6d& information,
   if (!lu.isInvertible() || scores.empty() || stretches < 2) return out;
 
   // Stretches: the distinct frames in order, cut into runs of about equal count.
-  std::vector<int> frames;
-  for (const ObservationScore& s : scores) frames.push_back(s.frame);
-  std::sort(frames.begin(), frames.end());
-  frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
-  const int runs = std::min(stretches, static_cast<int>(frames.size()));
-  std::vector<int> stretch_key(scores.size()), board_key(scores.size());
+  std::vector<int> frame_of(scores.size()), board_key(scores.size());
   for (size_t k = 0; k < scores.size(); ++k) {
-    const auto rank =
-        std::lower_bound(frames.begin(), frames.end(), scores[k].frame) - frames.begin();
-    stretch_key[k] = static_cast<int>(rank * runs / static_cast<long>(frames.size()));
+    frame_of[k] = scores[k].frame;
     board_key[k] = scores[k].board;
   }
+  const std::vector<int> stretch_key = FrameStretches(frame_of, stretches);
   std::vector<int> stretch_of, board_of;
   out.stretches = Clusters(stretch_key, &stretch_of);
   out.boards = Clusters(board_key, &board_of);
