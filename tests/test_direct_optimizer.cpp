@@ -531,6 +531,43 @@ TEST(DirectOptimizerTest, HeldBoardReSolvesStartFromTheRefinedPosesAndMoveOnlyWi
   EXPECT_NE(wrong.reason.find("one board pose per observation"), std::string::npos);
 }
 
+TEST(DirectOptimizerTest, GaussNewtonReSolveEndsWhereTheTrustRegionReSolveDoes) {
+  const CameraModel camera{CameraIntrinsics{}};
+  Synthetic s = MakeSynthetic(47, 60, 0.02);
+  const DirectResult full =
+      OptimizeDirect(s.boards, s.set, Perturb(s.T_camera_lidar, 1.0, 0.03, 9),
+                     DirectOptimizerConfig{}, DirectSolveOptions::RefiningBoardPoses(camera));
+  ASSERT_TRUE(full.usable) << full.reason;
+  // Board poses held but moved as a principal point shift would move them (a small turn), from
+  // the solution: the quality checks' responses.
+  std::vector<Pose> turned = full.T_camera_board;
+  const Eigen::Matrix3d turn =
+      RotationFromAxisAngle(Eigen::Vector3d(0.3, 1.0, 0.1).normalized(), 0.05 * kDeg2Rad);
+  for (Pose& T : turned) T = Pose(turn) * T;
+  const DirectOptimizerConfig one = ReSolveSettings(DirectOptimizerConfig{});
+  const DirectResult trust =
+      ResolveWithHeldBoards(s.boards, s.set, full.T_camera_lidar, one, turned, nullptr);
+  ASSERT_TRUE(trust.usable) << trust.reason;
+  Pose gauss_newton;
+  ASSERT_TRUE(SolveHeldBoardsByGaussNewton(s.boards, s.set, full.T_camera_lidar, one, turned,
+                                           &gauss_newton));
+  // Both take up the turn (it moved the solution) and agree to a small part of it.
+  const double moved =
+      RotationAngle(trust.T_camera_lidar.linear(), full.T_camera_lidar.linear()) / kDeg2Rad;
+  EXPECT_GT(moved, 0.02);
+  EXPECT_LT(RotationAngle(gauss_newton.linear(), trust.T_camera_lidar.linear()) / kDeg2Rad,
+            0.02 * moved);
+  EXPECT_LT((gauss_newton.translation() - trust.T_camera_lidar.translation()).norm(), 2e-4);
+  // PoseMovedBy undoes PoseTangent.
+  const Pose back =
+      PoseMovedBy(full.T_camera_lidar, PoseTangent(full.T_camera_lidar, gauss_newton));
+  EXPECT_LT(RotationAngle(back.linear(), gauss_newton.linear()), 1e-12);
+  EXPECT_LT((back.translation() - gauss_newton.translation()).norm(), 1e-12);
+  // Board poses that do not match the observations: no solve.
+  EXPECT_FALSE(SolveHeldBoardsByGaussNewton(s.boards, s.set, full.T_camera_lidar, one,
+                                            std::vector<Pose>(3, Pose::Identity()), &gauss_newton));
+}
+
 TEST(DirectOptimizerTest, InformationIsJtJOfTheAssembledProblemInTheTangentSpace) {
   // The optimiser sums J^T J from each cost's own Jacobian; Ceres' assembled sparse Jacobian of
   // the same problem (tangent space through the manifold) must give the same matrix.

@@ -54,4 +54,12 @@ Eigen::Matrix<double, 6, 1> PoseTangent(const Pose& from, const Pose& to) {
   return d;
 }
 
+Pose PoseMovedBy(const Pose& from, const Eigen::Matrix<double, 6, 1>& d) {
+  Pose to = from;
+  to.translation() += d.head<3>();
+  const double angle = d.tail<3>().norm();
+  if (angle > 0.0) to.linear() = RotationFromAxisAngle(d.tail<3>() / angle, angle) * from.linear();
+  return to;
+}
+
 }  // namespace calibd

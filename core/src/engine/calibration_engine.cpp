@@ -123,17 +123,17 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
   const StabilityChecks checks{engine.stability_runs, engine.method == EngineConfig::Method::kDirect
                                                           ? engine.start_checks
                                                           : 0};
-  // The figures of the solution and the re-solves of the error bound's responses share the
-  // threads with its stability re-solves; the bound follows from them all.
-  std::vector<std::function<void()>> alongside = {[&] {
-    MeasureQuality(config, session, projection, corr, solution.boards, solution.direct, &q);
-  }};
-  ResponseSolves responses;
-  for (int i = 0; i < kNumResponseSolves; ++i)
-    alongside.push_back([&, i] {
-      SolveForResponse(static_cast<ResponseSolve>(i), config.camera, solution.boards, corr,
-                       solution.direct, engine.direct, &responses);
-    });
+  // The figures of the solution and the error bound's responses share the threads with its
+  // stability re-solves (the longer first); the bound follows from them all.
+  Responses responses;
+  const std::vector<std::function<void()>> alongside = {
+      [&] {
+        responses =
+            MeasureResponses(config.camera, solution.boards, corr, solution.direct, engine.direct);
+      },
+      [&] {
+        MeasureQuality(config, session, projection, corr, solution.boards, solution.direct, &q);
+      }};
   MeasureStabilityAndReprojection(checks, engine.direct, engine.verdict, solution.boards, camera,
                                   corr, solution.direct, alongside, &q, reprojection_px);
   ResponsesAndBound(responses, solution.direct, &q);

@@ -5,6 +5,7 @@
 
 #include <ceres/ceres.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <chrono>
 #include <cmath>
@@ -120,6 +121,32 @@ bool DirectOptimizerConfig::IsValid(std::string* error) const {
   return true;
 }
 
+// The box cost's terms of the observations `use` selects, at most `points_per_observation`
+// points each (a stride through the rest), with the given board poses; counts the observations
+// and points into `result`.
+std::vector<BoxTerm> BoxTerms(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
+                              const std::vector<char>* use, const DirectOptimizerConfig& config,
+                              int points_per_observation, const std::vector<Pose>& T_camera_board,
+                              std::vector<size_t>* term_observation, DirectResult* result) {
+  std::vector<BoxTerm> terms;
+  for (size_t k = 0; k < set.observations.size(); ++k) {
+    if (!Used(boards, set, use, k)) continue;
+    const BoardObservation& o = set.observations[k];
+    const BoardGeometry& g = boards[o.board_index];
+    BoxTerm term;
+    term.points = set.points.data() + o.first_point;
+    term.num_points = o.num_points;
+    term.stride = StrideOf(o, points_per_observation);
+    term.T_board_camera = T_camera_board[k].inverse();
+    term.half_extent = Eigen::Vector3d(g.width_m / 2.0, g.height_m / 2.0, config.alpha_m);
+    terms.push_back(term);
+    term_observation->push_back(k);
+    ++result->observations;
+    result->points += term.num_used();
+  }
+  return terms;
+}
+
 // What a solve with the board poses held is for.
 enum class HeldSolve {
   kStart,     ///< to convergence before the first board-pose refinement, half the points
@@ -156,23 +183,9 @@ void SolveWithBoardPoses(const std::vector<BoardGeometry>& boards, const Observa
                                               : config.max_points_per_observation;
   // The observations' box costs in compressed form (compressed_box_cost.hpp), a few chunks so
   // that Ceres evaluates them on its threads.
-  std::vector<BoxTerm> terms;
   std::vector<size_t> term_observation;  // each term's observation in `set`
-  for (size_t k = 0; k < set.observations.size(); ++k) {
-    if (!Used(boards, set, use, k)) continue;
-    const BoardObservation& o = set.observations[k];
-    const BoardGeometry& g = boards[o.board_index];
-    BoxTerm term;
-    term.points = set.points.data() + o.first_point;
-    term.num_points = o.num_points;
-    term.stride = StrideOf(o, points_per_observation);
-    term.T_board_camera = T_camera_board[k].inverse();
-    term.half_extent = Eigen::Vector3d(g.width_m / 2.0, g.height_m / 2.0, config.alpha_m);
-    terms.push_back(term);
-    term_observation.push_back(k);
-    ++result.observations;
-    result.points += term.num_used();
-  }
+  const std::vector<BoxTerm> terms = BoxTerms(boards, set, use, config, points_per_observation,
+                                              T_camera_board, &term_observation, &result);
   const size_t chunks = std::min(terms.size(), static_cast<size_t>(4 * config.threads));
   std::vector<const CompressedBoxCost*> costs;
   for (size_t c = 0; c < chunks; ++c) {
@@ -328,6 +341,44 @@ std::vector<Pose> HeldBoardPoses(const ObservationSet& set, const DirectResult& 
   std::vector<Pose> held(n);
   for (size_t k = 0; k < n; ++k) held[k] = set.observations[k].T_camera_board;
   return held;
+}
+
+bool SolveHeldBoardsByGaussNewton(const std::vector<BoardGeometry>& boards,
+                                  const ObservationSet& set, const Pose& T_start,
+                                  const DirectOptimizerConfig& session_config,
+                                  const std::vector<Pose>& T_camera_board, Pose* T_camera_lidar) {
+  // A step below this (m, rad) ends the solve: under a hundredth of the responses' size.
+  constexpr double kConverged = 1e-6;
+  constexpr int kMaxSteps = 12;
+  DirectResult counts;
+  if (T_camera_board.size() != set.observations.size() ||
+      !CanSolve(boards, set, session_config, nullptr, &counts))
+    return false;
+  const DirectOptimizerConfig config = WithSessionBudget(boards, set, nullptr, session_config);
+  std::vector<size_t> term_observation;
+  const CompressedBoxCost cost(
+      BoxTerms(boards, set, nullptr, config, config.max_points_per_observation, T_camera_board,
+               &term_observation, &counts),
+      config.huber_m);
+  Pose T = T_start;
+  for (int k = 0; k < kMaxSteps; ++k) {
+    double x[7];
+    PoseToParameters(T, x);
+    Eigen::Matrix<double, 6, 6> H;
+    Eigen::Matrix<double, 6, 1> g;
+    double rtr = 0.0;
+    cost.NormalEquations(x, &H, &g, &rtr);
+    const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(H);
+    if (llt.info() != Eigen::Success) return false;
+    const Eigen::Matrix<double, 6, 1> step = -llt.solve(g);
+    if (!step.allFinite()) return false;
+    T = PoseMovedBy(T, step);
+    if (step.head<3>().norm() < kConverged && step.tail<3>().norm() < kConverged) {
+      *T_camera_lidar = T;
+      return true;
+    }
+  }
+  return false;
 }
 
 }  // namespace calibd

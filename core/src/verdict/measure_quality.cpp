@@ -316,54 +316,11 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
   q->board_direction = BoardDirection(corr);
 }
 
-void SolveForResponse(ResponseSolve which, const CameraIntrinsics& camera,
-                      const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
-                      const DirectResult& direct, const DirectOptimizerConfig& solver,
-                      ResponseSolves* out) {
-  const size_t i = static_cast<size_t>(which);
-  Pose& T = out->T_camera_lidar[i];
-  bool& solved = out->solved[i];
-  switch (which) {
-    case ResponseSolve::kUnmoved: {
-      if (!direct.usable) return;
-      const DirectResult r =
-          ResolveWithHeldBoards(boards, corr, direct.T_camera_lidar, ReSolveSettings(solver),
-                                HeldBoardPoses(corr, direct), nullptr);
-      solved = r.usable;
-      T = r.T_camera_lidar;
-      return;
-    }
-    case ResponseSolve::kPrincipalPointU:
-    case ResponseSolve::kPrincipalPointV:
-      solved = PrincipalPointShiftedSolve(camera, boards, corr, direct, solver,
-                                          which == ResponseSolve::kPrincipalPointU ? 0 : 1, &T);
-      return;
-    case ResponseSolve::kTimeOffset:
-      solved = TimeOffsetShiftedSolve(boards, corr, direct, solver, &T);
-      return;
-  }
-}
-
-void ResponsesAndBound(const ResponseSolves& solves, const DirectResult& direct,
-                       QualityFigures* q) {
-  const auto got = [&](ResponseSolve s) { return solves.solved[static_cast<size_t>(s)]; };
-  const auto tangent = [&](ResponseSolve s) {
-    return PoseTangent(solves.T_camera_lidar[static_cast<size_t>(ResponseSolve::kUnmoved)],
-                       solves.T_camera_lidar[static_cast<size_t>(s)]);
-  };
-  q->principal_point_response_measured = got(ResponseSolve::kUnmoved) &&
-                                         got(ResponseSolve::kPrincipalPointU) &&
-                                         got(ResponseSolve::kPrincipalPointV);
-  if (q->principal_point_response_measured) {
-    q->principal_point_response.col(0) =
-        tangent(ResponseSolve::kPrincipalPointU) / kPrincipalPointResponseStepPx;
-    q->principal_point_response.col(1) =
-        tangent(ResponseSolve::kPrincipalPointV) / kPrincipalPointResponseStepPx;
-  }
-  q->time_offset_response_measured =
-      q->time_offset_fitted && got(ResponseSolve::kUnmoved) && got(ResponseSolve::kTimeOffset);
-  if (q->time_offset_response_measured)
-    q->time_offset_response = tangent(ResponseSolve::kTimeOffset) / kTimeOffsetResponseStepS;
+void ResponsesAndBound(const Responses& responses, const DirectResult& direct, QualityFigures* q) {
+  q->principal_point_response_measured = responses.principal_point;
+  if (responses.principal_point) q->principal_point_response = responses.per_principal_point_px;
+  q->time_offset_response_measured = q->time_offset_fitted && responses.time_offset;
+  if (q->time_offset_response_measured) q->time_offset_response = responses.per_time_offset_s;
   ErrorBound(direct, q);
 }
 
@@ -379,7 +336,7 @@ struct PrincipalPointPart {
 
 // How the principal point's shift is carried into the result: as the turn d / f (exact while
 // every board's pose moves as one rigid turn about the camera), or through the response the
-// solve was measured to have (PrincipalPointShiftedSolve: the tags' slant read differently as
+// solve was measured to have (PrincipalPointShiftedBoards: the tags' slant read differently as
 // well).
 enum class ResponseModel { kTurn, kMeasured };
 

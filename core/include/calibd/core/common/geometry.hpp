@@ -35,6 +35,10 @@ double RotationAngle(const Eigen::Matrix3d& R_a, const Eigen::Matrix3d& R_b);
 /// from, translations subtracted): how far a re-solve moved a result.
 Eigen::Matrix<double, 6, 1> PoseTangent(const Pose& from, const Pose& to);
 
+/// `from` moved by the tangent `d` [dt (m), dtheta (rad)] (left perturbation): PoseTangent's
+/// inverse, and PoseManifold's Plus.
+Pose PoseMovedBy(const Pose& from, const Eigen::Matrix<double, 6, 1>& d);
+
 /// Rotation of `angle` radians about the unit `axis`.
 Eigen::Matrix3d RotationFromAxisAngle(const Eigen::Vector3d& axis, double angle);
 

@@ -138,6 +138,17 @@ DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
                                    const std::vector<Pose>& T_camera_board,
                                    const std::vector<char>* use);
 
+/// Paper Eq. 4 with the given board poses held (one per observation), solved from `T_start` by
+/// plain Gauss-Newton steps on the box cost's normal equations (compressed_box_cost.hpp) over the
+/// points `config` takes, on one thread: what a re-solve of the same data converges to, in about
+/// half the evaluations of ResolveWithHeldBoards' trust region when the start lies close (a
+/// quality check's small shift of the data). No residual statistics. False where H is singular
+/// or the steps have not settled within a dozen.
+bool SolveHeldBoardsByGaussNewton(const std::vector<BoardGeometry>& boards,
+                                  const ObservationSet& set, const Pose& T_start,
+                                  const DirectOptimizerConfig& config,
+                                  const std::vector<Pose>& T_camera_board, Pose* T_camera_lidar);
+
 /// The solver's settings for one re-solve of a quality check, on one thread: the spread or the
 /// response of the extrinsic, not every point of each board: half the points do (half of
 /// max_points_per_observation and of max_points_per_solve, at least 3 a board).

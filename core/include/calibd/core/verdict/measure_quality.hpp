@@ -34,42 +34,34 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
                     const std::vector<BoardGeometry>& boards, const DirectResult& direct,
                     QualityFigures* q);
 
-/// The time offset's step for TimeOffsetShiftedSolve, s: small against the boards' motion between
-/// frames, large against the solve's tolerance.
+/// The time offset's step for the time offset's response (MeasureResponses), s: small against the
+/// boards' motion between frames, large against the solve's tolerance. Boards carried during still
+/// poses move across the view as well as along their normals: the offset left after the
+/// correction turns the result, which the boards' normal speed alone misses.
 inline constexpr double kTimeOffsetResponseStepS = 0.01;
 
-/// The extrinsic re-solved, board poses held (HeldBoardPoses), with the compensated points moved
-/// to a capture time kTimeOffsetResponseStepS later (ShiftToCaptureTime): the response per second
-/// of camera time offset is its tangent from the same re-solve unmoved, over the step. Boards
-/// carried during still poses move across the view as well as along their normals: the offset
-/// left after the correction turns the result, which the boards' normal speed alone misses.
-/// False without motion compensation or when the re-solve fails.
-bool TimeOffsetShiftedSolve(const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
-                            const DirectResult& direct, const DirectOptimizerConfig& solver,
-                            Pose* T_camera_lidar);
-
-/// The re-solves the error bound's measured responses are differences of: the data as they are,
-/// the principal point shifted along u and along v (PrincipalPointShiftedSolve), the camera's
-/// time offset moved (TimeOffsetShiftedSolve). Each from the solution with its board poses held,
-/// on one thread, independent of the others: they share the threads with the stability
-/// re-solves (MeasureStabilityAndReprojection).
-enum class ResponseSolve { kUnmoved, kPrincipalPointU, kPrincipalPointV, kTimeOffset };
-inline constexpr int kNumResponseSolves = 4;
-struct ResponseSolves {
-  std::array<Pose, kNumResponseSolves> T_camera_lidar{};
-  std::array<bool, kNumResponseSolves> solved{};
+/// The error bound's measured responses of the extrinsic: to the principal point, per px along u
+/// and v (PrincipalPointShiftedBoards), and to the camera's time offset, per s (the compensated
+/// points moved to a capture time kTimeOffsetResponseStepS later, ShiftToCaptureTime). Each is
+/// the extrinsic re-solved with the solution's board poses held (SolveHeldBoardsByGaussNewton) and
+/// the data moved, less the same re-solve of the data as they are (so that the re-solve's own
+/// settings cancel), over the shift: measured, not modelled.
+struct Responses {
+  bool principal_point = false;  ///< measured (every board's pose found with the shift)
+  Eigen::Matrix<double, 6, 2> per_principal_point_px = Eigen::Matrix<double, 6, 2>::Zero();
+  bool time_offset = false;  ///< measured (the points were motion-compensated)
+  Eigen::Matrix<double, 6, 1> per_time_offset_s = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
-/// Runs one of the response re-solves into `out` (its own entry only: the four may run at once).
-void SolveForResponse(ResponseSolve which, const CameraIntrinsics& camera,
-                      const std::vector<BoardGeometry>& boards, const ObservationSet& corr,
-                      const DirectResult& direct, const DirectOptimizerConfig& solver,
-                      ResponseSolves* out);
+/// The responses of `direct` (over `corr`, `boards` as the solve saw them), on one thread, with
+/// the re-solves' point budget (ReSolveSettings of `solver`).
+Responses MeasureResponses(const CameraIntrinsics& camera, const std::vector<BoardGeometry>& boards,
+                           const ObservationSet& corr, const DirectResult& direct,
+                           const DirectOptimizerConfig& solver);
 
-/// The responses from the re-solves (QualityFigures::principal_point_response,
-/// time_offset_response: forward differences against the unmoved one, so that the re-solve's own
-/// settings cancel), then the error bound (ErrorBound). After MeasureQuality.
-void ResponsesAndBound(const ResponseSolves& solves, const DirectResult& direct, QualityFigures* q);
+/// The responses into `q` (QualityFigures::principal_point_response, time_offset_response), then
+/// the error bound (ErrorBound). After MeasureQuality.
+void ResponsesAndBound(const Responses& responses, const DirectResult& direct, QualityFigures* q);
 
 /// How much wider the clustered covariance is taken for the bound, as a variance factor, when it
 /// rests on `clusters` stretches of frames: a covariance estimated from G clusters has G - 1

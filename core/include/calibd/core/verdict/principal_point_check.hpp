@@ -13,6 +13,7 @@
 /// consecutive groups of observations (consecutive frames share their errors).
 
 #include <Eigen/Core>
+#include <array>
 #include <limits>
 #include <vector>
 
@@ -118,15 +119,12 @@ PrincipalPointEstimate EstimatePrincipalPoint(const CameraIntrinsics& camera,
 /// convergence, small enough for the response to be linear.
 inline constexpr double kPrincipalPointResponseStepPx = 2.0;
 
-/// The extrinsic re-solved, board poses held (HeldBoardPoses), each moved as its PnP pose moves
-/// when the principal point is shifted kPrincipalPointResponseStepPx along u (`axis` 0) or v (1):
-/// the response per px is its tangent from the same re-solve unmoved, over the step
-/// (ResponseSolve, measure_quality.hpp). False when a pose or the re-solve failed. `solver` as
-/// the direct solve's (one thread is used).
-bool PrincipalPointShiftedSolve(const CameraIntrinsics& camera,
-                                const std::vector<BoardGeometry>& boards,
-                                const ObservationSet& corr, const DirectResult& direct,
-                                const DirectOptimizerConfig& solver, int axis,
-                                Pose* T_camera_lidar);
+/// The held board poses `held` (HeldBoardPoses, one per observation of `corr`) moved as each
+/// observation's PnP pose moves when the principal point is shifted kPrincipalPointResponseStepPx
+/// along u ((*moved)[0]) and along v ((*moved)[1]). False when a pose is not found.
+bool PrincipalPointShiftedBoards(const CameraIntrinsics& camera,
+                                 const std::vector<BoardGeometry>& boards,
+                                 const ObservationSet& corr, const std::vector<Pose>& held,
+                                 std::array<std::vector<Pose>, 2>* moved);
 
 }  // namespace calibd

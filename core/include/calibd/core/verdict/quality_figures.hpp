@@ -57,7 +57,7 @@ struct QualityFigures {
   /// ... and the principal point's, through its measured response (principal_point_response).
   double translation_bound_principal_point_m = 0.0;
   /// The rotation's time offset term alone (the offset left and its sigma through
-  /// TimeOffsetShiftedSolve), deg: named by the error bound's gate where it outweighs the principal
+  /// MeasureResponses), deg: named by the error bound's gate where it outweighs the principal
   /// point's.
   double rotation_bound_time_offset_deg = 0.0;
   /// ... and the boards' centres about their tags, as the camera sees the boards' edges
@@ -162,14 +162,14 @@ struct QualityFigures {
   CornerBias principal_point_bound_corners = CornerBias::kAssumed;
   PrincipalPointTurn principal_point_belief{};
   /// How the result moves per px of principal point shift along u and v, [dt (m), dtheta (rad)]
-  /// (PrincipalPointShiftedSolve, ResponsesAndBound): the bound carries the belief through it
+  /// (MeasureResponses, ResponsesAndBound): the bound carries the belief through it
   /// into both the rotation and the translation. Not measured: the rotation takes the turn d / f
   /// alone.
   bool principal_point_response_measured = false;
   Eigen::Matrix<double, 6, 2> principal_point_response = Eigen::Matrix<double, 6, 2>::Zero();
   double principal_point_ms = 0.0;
   /// How the result moves per second of camera time offset, [dt (m), dtheta (rad)]
-  /// (TimeOffsetShiftedSolve, ResponsesAndBound): the bound carries the offset left after the
+  /// (MeasureResponses, ResponsesAndBound): the bound carries the offset left after the
   /// correction and its sigma through it. Not measured: the translation takes the sigma times
   /// the boards' normal speed.
   bool time_offset_response_measured = false;
