@@ -35,6 +35,7 @@
 #include "calibd/core/lidar/lidar_model.hpp"
 #include "calibd/core/lidar/range_image.hpp"
 #include "counting_new.hpp"
+#include "short_session.hpp"
 #include "simulated_messages.hpp"
 #include "small_camera.hpp"
 
@@ -80,6 +81,8 @@ class Rig {
     config_.stop_on_coverage = false;  // collect the whole drive unless a fault ends it
     config_.target_frames = 100000;
     config_.max_duration_s = 3600.0;
+    // The small camera's 80-pair drive: the short session's tolerances (short_session.hpp).
+    config_.engine = testing::ShortSessionEngine();
     std::string error;
     EXPECT_TRUE(config_.IsValid(&error)) << error;
     EXPECT_TRUE(intake_.Init(IntakeConfigFrom(config_), config_.calib, &error)) << error;

@@ -178,6 +178,16 @@ TEST(VerdictTest, EachGateRefusesTheFigureItJudges) {
          s->q.principal_point_bound_corners = CornerBias::kNone;
        },
        Reason::kPoorObservability, "the tags put it 1.0 px right and 1.0 px down"},
+      {"a camera scale that turns the result",
+       [](Session* s) {
+         s->q.camera_scale_error = 0.004;
+         s->q.camera_scale_sigma = 0.001;
+         s->q.rotation_bound_camera_scale_deg = 0.3;
+         s->q.rotation_systematic_deg = 0.4;
+         s->q.rotation_bound_deg = 0.41;
+       },
+       Reason::kPoorObservability,
+       "the camera's scale against the LiDAR (its board distances 0.40"},
       {"no bound", [inf](Session* s) { s->q.rotation_bound_deg = s->q.translation_bound_m = inf; },
        Reason::kPoorObservability, "error could reach unknown deg"},
       {"beyond the mechanical tolerance", [](Session* s) { s->delta_translation_m = 0.3; },

@@ -83,11 +83,12 @@ agent:
   uds:
     secret_file: /etc/calibd/uds.secret
     state_dir: /var/lib/calibd/uds
-# 60 pairs of small tags: their translation bound is beyond the default 3 cm
-# (kShortSessionTranslationBoundM, tests/short_session.hpp).
+# 60 pairs of small tags: their bound is beyond the default 0.3 deg / 3 cm
+# (kShortSessionRotationBoundDeg, kShortSessionTranslationBoundM, tests/short_session.hpp).
 engine:
   verdict:
     max_translation_bound_m: 0.1
+    max_rotation_bound_deg: 0.6
 YAML
 } >/etc/calibd/calibd.yaml
 systemctl daemon-reload

@@ -105,6 +105,7 @@ nlohmann::json QualityJson(const QualityFigures& q) {
   j["translation_bound_principal_point_m"] = q.translation_bound_principal_point_m;
   j["translation_bound_board_centre_m"] = q.translation_bound_board_centre_m;
   j["rotation_bound_time_offset_deg"] = q.rotation_bound_time_offset_deg;
+  j["rotation_bound_camera_scale_deg"] = q.rotation_bound_camera_scale_deg;
   j["rotation_bound_deg"] = finite(q.rotation_bound_deg);
   j["translation_bound_m"] = finite(q.translation_bound_m);
   return j;

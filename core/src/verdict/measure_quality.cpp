@@ -321,6 +321,8 @@ void ResponsesAndBound(const Responses& responses, const DirectResult& direct, Q
   if (responses.principal_point) q->principal_point_response = responses.per_principal_point_px;
   q->time_offset_response_measured = q->time_offset_fitted && responses.time_offset;
   if (q->time_offset_response_measured) q->time_offset_response = responses.per_time_offset_s;
+  q->camera_scale_response_measured = responses.camera_scale;
+  if (responses.camera_scale) q->camera_scale_response = responses.per_camera_scale;
   ErrorBound(direct, q);
 }
 
@@ -367,6 +369,25 @@ PrincipalPointPart PrincipalPointBoundPart(const QualityFigures& q,
   return part;
 }
 
+// A systematic term carried through a measured response (MeasureResponses): the value left
+// after the correction as a bias, its sigma into the covariance, [dt (m), dtheta (rad)].
+struct Carried {
+  Eigen::Matrix<double, 6, 1> bias = Eigen::Matrix<double, 6, 1>::Zero();
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
+
+  double RotationBoundDeg() const {
+    return (bias.tail<3>().norm() + GaussianNormQuantile99(cov.bottomRightCorner<3, 3>())) *
+           kRad2Deg;
+  }
+  double TranslationBoundM() const {
+    return bias.head<3>().norm() + GaussianNormQuantile99(cov.topLeftCorner<3, 3>());
+  }
+};
+
+Carried Carry(const Eigen::Matrix<double, 6, 1>& response, double left, double sigma) {
+  return {response * left, response * response.transpose() * (sigma * sigma)};
+}
+
 }  // namespace
 
 void ErrorBound(const DirectResult& direct, QualityFigures* q) {
@@ -382,56 +403,62 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
     q->rotation_statistical_deg =
         GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>()) * kRad2Deg;
   }
-  // The translation's own terms: the range offset (moves it by about itself), the scale error
-  // left after its correction and its sigma (by themselves times the boards' distance), the time
-  // offset's sigma (times the boards' speed along their normals); each along the boards'
-  // direction.
+  // The translation's own terms, each along the boards' direction: the range offset (moves it by
+  // about itself), and where no response was measured the scale error left after its correction
+  // and its sigma (by themselves times the boards' distance), the time offset's sigma (times the
+  // boards' speed along their normals).
   struct Term {
     double bias_m = 0.0, sigma_m = 0.0;
   };
   Term range, scale, time;
   if (std::isfinite(q->lidar_range_offset_m))
     range = {std::fabs(q->lidar_range_offset_m), finite(q->lidar_range_offset_sigma_m)};
-  if (std::isfinite(q->camera_scale_error) && q->camera_scale_sigma > 0.0 &&
-      std::isfinite(q->camera_scale_translation_m)) {
-    const double distance_m = q->camera_scale_translation_m / q->camera_scale_sigma;
+  // The camera's scale and time offset through their measured responses where there are some:
+  // what is left after the correction as a bias, its sigma through the response; both turn the
+  // result too. Without a response, each by itself times the boards' distance or normal speed.
+  Carried scale_carried, time_carried;
+  const bool scale_fitted = std::isfinite(q->camera_scale_error) && q->camera_scale_sigma > 0.0 &&
+                            std::isfinite(q->camera_scale_translation_m);
+  if (scale_fitted) {
     const double left = (1.0 + q->camera_scale_error) / (1.0 + q->camera_scale_corrected) - 1.0;
-    scale.bias_m = std::fabs(left) * distance_m;
+    if (q->camera_scale_response_measured) {
+      scale_carried = Carry(q->camera_scale_response, left, q->camera_scale_sigma);
+    } else {
+      const double distance_m = q->camera_scale_translation_m / q->camera_scale_sigma;
+      scale = {std::fabs(left) * distance_m, q->camera_scale_translation_m};
+    }
   }
-  scale.sigma_m = finite(q->camera_scale_translation_m);
-  // The time offset through its measured response where there is one: the offset left after the
-  // correction as a bias, its sigma through the response; both turn the result too.
-  Eigen::Matrix<double, 6, 1> time_bias = Eigen::Matrix<double, 6, 1>::Zero();
-  Eigen::Matrix<double, 6, 6> time_cov = Eigen::Matrix<double, 6, 6>::Zero();
   if (q->time_offset_fitted && q->time_offset_response_measured &&
       std::isfinite(q->time_offset_sigma_s)) {
-    const Eigen::Matrix<double, 6, 1>& r = q->time_offset_response;
-    time_bias = r * (q->time_offset_s - q->time_offset_corrected_s);
-    time_cov = r * r.transpose() * (q->time_offset_sigma_s * q->time_offset_sigma_s);
+    time_carried = Carry(q->time_offset_response, q->time_offset_s - q->time_offset_corrected_s,
+                         q->time_offset_sigma_s);
   } else if (q->time_offset_fitted) {
     time.sigma_m = finite(q->time_offset_sigma_s) * q->board_normal_speed_mps;
   }
-  const double time_rotation_bias_deg = time_bias.tail<3>().norm() * kRad2Deg;
-  time.bias_m = time_bias.head<3>().norm();
-  q->rotation_bound_time_offset_deg =
-      time_rotation_bias_deg +
-      GaussianNormQuantile99(time_cov.bottomRightCorner<3, 3>()) * kRad2Deg;
+  q->rotation_bound_time_offset_deg = time_carried.RotationBoundDeg();
+  q->rotation_bound_camera_scale_deg = scale_carried.RotationBoundDeg();
+  const double carried_rotation_bias_deg =
+      (time_carried.bias.tail<3>().norm() + scale_carried.bias.tail<3>().norm()) * kRad2Deg;
+  const Eigen::Matrix<double, 6, 6> carried_cov = time_carried.cov + scale_carried.cov;
   const double k1 = kBoundQuantile1d;
   q->translation_bound_range_offset_m = range.bias_m + k1 * range.sigma_m;
-  q->translation_bound_scale_m = scale.bias_m + k1 * scale.sigma_m;
+  q->translation_bound_scale_m =
+      scale.bias_m + k1 * scale.sigma_m + scale_carried.TranslationBoundM();
   q->translation_bound_time_offset_m =
-      time.bias_m + k1 * time.sigma_m + GaussianNormQuantile99(time_cov.topLeftCorner<3, 3>());
+      time.bias_m + k1 * time.sigma_m + time_carried.TranslationBoundM();
   // The boards' centres about their tags: what the camera sees of them, taken whole into the
   // translation (board_centre_offset.hpp).
   const double board_centre_m = q->board_centre_translation_m.norm();
   q->translation_bound_board_centre_m =
       board_centre_m + GaussianNormQuantile99(q->board_centre_translation_cov);
-  const double translation_bias_m = range.bias_m + scale.bias_m + time.bias_m + board_centre_m;
+  const double translation_bias_m = range.bias_m + scale.bias_m + time.bias_m + board_centre_m +
+                                    time_carried.bias.head<3>().norm() +
+                                    scale_carried.bias.head<3>().norm();
   const double translation_var =
       range.sigma_m * range.sigma_m + scale.sigma_m * scale.sigma_m + time.sigma_m * time.sigma_m;
   const Eigen::Matrix3d translation_cov =
       translation_var * q->board_direction * q->board_direction.transpose() +
-      q->board_centre_translation_cov + time_cov.topLeftCorner<3, 3>();
+      q->board_centre_translation_cov + carried_cov.topLeftCorner<3, 3>();
   // The principal point, which the LiDAR cannot see, as the tags and the intrinsic calibration
   // know it (infinite when neither does: no bound), carried into the result as a turn and
   // through its measured response. Of the two readings of the tags' corners (CornerBias) and the
@@ -447,8 +474,9 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
     const QualityFigures::PrincipalPointTurn& pp =
         q->principal_point_beliefs[static_cast<size_t>(corners)];
     const PrincipalPointPart part = PrincipalPointBoundPart(*q, pp, model);
-    const Eigen::Matrix3d systematic_cov = part.rotation_cov + time_cov.bottomRightCorner<3, 3>();
-    const double rotation_bias_deg = part.rotation_bias_deg + time_rotation_bias_deg;
+    const Eigen::Matrix3d systematic_cov =
+        part.rotation_cov + carried_cov.bottomRightCorner<3, 3>();
+    const double rotation_bias_deg = part.rotation_bias_deg + carried_rotation_bias_deg;
     const double systematic_deg =
         rotation_bias_deg + GaussianNormQuantile99(systematic_cov) * kRad2Deg;
     const double rotation_deg =
@@ -482,7 +510,7 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
     }
   }
   q->translation_systematic_m = translation_bias_m + k1 * std::sqrt(translation_var) +
-                                GaussianNormQuantile99(time_cov.topLeftCorner<3, 3>()) +
+                                GaussianNormQuantile99(carried_cov.topLeftCorner<3, 3>()) +
                                 (q->translation_bound_board_centre_m - board_centre_m) +
                                 q->translation_bound_principal_point_m;
 }

@@ -29,6 +29,9 @@ Responses MeasureResponses(const CameraIntrinsics& camera, const std::vector<Boa
                                  out.per_principal_point_px.col(0)) &&
                         response(corr, shifted_boards[1], kPrincipalPointResponseStepPx,
                                  out.per_principal_point_px.col(1));
+  std::vector<Pose> farther = held;
+  for (Pose& T : farther) T.translation() *= 1.0 + kCameraScaleResponseStep;
+  out.camera_scale = response(corr, farther, kCameraScaleResponseStep, out.per_camera_scale.col(0));
   if (corr.motion_compensated) {
     ObservationSet later = corr;
     ShiftToCaptureTime(corr.time_offset_s + kTimeOffsetResponseStepS, direct.T_camera_lidar,

@@ -33,6 +33,16 @@ std::string RotationCause(const GateInput& in) {
            " ms left after the correction, which turns the result by up to " +
            FixedDecimal(q.rotation_bound_time_offset_deg, 2) +
            " deg): boards held still during each pose, or stamps of the camera's capture time";
+  // The camera's scale, likewise: the tags' size or the focal length.
+  if (q.rotation_bound_camera_scale_deg > 0.5 * q.rotation_systematic_deg)
+    return "most of it the camera's scale against the LiDAR (its board distances " +
+           FixedDecimal(q.camera_scale_error * 100.0, 2) + " +-" +
+           FixedDecimal(q.camera_scale_sigma * 100.0, 2) + " % off the LiDAR's, " +
+           FixedDecimal(q.camera_scale_corrected * 100.0, 2) +
+           " % corrected, which turns the result by up to " +
+           FixedDecimal(q.rotation_bound_camera_scale_deg, 2) +
+           " deg): measure the tags' printed size (boards[].tag_size_m) and check the camera's "
+           "focal length";
   const Eigen::Vector2d d = q.principal_point_shift_px;
   if (q.principal_point_bound_corners == CornerBias::kNone)
     return "most of it the camera's principal point, which the LiDAR cannot see: the tags put it " +

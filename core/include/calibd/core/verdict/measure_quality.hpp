@@ -40,9 +40,16 @@ void MeasureQuality(const CalibConfig& config, const SessionObservations& sessio
 /// correction turns the result, which the boards' normal speed alone misses.
 inline constexpr double kTimeOffsetResponseStepS = 0.01;
 
+/// The camera scale's step for its response (MeasureResponses): the camera's board distances 1 %
+/// longer, as a tag size or focal length 1 % off makes them.
+inline constexpr double kCameraScaleResponseStep = 0.01;
+
 /// The error bound's measured responses of the extrinsic: to the principal point, per px along u
-/// and v (PrincipalPointShiftedBoards), and to the camera's time offset, per s (the compensated
-/// points moved to a capture time kTimeOffsetResponseStepS later, ShiftToCaptureTime). Each is
+/// and v (PrincipalPointShiftedBoards), to the camera's time offset, per s (the compensated
+/// points moved to a capture time kTimeOffsetResponseStepS later, ShiftToCaptureTime), and to the
+/// camera's scale, per unit of relative error (every held board pose's translation scaled by
+/// 1 + kCameraScaleResponseStep: boards spread across the view then turn the result as well as
+/// move it, which the boards' mean distance alone misses). Each is
 /// the extrinsic re-solved with the solution's board poses held (SolveHeldBoardsByGaussNewton) and
 /// the data moved, less the same re-solve of the data as they are (so that the re-solve's own
 /// settings cancel), over the shift: measured, not modelled.
@@ -51,6 +58,8 @@ struct Responses {
   Eigen::Matrix<double, 6, 2> per_principal_point_px = Eigen::Matrix<double, 6, 2>::Zero();
   bool time_offset = false;  ///< measured (the points were motion-compensated)
   Eigen::Matrix<double, 6, 1> per_time_offset_s = Eigen::Matrix<double, 6, 1>::Zero();
+  bool camera_scale = false;  ///< measured
+  Eigen::Matrix<double, 6, 1> per_camera_scale = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 /// The responses of `direct` (over `corr`, `boards` as the solve saw them), on one thread, with
@@ -59,7 +68,8 @@ Responses MeasureResponses(const CameraIntrinsics& camera, const std::vector<Boa
                            const ObservationSet& corr, const DirectResult& direct,
                            const DirectOptimizerConfig& solver);
 
-/// The responses into `q` (QualityFigures::principal_point_response, time_offset_response), then
+/// The responses into `q` (QualityFigures::principal_point_response, time_offset_response,
+/// camera_scale_response), then
 /// the error bound (ErrorBound). After MeasureQuality.
 void ResponsesAndBound(const Responses& responses, const DirectResult& direct, QualityFigures* q);
 

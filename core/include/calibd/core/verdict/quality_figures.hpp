@@ -60,6 +60,9 @@ struct QualityFigures {
   /// MeasureResponses), deg: named by the error bound's gate where it outweighs the principal
   /// point's.
   double rotation_bound_time_offset_deg = 0.0;
+  /// The rotation's camera scale term alone (the scale error left and its sigma through
+  /// MeasureResponses), deg.
+  double rotation_bound_camera_scale_deg = 0.0;
   /// ... and the boards' centres about their tags, as the camera sees the boards' edges
   /// (board_centre_offset.hpp).
   double translation_bound_board_centre_m = 0.0;
@@ -174,6 +177,12 @@ struct QualityFigures {
   /// the boards' normal speed.
   bool time_offset_response_measured = false;
   Eigen::Matrix<double, 6, 1> time_offset_response = Eigen::Matrix<double, 6, 1>::Zero();
+  /// How the result moves per unit of camera scale error, [dt (m), dtheta (rad)]
+  /// (MeasureResponses, ResponsesAndBound): the bound carries the scale error left after the
+  /// correction and its sigma through it. Not measured: the translation takes them times the
+  /// boards' distance.
+  bool camera_scale_response_measured = false;
+  Eigen::Matrix<double, 6, 1> camera_scale_response = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 /// The image coverage grid (QualityFigures::image_coverage, the agent's coverage gate): the image
