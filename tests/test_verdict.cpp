@@ -162,6 +162,14 @@ TEST(VerdictTest, EachGateRefusesTheFigureItJudges) {
          s->q.translation_bound_m = 0.04;
        },
        Reason::kPoorObservability, "boards to the sides as well"},
+      {"a camera scale that moves the translation",
+       [](Session* s) {
+         s->q.camera_scale_error = 0.0008;
+         s->q.camera_scale_sigma = 0.0002;
+         s->q.translation_bound_scale_m = 0.025;
+         s->q.translation_bound_m = 0.035;
+       },
+       Reason::kPoorObservability, "the camera's scale 0.08 +-0.02 % off the LiDAR's"},
       {"scattered boards",
        [](Session* s) {
          s->q.rotation_clustered_sigma_deg = 0.1;

@@ -108,9 +108,12 @@ std::string TranslationCause(const QualityFigures& q) {
            " cm), which boards all ahead of the LiDAR cannot tell from its position along them: "
            "boards to the sides as well, or still poses around the sensors";
   if (scale_m >= statistical_m && scale_m >= time_m)
-    return "most of it the boards' distances as the tags measure them (scale +-" +
-           FixedDecimal(q.camera_scale_sigma * 100, 2) +
-           " %): boards closer to the camera, or larger tags";
+    return "most of it the boards' distances as the tags measure them (the camera's scale " +
+           FixedDecimal(q.camera_scale_error * 100, 2) + " +-" +
+           FixedDecimal(q.camera_scale_sigma * 100, 2) + " % off the LiDAR's, " +
+           FixedDecimal(q.camera_scale_corrected * 100, 2) +
+           " % corrected): measure the tags' printed size (boards[].tag_size_m) and check the "
+           "camera's focal length; or boards closer to the camera, or larger tags";
   if (time_m >= statistical_m)
     return "most of it the camera's time offset against the LiDAR while the boards move: "
            "boards held still, or slower";
