@@ -18,8 +18,9 @@ mkdir -p "$shared" || exit 2
 shared=$(cd "$shared" && pwd -P)
 rm -f "$shared/soak.txt" "$shared/soak.json" "$shared/soak-progress.txt"
 job=$shared/soak-job.sh
-# --max-translation-bound-m: 60 pairs of small tags bound their translation beyond the default
-# 3 cm (kShortSessionTranslationBoundM, tests/short_session.hpp).
+# --max-translation-bound-m, --max-rotation-bound-deg: 60 pairs of small tags bound their result
+# beyond the default 0.3 deg / 3 cm (kShortSessionRotationBoundDeg, kShortSessionTranslationBoundM,
+# tests/short_session.hpp).
 cat >"$job" <<JOB
 #!/bin/bash
 # LCM udpm on the guest's loopback, with receive buffers for whole sweeps (as agent_diag_vmtest).
@@ -28,7 +29,7 @@ ip link set lo multicast on && ip route replace 224.0.0.0/4 dev lo &&
 cd "$shared" || exit 3
 ./calibd-bench soak --minutes $minutes --agent ./calibd-agent --sim ./calibd-sim \\
   --drive session.lcmlog --calib-yaml calib.yaml --interface vcan0 --speed 0.2 --min-distance-bins 1 \\
-  --max-translation-bound-m 0.1 \\
+  --max-translation-bound-m 0.1 --max-rotation-bound-deg 0.6 \\
   --work-dir /tmp/soak --json soak.json >soak.txt 2>soak-progress.txt
 code=\$?
 cp /tmp/soak/agent.log soak-agent.log 2>/dev/null

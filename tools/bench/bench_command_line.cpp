@@ -140,6 +140,8 @@ bool SoakOption(CommandLine& line, SoakBenchOptions* k) {
     line.Integer(0, 4, &k->min_distance_bins);
   else if (line.Is("--max-translation-bound-m"))
     line.Number(0.001, 10, &k->max_translation_bound_m);
+  else if (line.Is("--max-rotation-bound-deg"))
+    line.Number(0.001, 10, &k->max_rotation_bound_deg);
   else if (line.Is("--p2-ms"))
     line.Integer(1, 60000, &k->p2_ms);
   else if (line.Is("--max-rss-growth-mb"))

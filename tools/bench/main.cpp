@@ -115,6 +115,8 @@ soak     one calibd-agent through back-to-back workshop sessions for N minutes: 
                       the agent's min_distance_bins (default: the agent's; 1 for a drive within 8.5 m)
   --max-translation-bound-m M
                       the agent's engine.verdict.max_translation_bound_m (default: the agent's)
+  --max-rotation-bound-deg D
+                      the agent's engine.verdict.max_rotation_bound_deg (default: the agent's)
   --p2-ms MS          the tester's P2 (default 2000, for an emulated guest)
   --max-rss-growth-mb X
                       allowed RSS growth after the first session (default 16)

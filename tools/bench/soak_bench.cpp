@@ -195,21 +195,30 @@ class Soak {
     fs::permissions(Path("secret"), fs::perms::owner_read | fs::perms::owner_write, ec);
     std::string calib;
     if (!ReadWholeFile(o_.calib_yaml, &calib, error) || !SeedStore(error)) return false;
-    const std::string yaml =
-        calib + "agent:\n  lcm_url: \"" + o_.lcm_url + "\"\n  software_version: calibd-soak\n" +
-        "  store:\n    directory: " + Path("store") +
-        "\n    keep_previous: " + std::to_string(kKeepPrevious) +
-        "\n  min_frames: " + std::to_string(o_.min_frames) +
-        (o_.min_distance_bins >= 0
-             ? "\n  min_distance_bins: " + std::to_string(o_.min_distance_bins)
-             : std::string()) +
-        "\n  max_duration_s: " + std::to_string(o_.max_duration_s) +
-        "\n  can:\n    enabled: true\n    interface: " + o_.interface +
-        "\n  uds:\n    secret_file: " + Path("secret") + "\n    state_dir: " + Path("uds") + "\n" +
-        (o_.max_translation_bound_m > 0.0 ? "engine:\n  verdict:\n    max_translation_bound_m: " +
-                                                std::to_string(o_.max_translation_bound_m) + "\n"
-                                          : std::string());
+    const std::string yaml = calib + "agent:\n  lcm_url: \"" + o_.lcm_url +
+                             "\"\n  software_version: calibd-soak\n" +
+                             "  store:\n    directory: " + Path("store") +
+                             "\n    keep_previous: " + std::to_string(kKeepPrevious) +
+                             "\n  min_frames: " + std::to_string(o_.min_frames) +
+                             (o_.min_distance_bins >= 0
+                                  ? "\n  min_distance_bins: " + std::to_string(o_.min_distance_bins)
+                                  : std::string()) +
+                             "\n  max_duration_s: " + std::to_string(o_.max_duration_s) +
+                             "\n  can:\n    enabled: true\n    interface: " + o_.interface +
+                             "\n  uds:\n    secret_file: " + Path("secret") +
+                             "\n    state_dir: " + Path("uds") + "\n" + EngineYaml();
     return WriteFileAtomic(Path("agent.yaml"), yaml, error);
+  }
+
+  /// The engine section of the agent's config: the tolerances given, none for the defaults.
+  std::string EngineYaml() const {
+    std::string verdict;
+    if (o_.max_translation_bound_m > 0.0)
+      verdict +=
+          "    max_translation_bound_m: " + std::to_string(o_.max_translation_bound_m) + "\n";
+    if (o_.max_rotation_bound_deg > 0.0)
+      verdict += "    max_rotation_bound_deg: " + std::to_string(o_.max_rotation_bound_deg) + "\n";
+    return verdict.empty() ? verdict : "engine:\n  verdict:\n" + verdict;
   }
 
   /// The drive's prior as the current and the reference calibration, for the simulator's sensor

@@ -36,6 +36,8 @@ struct SoakBenchOptions {
   int max_duration_s = 150;    ///< the agent's agent.max_duration_s, and the tester's limit
   /// The agent's engine.verdict.max_translation_bound_m (0: the agent's default).
   double max_translation_bound_m = 0.0;
+  /// The agent's engine.verdict.max_rotation_bound_deg (0: the agent's default).
+  double max_rotation_bound_deg = 0.0;
   int p2_ms = 2000;  ///< the tester's P2 (an emulated guest answers slowly)
   /// Allowed RSS growth after the first session: the heap settles over the first sessions
   /// (+7.7 MB in the first 8 of a 30-minute run in the VM, then flat).
