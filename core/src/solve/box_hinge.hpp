@@ -31,9 +31,18 @@ inline Eigen::Vector3d HingeResidual(const Eigen::Vector3d& p_board,
 /// squared norm is exactly rho: `across` = g / n scales r, and its Jacobian is
 /// [along u u^T + across (I - u u^T)] dr with u = r / n and `along` = g'(n). Both 1 within
 /// `huber` (<= 0: no loss).
+inline bool BeyondHuber(double squared_norm, double huber) {
+  return huber > 0.0 && squared_norm > huber * huber;
+}
+
+/// Huber's rho itself: the squared norm of the robust residual of a residual of squared norm s.
+inline double HuberRho(double s, double huber) {
+  return BeyondHuber(s, huber) ? 2.0 * huber * std::sqrt(s) - huber * huber : s;
+}
+
 inline void HuberScales(double n, double huber, double* along, double* across) {
   *along = *across = 1.0;
-  if (!(huber > 0.0 && n > huber)) return;
+  if (!BeyondHuber(n * n, huber)) return;
   const double g = std::sqrt(2.0 * huber * n - huber * huber);
   *across = g / n;
   *along = huber / g;  // g'(n) = rho'(n^2) n / g with rho' = huber / n
@@ -41,7 +50,8 @@ inline void HuberScales(double n, double huber, double* along, double* across) {
 
 /// The robust residual of a point and d(residual)/d(p_board). The signed hinge has slope 1 where
 /// active and 0 inside the box; Huber on the residual norm (HuberScales) makes the Jacobian
-/// [along u u^T + across (I - u u^T)] diag(active).
+/// [along u u^T + across (I - u u^T)] diag(active): diag(active) within Huber's threshold, where
+/// most points are (inside the board's outline, off its plane by the range noise).
 inline void RobustHinge(const Eigen::Vector3d& p_board, const Eigen::Vector3d& half_extent,
                         double huber, Eigen::Vector3d* residual, Eigen::Matrix3d* d_residual) {
   const Eigen::Vector3d r = HingeResidual(p_board, half_extent);
@@ -50,9 +60,13 @@ inline void RobustHinge(const Eigen::Vector3d& p_board, const Eigen::Vector3d& h
   HuberScales(n, huber, &scale_along, &scale_across);
   *residual = scale_across * r;
   if (d_residual == nullptr) return;
-  const Eigen::Vector3d u = n > 0.0 ? Eigen::Vector3d(r / n) : Eigen::Vector3d::Zero();
   Eigen::Vector3d active;
   for (int k = 0; k < 3; ++k) active[k] = r[k] != 0.0 ? 1.0 : 0.0;
+  if (!BeyondHuber(n * n, huber)) {
+    *d_residual = active.asDiagonal();
+    return;
+  }
+  const Eigen::Vector3d u = r / n;
   *d_residual = (scale_along * u * u.transpose() +
                  scale_across * (Eigen::Matrix3d::Identity() - u * u.transpose())) *
                 active.asDiagonal();
@@ -69,6 +83,21 @@ inline void FixedBoardPointResidual(const Eigen::Matrix3d& R, const Eigen::Vecto
                                     Eigen::Matrix<double, 3, 6>* d_pose) {
   const Eigen::Vector3d p_rotated = R * p;
   const Eigen::Vector3d p_board = R_bc * (p_rotated + t) + t_bc;
+  if (d_pose != nullptr) {
+    // Within Huber's threshold dr/dp_B is diag(active) (RobustHinge): each active axis' row is
+    // that row of dp_B, the others 0, without the 3 x 3 products.
+    const Eigen::Vector3d r = HingeResidual(p_board, half_extent);
+    if (!BeyondHuber(r.squaredNorm(), huber)) {
+      *residual = r;
+      d_pose->setZero();
+      for (int k = 0; k < 3; ++k) {
+        if (r[k] == 0.0) continue;
+        d_pose->row(k).head<3>() = R_bc.row(k);
+        d_pose->row(k).tail<3>() = -R_bc.row(k) * Skew(p_rotated);
+      }
+      return;
+    }
+  }
   Eigen::Matrix3d dr_dp;
   RobustHinge(p_board, half_extent, huber, residual, d_pose != nullptr ? &dr_dp : nullptr);
   if (d_pose == nullptr) return;

@@ -8,11 +8,11 @@
 
 namespace calibd {
 
-/// The q-quantile (0..1) of `v` by nearest rank; 0 for an empty set. Sorts a copy.
+/// The q-quantile (0..1) of `v` by nearest rank; 0 for an empty set. Partly sorts a copy.
 inline double Quantile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
   const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(i), v.end());
   return v[i];
 }
 

@@ -66,6 +66,9 @@ class CompressedBoxCost final : public ceres::CostFunction {
   void NormalEquations(const double* x, Eigen::Matrix<double, 6, 6>* H,
                        Eigen::Matrix<double, 6, 1>* g, double* rtr) const;
 
+  /// r^T r (with the robust loss) at T_camera_lidar = `x`: what Ceres asks for to judge a step.
+  double Cost(const double* x) const;
+
   /// Accumulates the quality figures of every term's points at `T_camera_lidar` into `stats`.
   void Statistics(const Pose& T_camera_lidar, BoxStatistics* stats) const;
 
