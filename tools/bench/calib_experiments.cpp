@@ -97,8 +97,9 @@ void ParallelTasks(int count, int threads, const std::function<void(int)>& task,
 bool DriveRecorder::Init(const sim::SessionOptions& options, RecordedDrive* drive,
                          std::string* error, const LidarDetectorConfig& lidar,
                          const LidarModel* model, const RecordingFaults& faults,
-                         KeepRecording keep_going) {
-  if (!detected_.Init(options, error, lidar, model, faults.edit_config)) return false;
+                         KeepRecording keep_going, bool lidar_detector_later) {
+  if (!detected_.Init(options, error, lidar, model, faults.edit_config, lidar_detector_later))
+    return false;
   drive_ = drive;
   faults_ = faults;
   keep_going_ = std::move(keep_going);

@@ -84,11 +84,12 @@ class DriveRecorder {
   /// Builds the session and its detectors (DetectedSession::Init with `faults.edit_config`); the
   /// LiDAR detector with `model` when given. With `keep_going`, asked after each pair with the
   /// observations so far and the pair's truth, recording stops at the first false (e.g. where the
-  /// agent's session machine would end its collection).
+  /// agent's session machine would end its collection). `lidar_detector_later`: as
+  /// DetectedSession::Init's.
   bool Init(const sim::SessionOptions& options, RecordedDrive* drive, std::string* error,
             const LidarDetectorConfig& lidar = LidarDetectorConfig{},
             const LidarModel* model = nullptr, const RecordingFaults& faults = {},
-            KeepRecording keep_going = nullptr);
+            KeepRecording keep_going = nullptr, bool lidar_detector_later = false);
   /// This recording's own session: it simulates the pairs Add takes.
   DetectedSession& session() { return detected_; }
   int num_frames() const { return detected_.session().num_frames(); }

@@ -25,24 +25,36 @@ sim::SessionOptions BenchSessionOptions(const std::string& lidar, unsigned long 
 
 bool DetectedSession::Init(const sim::SessionOptions& options, std::string* error,
                            const LidarDetectorConfig& lidar, const LidarModel* model,
-                           const std::function<void(CalibConfig*)>& edit_user) {
+                           const std::function<void(CalibConfig*)>& edit_user,
+                           bool lidar_detector_later) {
   if (!session_.Init(options, error)) return false;
   user_ = session_.UserConfig();
   if (edit_user) edit_user(&user_);
   lidar_config_ = lidar;
-  const auto& geometries = edit_user ? user_.boards : session_.workshop().geometries;
-  lidar_detector_.emplace(lidar_config_, model ? *model : session_.lidar_model(), geometries);
-  if (!lidar_detector_->ok()) {
-    if (error) *error = "LiDAR detector: " + lidar_detector_->error();
+  lidar_model_ = model ? *model : session_.lidar_model();
+  lidar_boards_ = edit_user ? user_.boards : session_.workshop().geometries;
+  lidar_detector_.reset();
+  std::string why;
+  if (lidar_detector_later
+          ? !LidarDetector::CheckInputs(lidar_config_, lidar_model_, lidar_boards_, &why)
+          : !BuildLidarDetector(&why)) {
+    if (error) *error = "LiDAR detector: " + why;
     return false;
   }
   camera_detector_.emplace(CameraDetectorConfig{}, edit_user ? user_.camera : options.camera,
-                           geometries);
+                           lidar_boards_);
   if (!camera_detector_->ok()) {
     if (error) *error = "camera detector: " + camera_detector_->error();
     return false;
   }
   return true;
+}
+
+bool DetectedSession::BuildLidarDetector(std::string* error) {
+  if (!lidar_detector_) lidar_detector_.emplace(lidar_config_, lidar_model_, lidar_boards_);
+  if (lidar_detector_->ok()) return true;
+  if (error) *error = lidar_detector_->error();
+  return false;
 }
 
 void DetectedSession::Detect(int k, bool with_camera, FrameDetections* out) {
@@ -71,6 +83,7 @@ void DetectedSession::DetectOnly(const SimulatedFrame& frame, bool lidar, bool c
   out->truth = frame.truth;
   out->lidar_ms = out->lidar_cpu_ms = out->camera_ms = out->camera_cpu_ms = 0.0;
   if (lidar) {
+    BuildLidarDetector(nullptr);  // one that is not ok() clears out->lidar
     const sim::LidarScan& scan = frame.scan;
     const PointCloudView cloud{
         scan.x.data(), scan.y.data(),

@@ -54,10 +54,16 @@ class DetectedSession {
   /// With `edit_user`, the user's config (the simulator's UserConfig()) is changed by it, and both
   /// detectors take the board geometry and the camera's intrinsics from it (a user's config with
   /// wrong figures: the fault campaign).
+  /// With `lidar_detector_later`, the LiDAR detector's inputs are checked but the detector (its
+  /// references: half a second of the two cores) is built only by BuildLidarDetector(), for a
+  /// session that may copy another's detections instead (calibd-bench verdicts).
   bool Init(const sim::SessionOptions& options, std::string* error,
             const LidarDetectorConfig& lidar = LidarDetectorConfig{},
             const LidarModel* model = nullptr,
-            const std::function<void(CalibConfig*)>& edit_user = nullptr);
+            const std::function<void(CalibConfig*)>& edit_user = nullptr,
+            bool lidar_detector_later = false);
+  /// Builds the LiDAR detector Init left for later (nothing when built); false with `error`.
+  bool BuildLidarDetector(std::string* error);
 
   const sim::SessionSimulator& session() const { return session_; }
   /// The config a user would calibrate with: UserConfig(), edited as Init was told.
@@ -88,6 +94,8 @@ class DetectedSession {
   sim::SessionSimulator session_;
   CalibConfig user_;
   LidarDetectorConfig lidar_config_;
+  LidarModel lidar_model_;                   // what the LiDAR detector is built with
+  std::vector<BoardGeometry> lidar_boards_;  // likewise
   std::optional<LidarDetector> lidar_detector_;
   std::optional<CameraDetector> camera_detector_;
   SimulatedFrame frame_;  // Detect's, reused

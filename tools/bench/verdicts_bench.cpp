@@ -477,10 +477,12 @@ class CampaignSession {
       c->lidar_model = lidar_name_;
     };
     std::string error;
-    if (!recorder_.Init(s_.sim, &drive_, &error, LidarDetectorConfig{}, &model_, faults,
-                        [this](const SessionObservations& recorded, const sim::FrameTruth& truth) {
-                          return KeepGoing(recorded, truth);
-                        })) {
+    if (!recorder_.Init(
+            s_.sim, &drive_, &error, LidarDetectorConfig{}, &model_, faults,
+            [this](const SessionObservations& recorded, const sim::FrameTruth& truth) {
+              return KeepGoing(recorded, truth);
+            },
+            /*lidar_detector_later=*/true)) {
       out_->error = error;
       return false;
     }
@@ -592,7 +594,7 @@ void RunSessions(const sim::SessionOptions& clean, const std::vector<Session>& s
   }
   // The shared frames come from a session that records the clean recording itself (a session
   // alone is its own); only a round whose every session changes the sweeps or the images needs
-  // a simulator of its own (building one builds its detectors too: the LiDAR's references).
+  // a simulator of its own (it detects nothing: its LiDAR detector is never built).
   DetectedSession own_base;
   DetectedSession* base = nullptr;
   for (size_t m = 0; m < n && !base; ++m)
@@ -600,7 +602,8 @@ void RunSessions(const sim::SessionOptions& clean, const std::vector<Session>& s
       base = &runs[m]->recorder().session();
   if (!base) {
     std::string error;
-    if (!own_base.Init(clean, &error)) {
+    if (!own_base.Init(clean, &error, LidarDetectorConfig{}, nullptr, nullptr,
+                       /*lidar_detector_later=*/true)) {
       for (SessionResult* r : out) r->error = "the round's clean session: " + error;
       return;
     }
@@ -621,6 +624,16 @@ void RunSessions(const sim::SessionOptions& clean, const std::vector<Session>& s
       if (!active[e]) continue;
       if (lidar_from[m] == m && lidar_keys[e] == lidar_keys[m]) lidar_from[m] = e;
       if (camera_from[m] == m && camera_keys[e] == camera_keys[m]) camera_from[m] = e;
+    }
+  }
+  // Only the LiDAR detectors that detect are built (their references: half a second of the two
+  // cores each, 23 a round before).
+  for (size_t m = 0; m < n; ++m) {
+    std::string error;
+    if (active[m] && lidar_from[m] == m &&
+        !runs[m]->recorder().session().BuildLidarDetector(&error)) {
+      out[m]->error = "LiDAR detector: " + error;
+      active[m] = 0;
     }
   }
   std::vector<double> simulation_s(n, 0.0);
