@@ -252,6 +252,7 @@ TEST(CompressedBoxCostTest, SameNormalEquationsAndSameSolveAsThePerPointRows) {
   const double huber = 0.02;
   const Pose start = Perturb(s.T_camera_lidar, 1.5, 0.08, 11);
   std::vector<BoxTerm> terms;
+  std::vector<BoardBoxCost*> per_point;
   ceres::Problem::Options options;
   options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   PoseManifold manifold;
@@ -270,11 +271,27 @@ TEST(CompressedBoxCostTest, SameNormalEquationsAndSameSolveAsThePerPointRows) {
     term.T_board_camera = o.T_camera_board.inverse();
     term.half_extent = Eigen::Vector3d(g.width_m / 2.0, g.height_m / 2.0, 0.0);
     terms.push_back(term);
-    full_problem.AddResidualBlock(
-        new BoardBoxCost(term.points, term.num_points, term.stride, term.T_board_camera,
-                         g.width_m / 2.0, g.height_m / 2.0, 0.0, huber),
-        nullptr, full);
+    per_point.push_back(new BoardBoxCost(term.points, term.num_points, term.stride,
+                                         term.T_board_camera, g.width_m / 2.0, g.height_m / 2.0,
+                                         0.0, huber));
+    full_problem.AddResidualBlock(per_point.back(), nullptr, full);
   }
+  // The start has points of every kind the compressed cost sums differently: one axis active
+  // (summed per board), several (outside a board's outline), beyond Huber's threshold (point by
+  // point).
+  int one_axis = 0, several_axes = 0, beyond_huber = 0;
+  for (size_t k = 0; k < per_point.size(); ++k) {
+    for (int i = 0; i < terms[k].num_used(); ++i) {
+      const Eigen::Vector3d r = per_point[k]->PointResidual(start, i);
+      const int active = static_cast<int>((r.array() != 0.0).count());
+      one_axis += active == 1;
+      several_axes += active > 1;
+      beyond_huber += r.norm() > huber;
+    }
+  }
+  EXPECT_GT(one_axis, 0);
+  EXPECT_GT(several_axes, 0);
+  EXPECT_GT(beyond_huber, 0);
   auto* cost = new CompressedBoxCost(terms, huber);
   compressed_problem.AddResidualBlock(cost, nullptr, compressed);
 
