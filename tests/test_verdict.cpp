@@ -94,8 +94,12 @@ TEST(VerdictTest, EachGateRefusesTheFigureItJudges) {
        "bends 8.0 mm"},
       {"parallel planes", [](Session* s) { s->q.plane_conditioning = 1e-7; },
        Reason::kPoorObservability, "conditioning"},
-      // Twice the sigma gate: four times the boards (400) would bring it under.
-      {"formal sigma", [](Session* s) { s->q.rotation_sigma_deg = 0.1; },
+      // Twice the sigma gate a site set: four times the boards (400) would bring it under.
+      {"formal sigma",
+       [](Session* s) {
+         s->config.max_rotation_sigma_deg = 0.05;
+         s->q.rotation_sigma_deg = 0.1;
+       },
        Reason::kPoorObservability, "about 400 like them"},
       {"wrong lens",
        [](Session* s) {
@@ -246,11 +250,33 @@ TEST(VerdictTest, AFigureAtItsGatePasses) {
   Session s;
   s.q.reprojection_mean_px = s.q.reprojection_gate_px;
   s.q.residual_rms_m = s.config.max_residual_rms_m;
+  s.config.max_rotation_sigma_deg = 0.05;
   s.q.rotation_sigma_deg = s.config.max_rotation_sigma_deg;
   s.delta_rotation_deg = s.config.max_rotation_deg;
   s.q.rotation_bound_deg = s.config.max_rotation_bound_deg;
   s.q.translation_bound_m = s.config.max_translation_bound_m;
   EXPECT_EQ(s.Verdict(&detail), Reason::kNone) << detail;
+}
+
+TEST(VerdictTest, AFormalSigmaIsJudgedByTheErrorBoundUnlessASiteSetsAGate) {
+  // By default the formal sigma is no gate of its own: a result whose sigma is large but whose
+  // error bound lies inside the tolerance passes, one whose bound does not is refused by the
+  // bound; a site's own gate still refuses it, naming the translation's gate alone when only
+  // that one is set.
+  std::string detail;
+  Session s;
+  s.q.rotation_sigma_deg = 0.1;
+  s.q.translation_sigma_m = 0.02;
+  EXPECT_EQ(s.Verdict(&detail), Reason::kNone) << detail;
+  s.q.rotation_bound_deg = 2.0 * s.config.max_rotation_bound_deg;
+  EXPECT_EQ(s.Verdict(&detail), Reason::kPoorObservability);
+  EXPECT_EQ(detail.find("formal sigma"), std::string::npos) << detail;
+  Session site;
+  site.config.max_translation_sigma_m = 0.01;
+  site.q.rotation_sigma_deg = 0.1;
+  site.q.translation_sigma_m = 0.02;
+  EXPECT_EQ(site.Verdict(&detail), Reason::kPoorObservability);
+  EXPECT_NE(detail.find("above no gate / 0.0100 m"), std::string::npos) << detail;
 }
 
 TEST(VerdictTest, TheReprojectionGateWidensForASparseLidar) {

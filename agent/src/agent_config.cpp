@@ -192,9 +192,9 @@ bool EngineKeysValid(const EngineConfig& e, std::string* error) {
     return false;
   if (!IntIn(k + "min_frames", v.min_frames, 1, 100000, error)) return false;
   if (!IntIn(k + "min_boards", v.min_boards, 1, 1000000, error)) return false;
-  if (!PositiveUpTo(k + "max_rotation_sigma_deg", v.max_rotation_sigma_deg, 10.0, error))
+  if (!DoubleIn(k + "max_rotation_sigma_deg", v.max_rotation_sigma_deg, 0.0, 10.0, error))
     return false;
-  if (!PositiveUpTo(k + "max_translation_sigma_m", v.max_translation_sigma_m, 1.0, error))
+  if (!DoubleIn(k + "max_translation_sigma_m", v.max_translation_sigma_m, 0.0, 1.0, error))
     return false;
   if (!DoubleIn(k + "min_plane_conditioning", v.min_plane_conditioning, 0.0, 1.0, error))
     return false;

@@ -284,7 +284,7 @@ std::string TransformBlock(const std::string& title, const Pose& T) {
   return s + "</table></div>";
 }
 
-enum class Gate { kPass, kFail, kNotReached };
+enum class Gate { kPass, kFail, kNotReached, kNone };
 
 std::string GateCell(Gate g) {
   switch (g) {
@@ -292,6 +292,8 @@ std::string GateCell(Gate g) {
       return "<td class=\"pass\">pass</td>";
     case Gate::kFail:
       return "<td class=\"fail\">fail</td>";
+    case Gate::kNone:
+      return "<td class=\"na\">figure only</td>";
     case Gate::kNotReached:
       break;
   }
@@ -467,6 +469,12 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
                      int max_digits) {
     return Row(name, Num(value, value_digits), "<= " + Num(max, max_digits), check(value <= max));
   };
+  // A gate a site may set and the default leaves off (0): a figure only, where it is off.
+  auto at_most_if_set = [&](const std::string& name, double value, int value_digits, double max,
+                            int max_digits) {
+    return max > 0.0 ? at_most(name, value, value_digits, max, max_digits)
+                     : Row(name, Num(value, value_digits), "-", Gate::kNone);
+  };
   // A figure one of the verdict's own gates judges (its estimate against the tolerance and its
   // sigma, verdict/gates/): the row's result is what those gates decided, so that the table
   // never shows a fail the verdict did not act on.
@@ -488,9 +496,10 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
   s += Row("board-plane conditioning", Sci(q.plane_conditioning),
            ">= " + Sci(v.min_plane_conditioning),
            check(q.plane_conditioning >= v.min_plane_conditioning));
-  s += at_most("formal rotation sigma [deg]", q.rotation_sigma_deg, 4, v.max_rotation_sigma_deg, 4);
-  s += at_most("formal translation sigma [m]", q.translation_sigma_m, 4, v.max_translation_sigma_m,
-               4);
+  s += at_most_if_set("formal rotation sigma [deg]", q.rotation_sigma_deg, 4,
+                      v.max_rotation_sigma_deg, 4);
+  s += at_most_if_set("formal translation sigma [m]", q.translation_sigma_m, 4,
+                      v.max_translation_sigma_m, 4);
   s += at_most("half-data rotation spread [deg]", q.rotation_spread_deg, 4,
                v.max_rotation_spread_deg, 4);
   s += at_most("half-data translation spread [m]", q.translation_spread_m, 4,
@@ -613,8 +622,11 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
                Num(v.max_rotation_deg, 4) + " deg or " + Num(v.max_translation_m, 4) + " m");
   s += InfoRow("min_frames (frame pairs with a correspondence)", std::to_string(v.min_frames));
   s += InfoRow("min_boards (board correspondences)", std::to_string(v.min_boards));
-  s += InfoRow("max formal sigma", Num(v.max_rotation_sigma_deg, 4) + " deg, " +
-                                       Num(v.max_translation_sigma_m, 4) + " m");
+  const auto gate_or_off = [](double max, const char* unit) {
+    return max > 0.0 ? Num(max, 4) + unit : std::string("off");
+  };
+  s += InfoRow("max formal sigma", gate_or_off(v.max_rotation_sigma_deg, " deg") + ", " +
+                                       gate_or_off(v.max_translation_sigma_m, " m"));
   s += InfoRow("min board-plane conditioning", Sci(v.min_plane_conditioning));
   s += InfoRow("max half-data spread", Num(v.max_rotation_spread_deg, 4) + " deg, " +
                                            Num(v.max_translation_spread_m, 4) + " m");
