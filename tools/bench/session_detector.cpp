@@ -32,17 +32,16 @@ bool DetectedSession::Init(const sim::SessionOptions& options, std::string* erro
   if (edit_user) edit_user(&user_);
   lidar_config_ = lidar;
   lidar_model_ = model ? *model : session_.lidar_model();
-  lidar_boards_ = edit_user ? user_.boards : session_.workshop().geometries;
+  boards_ = edit_user ? user_.boards : session_.workshop().geometries;
   lidar_detector_.reset();
   std::string why;
-  if (lidar_detector_later
-          ? !LidarDetector::CheckInputs(lidar_config_, lidar_model_, lidar_boards_, &why)
-          : !BuildLidarDetector(&why)) {
+  if (lidar_detector_later ? !LidarDetector::CheckInputs(lidar_config_, lidar_model_, boards_, &why)
+                           : !BuildLidarDetector(&why)) {
     if (error) *error = "LiDAR detector: " + why;
     return false;
   }
   camera_detector_.emplace(CameraDetectorConfig{}, edit_user ? user_.camera : options.camera,
-                           lidar_boards_);
+                           boards_);
   if (!camera_detector_->ok()) {
     if (error) *error = "camera detector: " + camera_detector_->error();
     return false;
@@ -51,7 +50,7 @@ bool DetectedSession::Init(const sim::SessionOptions& options, std::string* erro
 }
 
 bool DetectedSession::BuildLidarDetector(std::string* error) {
-  if (!lidar_detector_) lidar_detector_.emplace(lidar_config_, lidar_model_, lidar_boards_);
+  if (!lidar_detector_) lidar_detector_.emplace(lidar_config_, lidar_model_, boards_);
   if (lidar_detector_->ok()) return true;
   if (error) *error = lidar_detector_->error();
   return false;

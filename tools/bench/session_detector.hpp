@@ -94,8 +94,8 @@ class DetectedSession {
   sim::SessionSimulator session_;
   CalibConfig user_;
   LidarDetectorConfig lidar_config_;
-  LidarModel lidar_model_;                   // what the LiDAR detector is built with
-  std::vector<BoardGeometry> lidar_boards_;  // likewise
+  LidarModel lidar_model_;             // what the LiDAR detector is built with
+  std::vector<BoardGeometry> boards_;  // what both detectors are built with
   std::optional<LidarDetector> lidar_detector_;
   std::optional<CameraDetector> camera_detector_;
   SimulatedFrame frame_;  // Detect's, reused

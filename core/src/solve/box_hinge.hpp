@@ -26,11 +26,8 @@ inline Eigen::Vector3d HingeResidual(const Eigen::Vector3d& p_board,
   return r;
 }
 
-/// Huber's loss (Ceres' HuberLoss: rho(s) = s up to huber^2, 2 huber sqrt(s) - huber^2 beyond)
-/// on a residual r of norm n, as a residual g(n) r / n with g = sqrt(rho(n^2)), so that its
-/// squared norm is exactly rho: `across` = g / n scales r, and its Jacobian is
-/// [along u u^T + across (I - u u^T)] dr with u = r / n and `along` = g'(n). Both 1 within
-/// `huber` (<= 0: no loss).
+/// Whether a residual of this squared norm lies beyond Huber's threshold `huber` (<= 0: no loss),
+/// where the loss below changes it.
 inline bool BeyondHuber(double squared_norm, double huber) {
   return huber > 0.0 && squared_norm > huber * huber;
 }
@@ -40,6 +37,11 @@ inline double HuberRho(double s, double huber) {
   return BeyondHuber(s, huber) ? 2.0 * huber * std::sqrt(s) - huber * huber : s;
 }
 
+/// Huber's loss (Ceres' HuberLoss: rho(s) = s up to huber^2, 2 huber sqrt(s) - huber^2 beyond)
+/// on a residual r of norm n, as a residual g(n) r / n with g = sqrt(rho(n^2)), so that its
+/// squared norm is exactly rho: `across` = g / n scales r, and its Jacobian is
+/// [along u u^T + across (I - u u^T)] dr with u = r / n and `along` = g'(n). Both 1 within
+/// `huber` (<= 0: no loss).
 inline void HuberScales(double n, double huber, double* along, double* across) {
   *along = *across = 1.0;
   if (!BeyondHuber(n * n, huber)) return;
@@ -83,21 +85,6 @@ inline void FixedBoardPointResidual(const Eigen::Matrix3d& R, const Eigen::Vecto
                                     Eigen::Matrix<double, 3, 6>* d_pose) {
   const Eigen::Vector3d p_rotated = R * p;
   const Eigen::Vector3d p_board = R_bc * (p_rotated + t) + t_bc;
-  if (d_pose != nullptr) {
-    // Within Huber's threshold dr/dp_B is diag(active) (RobustHinge): each active axis' row is
-    // that row of dp_B, the others 0, without the 3 x 3 products.
-    const Eigen::Vector3d r = HingeResidual(p_board, half_extent);
-    if (!BeyondHuber(r.squaredNorm(), huber)) {
-      *residual = r;
-      d_pose->setZero();
-      for (int k = 0; k < 3; ++k) {
-        if (r[k] == 0.0) continue;
-        d_pose->row(k).head<3>() = R_bc.row(k);
-        d_pose->row(k).tail<3>() = -R_bc.row(k) * Skew(p_rotated);
-      }
-      return;
-    }
-  }
   Eigen::Matrix3d dr_dp;
   RobustHinge(p_board, half_extent, huber, residual, d_pose != nullptr ? &dr_dp : nullptr);
   if (d_pose == nullptr) return;

@@ -17,6 +17,13 @@ std::string Bound(double x, int decimals) {
 }
 
 // The rotation bound's larger part, and what would shrink it.
+// The camera's scale as the tags read it against the LiDAR, and how much was corrected.
+std::string CameraScaleText(const QualityFigures& q) {
+  return FixedDecimal(q.camera_scale_error * 100.0, 2) + " +-" +
+         FixedDecimal(q.camera_scale_sigma * 100.0, 2) + " % off the LiDAR's, " +
+         FixedDecimal(q.camera_scale_corrected * 100.0, 2) + " % corrected";
+}
+
 std::string RotationCause(const GateInput& in) {
   const QualityFigures& q = in.quality;
   // The scatter first only when it alone reaches the tolerance and outweighs the principal point.
@@ -36,10 +43,7 @@ std::string RotationCause(const GateInput& in) {
   // The camera's scale, likewise: the tags' size or the focal length.
   if (q.rotation_bound_camera_scale_deg > 0.5 * q.rotation_systematic_deg)
     return "most of it the camera's scale against the LiDAR (its board distances " +
-           FixedDecimal(q.camera_scale_error * 100.0, 2) + " +-" +
-           FixedDecimal(q.camera_scale_sigma * 100.0, 2) + " % off the LiDAR's, " +
-           FixedDecimal(q.camera_scale_corrected * 100.0, 2) +
-           " % corrected, which turns the result by up to " +
+           CameraScaleText(q) + ", which turns the result by up to " +
            FixedDecimal(q.rotation_bound_camera_scale_deg, 2) +
            " deg): measure the tags' printed size (boards[].tag_size_m) and check the camera's "
            "focal length";
@@ -109,10 +113,8 @@ std::string TranslationCause(const QualityFigures& q) {
            "boards to the sides as well, or still poses around the sensors";
   if (scale_m >= statistical_m && scale_m >= time_m)
     return "most of it the boards' distances as the tags measure them (the camera's scale " +
-           FixedDecimal(q.camera_scale_error * 100, 2) + " +-" +
-           FixedDecimal(q.camera_scale_sigma * 100, 2) + " % off the LiDAR's, " +
-           FixedDecimal(q.camera_scale_corrected * 100, 2) +
-           " % corrected): measure the tags' printed size (boards[].tag_size_m) and check the "
+           CameraScaleText(q) +
+           "): measure the tags' printed size (boards[].tag_size_m) and check the "
            "camera's focal length; or boards closer to the camera, or larger tags";
   if (time_m >= statistical_m)
     return "most of it the camera's time offset against the LiDAR while the boards move: "

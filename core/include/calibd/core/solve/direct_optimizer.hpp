@@ -143,7 +143,7 @@ DirectResult ResolveWithHeldBoards(const std::vector<BoardGeometry>& boards,
 /// points `config` takes, on one thread: what a re-solve of the same data converges to, in about
 /// half the evaluations of ResolveWithHeldBoards' trust region when the start lies close (a
 /// quality check's small shift of the data). No residual statistics. False where H is singular
-/// or the steps have not settled (each below a thousandth of the distance moved) within 16.
+/// or the steps have not settled (each below a hundredth of the distance moved) within 16.
 bool SolveHeldBoardsByGaussNewton(const std::vector<BoardGeometry>& boards,
                                   const ObservationSet& set, const Pose& T_start,
                                   const DirectOptimizerConfig& config,
