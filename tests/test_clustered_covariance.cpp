@@ -181,5 +181,33 @@ TEST(ClusteredCovarianceTest, TheErrorBoundTakesTheLargerReadingOfTheTagsCorners
   EXPECT_GT(q.translation_bound_m, translation_before);
 }
 
+// The bound's statistical part is the clustered covariance, but never narrower than the formal
+// one: boards with few points, most inside their box's hinge, can leave the clustered one the
+// narrower (CalibrationEngineTest.TheReprojectionGateFollowsTheLidarsPointSpacing).
+TEST(ClusteredCovarianceTest, TheBoundsStatisticalPartIsNeverNarrowerThanTheFormalCovariance) {
+  DirectResult direct;
+  direct.clustered.valid = true;
+  direct.clustered.stretches = 8;
+  direct.clustered.covariance = Eigen::Matrix<double, 6, 6>::Identity() * 1e-8;  // 0.1 mrad
+  direct.residual_rms_m = 0.01;
+  const double widened = FewClustersVarianceFactor(direct.clustered.stretches);
+  const auto quantile_deg = [](double variance) {
+    return GaussianNormQuantile99(Eigen::Matrix3d::Identity() * variance) * kRad2Deg;
+  };
+  QualityFigures q;
+  // Formal 1 mrad (rms^2 / 100): wider, taken.
+  direct.information = Eigen::Matrix<double, 6, 6>::Identity() * 100.0;
+  ErrorBound(direct, &q);
+  EXPECT_NEAR(q.rotation_statistical_deg, quantile_deg(1e-6), 1e-12);
+  // Formal 0.01 mrad: narrower, the clustered one stays.
+  direct.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e6;
+  ErrorBound(direct, &q);
+  EXPECT_NEAR(q.rotation_statistical_deg, quantile_deg(1e-8 * widened), 1e-12);
+  // Singular information (no formal covariance): the clustered one.
+  direct.information.setZero();
+  ErrorBound(direct, &q);
+  EXPECT_NEAR(q.rotation_statistical_deg, quantile_deg(1e-8 * widened), 1e-12);
+}
+
 }  // namespace
 }  // namespace calibd
