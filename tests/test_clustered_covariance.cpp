@@ -199,6 +199,8 @@ TEST(ClusteredCovarianceTest, TheBoundsStatisticalPartIsNeverNarrowerThanTheForm
   direct.information = Eigen::Matrix<double, 6, 6>::Identity() * 100.0;
   ErrorBound(direct, &q);
   EXPECT_NEAR(q.rotation_statistical_deg, quantile_deg(1e-6), 1e-12);
+  EXPECT_NEAR(q.rotation_clustered_sigma_deg, 1e-3 * kRad2Deg, 1e-9);  // as the bound takes it
+  EXPECT_NEAR(q.translation_clustered_sigma_m, 1e-3, 1e-12);
   // Formal 0.01 mrad: narrower, the clustered one stays.
   direct.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e6;
   ErrorBound(direct, &q);

@@ -405,12 +405,11 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
   // The statistical part: the clustered covariance, widened for the few stretches it rests on,
   // and never narrower than the formal one (per block, rotation and translation, by their 99 %
   // quantiles): boards with tens of points each, most inside their box's hinge, leave the
-  // clustered "meat" without the slack the formal one keeps (Mid-360 still poses of one board
-  // read 0.066 against a formal 0.118 deg, and lay 0.25 deg off).
+  // clustered "meat" without the slack the formal one keeps (docs/error-bound.md). The sigmas
+  // reported as clustered are those of this covariance.
   Eigen::Matrix<double, 6, 6> clustered = Eigen::Matrix<double, 6, 6>::Zero();
   if (direct.clustered.valid) {
     clustered = direct.clustered.covariance * FewClustersVarianceFactor(direct.clustered.stretches);
-    WorstSigmas(clustered, &q->translation_clustered_sigma_m, &q->rotation_clustered_sigma_deg);
     Eigen::Matrix<double, 6, 6> formal;
     if (FormalCovariance(direct.information, direct.residual_rms_m, &formal)) {
       for (const int k : {0, 3}) {
@@ -419,6 +418,7 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
           clustered.block<3, 3>(k, k) = formal.block<3, 3>(k, k);
       }
     }
+    WorstSigmas(clustered, &q->translation_clustered_sigma_m, &q->rotation_clustered_sigma_deg);
     q->rotation_statistical_deg =
         GaussianNormQuantile99(clustered.bottomRightCorner<3, 3>()) * kRad2Deg;
   }
