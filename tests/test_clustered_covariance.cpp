@@ -205,6 +205,22 @@ TEST(ClusteredCovarianceTest, TheBoundsStatisticalPartIsNeverNarrowerThanTheForm
   direct.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e6;
   ErrorBound(direct, &q);
   EXPECT_NEAR(q.rotation_statistical_deg, quantile_deg(1e-8 * widened), 1e-12);
+  // The formal rotation wider, its translation narrower: each block takes the wider.
+  direct.information.diagonal() << 1e6, 1e6, 1e6, 100.0, 100.0, 100.0;
+  ErrorBound(direct, &q);
+  EXPECT_NEAR(q.rotation_clustered_sigma_deg, 1e-3 * kRad2Deg, 1e-9);
+  EXPECT_NEAR(q.translation_clustered_sigma_m, std::sqrt(1e-8 * widened), 1e-12);
+  // Wider along one direction only: the other directions keep the clustered variance.
+  direct.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e6;
+  direct.information(3, 3) = 100.0;
+  ErrorBound(direct, &q);
+  EXPECT_NEAR(q.rotation_clustered_sigma_deg, 1e-3 * kRad2Deg, 1e-9);
+  EXPECT_NEAR(
+      q.rotation_statistical_deg,
+      GaussianNormQuantile99(
+          Eigen::Vector3d(1e-6, 1e-8 * widened, 1e-8 * widened).asDiagonal().toDenseMatrix()) *
+          kRad2Deg,
+      1e-9);
   // Singular information (no formal covariance): the clustered one.
   direct.information.setZero();
   ErrorBound(direct, &q);

@@ -480,23 +480,23 @@ TEST(LidarDetectorTest, ABoxStandingOnTheFloorIsNoBoardButABoardOnAStandIs) {
   EXPECT_LT((out.boards[0].centroid - board_lidar).norm(), 0.1);
   // Without the clearance gate the panel, its bottom taken by the ground, passes every other gate
   // and the descriptor in some sweeps (in about two thirds the floor's points next to it leave
-  // it not planar); with the gate, in none of 20.
+  // it not planar); with the gate, in none of 20 (the first sweep's, above, and 19 more).
   int panel_found = 0;
-  for (uint64_t seed = 5; seed < 25; ++seed) {
+  for (uint64_t seed = 6; seed < 25; ++seed) {
     sim::LidarScan sweep;
     lidar.Scan(scene, T_world_lidar, T_world_lidar, 0, seed, &sweep);
     detector.Detect(ViewOf(sweep), &out);
     without.Detect(ViewOf(sweep), &out_without);
     ASSERT_EQ(out.boards.size(), 1u) << "seed " << seed;
     EXPECT_LT((out.boards[0].centroid - board_lidar).norm(), 0.1) << "seed " << seed;
+    EXPECT_TRUE(out.clusters.empty());  // reported only when asked (report_clusters)
     for (const BoardCluster& b : out_without.boards)
       panel_found += (b.centroid - panel_lidar).norm() < 0.5 ? 1 : 0;
   }
-  EXPECT_GE(panel_found, 1);
+  EXPECT_GE(panel_found, 3);
 
-  // report_clusters says where each cluster stopped: the board is a board, the panel stands on
-  // the floor; without it nothing is reported.
-  EXPECT_TRUE(out.clusters.empty());
+  // report_clusters says where each cluster of the first sweep stopped: the board is a board,
+  // the panel stands on the floor.
   LidarDetectorConfig reporting;
   reporting.report_clusters = true;
   LidarDetector reporter(reporting, model, {BoardGeometry{}});
@@ -611,8 +611,8 @@ struct SensorCase {
   const char* name;
   LidarKind kind;
   double range_sigma_m;
-  /// The share of sweeps in which the board must be found (measured rates, with room for 40
-  /// sweeps' binomial scatter).
+  /// The share of the sweeps, and of those where board and wall joined, in which the board must
+  /// be found (measured rates, with room for 40 sweeps' binomial scatter).
   double min_found_share = 0.75;
 };
 
@@ -624,9 +624,9 @@ std::string SensorCaseName(const ::testing::TestParamInfo<SensorCase>& param) {
 // hits the wall close enough (in angle) for the segmentation's angle criterion, so board and wall
 // come out as one cluster, refused as too large or not a rectangle. extract_planes finds the board
 // as a plane inside it; the wall stays out. Not always on a VLP-32C (about half its sweeps, tuned
-// on none): its sparse rings above 4.7 deg leave the board's top ring 4-6 cm off the plane grown
-// from its dense lower rows, so the plane stops short of the top edge and too much of its edge is
-// attached (0.52-0.62 against 0.5).
+// on none): its rings 2.3-10.3 deg, 0.7-3.3 deg apart, leave the board's top ring 4-6 cm off the
+// plane grown from its dense lower rows, so the plane stops short of the top edge and too much of
+// its edge reads attached (max_attached_fraction; docs/accuracy-and-speed.md).
 class JoinedBoardTest : public ::testing::TestWithParam<SensorCase> {};
 
 TEST_P(JoinedBoardTest, ABoardJoinedToTheWallBehindItIsFoundAsAPlaneOfItsCluster) {
@@ -658,10 +658,14 @@ TEST_P(JoinedBoardTest, ABoardJoinedToTheWallBehindItIsFoundAsAPlaneOfItsCluster
     extracting.Detect(ViewOf(scan), &out);
     const std::string miss = setup.NotTheBoard(out, c.range_sigma_m);
     const LidarClusterReport* report = BoardReport(out);
-    const bool is_board = miss.empty() && report != nullptr &&
-                          report->attached_fraction <= planes.max_attached_fraction &&
-                          std::fabs(report->rectangle(0) - 0.9) <= 0.15;
-    if (!is_board) last_miss = "sweep " + std::to_string(7 + k) + ": " + miss;
+    std::string why = miss;
+    if (why.empty() && report == nullptr) why = "no report";
+    if (why.empty() && report->attached_fraction > planes.max_attached_fraction)
+      why = "attached " + std::to_string(report->attached_fraction);
+    if (why.empty() && std::fabs(report->rectangle(0) - 0.9) > 0.15)
+      why = "rectangle " + std::to_string(report->rectangle(0));
+    const bool is_board = why.empty();
+    if (!is_board) last_miss = "sweep " + std::to_string(7 + k) + ": " + why;
     found += is_board ? 1 : 0;
     if (lost && large) {
       ++joined;
@@ -748,14 +752,14 @@ TEST_P(TrimmedBoardTest, BoardsCutFromAStripAcrossTheirPlaneAreFoundWithTheirOwn
       shares.push_back(double(own) / b.num_points);
     }
   }
+  EXPECT_GT(found_cut, found_plain);
+  ASSERT_GT(cut, 0);
   std::cout << GetParam().name << ": boards found " << found_plain << " -> " << found_cut << " of "
             << s.num_frames() << " (" << cut << " cut to their window), false " << false_plain
             << " -> " << false_cut << ", share of own points: median " << Median(shares)
             << ", worst " << *std::min_element(shares.begin(), shares.end()) << "\n";
-  EXPECT_GT(found_cut, found_plain);
-  ASSERT_GT(cut, 0);
-  // Mostly the board's own; a window holds what of the strip crosses it (as much as a tenth of
-  // it where the strip runs through the board's middle).
+  // Mostly the board's own; a window holds what of the strip crosses it (as much as an eighth
+  // of it where the strip runs through the board's middle).
   EXPECT_GE(Median(shares), 0.95);
   EXPECT_GE(*std::min_element(shares.begin(), shares.end()), 0.85);
 }

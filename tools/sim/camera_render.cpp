@@ -10,6 +10,8 @@
 #include <random>
 #include <thread>
 
+#include "opencv_rng.hpp"
+
 namespace calibd::sim {
 
 namespace {
@@ -509,6 +511,7 @@ void CameraRenderer::Finish(uint64_t noise_seed, cv::Mat* image) const {
   // Sensor noise after the optics: one cv::RNG per row, seeded from the frame's noise seed and
   // the row, so the noise does not depend on how rows are split across threads.
   if (imaging_.noise_sigma > 0.0) {
+    PrepareOpenCvNormals();
     ParallelRows(H, imaging_.num_threads, [&](int v0, int v1) {
       cv::Mat noise(1, W, CV_32FC1);
       for (int v = v0; v < v1; ++v) {

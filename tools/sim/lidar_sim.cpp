@@ -5,6 +5,8 @@
 #include <opencv2/core.hpp>
 #include <thread>
 
+#include "opencv_rng.hpp"
+
 namespace calibd::sim {
 
 // Layout of a pattern, for PatternNeighbours().
@@ -288,8 +290,9 @@ uint64_t SplitMix64(uint64_t x) {
 }
 
 // One random stream per (seed, chunk, pass): results do not depend on which thread runs a chunk.
-// OpenCV's generator: its normals (a ziggurat) cost a fifth of std::normal_distribution's polar
-// method on std::mt19937_64, which was a seventh of a still-pose campaign's time.
+// OpenCV's generator: its normals (a ziggurat) cost much less than std::normal_distribution's
+// polar method on std::mt19937_64 (docs/performance-and-reliability.md). Its stream is OpenCV's
+// (and its libm's), not fixed by the standard, as the camera's noise is.
 class ChunkRng {
  public:
   ChunkRng(uint64_t seed, size_t chunk, int pass)
@@ -400,7 +403,9 @@ void MakeScanPattern(const LidarModel& model, int frame_index, std::vector<Beam>
 }
 
 LidarSimulator::LidarSimulator(const LidarModel& model, const LidarNoise& noise)
-    : model_(model), noise_(noise) {}
+    : model_(model), noise_(noise) {
+  PrepareOpenCvNormals();  // before Scan's threads draw
+}
 
 void LidarSimulator::RebuildPatternIfNeeded(int frame_index) {
   // Non-repetitive patterns differ every frame; the M1's raster cycles through 16 phases.

@@ -43,6 +43,14 @@ bool FormalCovariance(const Eigen::Matrix<double, 6, 6>& info, double residual_r
   return true;
 }
 
+// A covariance at least as wide as `a` and as `b` in every direction: `a` plus the positive part
+// of b - a (it exceeds b by the negative part's magnitude).
+Eigen::Matrix3d CoveringBoth(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(b - a);
+  return a + es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() *
+                 es.eigenvectors().transpose();
+}
+
 void FormalSigmas(const Eigen::Matrix<double, 6, 6>& info, double residual_rms, QualityFigures* q) {
   Eigen::Matrix<double, 6, 6> cov;
   if (!FormalCovariance(info, residual_rms, &cov)) {
@@ -403,20 +411,17 @@ void ErrorBound(const DirectResult& direct, QualityFigures* q) {
   // What a check estimated and left uncorrected is a bias, added as it is; how uncertain each
   // estimate is joins the statistical part's covariance.
   // The statistical part: the clustered covariance, widened for the few stretches it rests on,
-  // and never narrower than the formal one (per block, rotation and translation, by their 99 %
-  // quantiles): boards with tens of points each, most inside their box's hinge, leave the
-  // clustered "meat" without the slack the formal one keeps (docs/error-bound.md). The sigmas
-  // reported as clustered are those of this covariance.
+  // and, block by block (translation, rotation), never narrower than the formal one in any
+  // direction: boards of tens of points each (a sparse LiDAR's) can leave the clustered one the
+  // narrower (docs/error-bound.md). The sigmas reported as clustered are this one's.
   Eigen::Matrix<double, 6, 6> clustered = Eigen::Matrix<double, 6, 6>::Zero();
   if (direct.clustered.valid) {
     clustered = direct.clustered.covariance * FewClustersVarianceFactor(direct.clustered.stretches);
     Eigen::Matrix<double, 6, 6> formal;
     if (FormalCovariance(direct.information, direct.residual_rms_m, &formal)) {
-      for (const int k : {0, 3}) {
-        if (GaussianNormQuantile99(formal.block<3, 3>(k, k)) >
-            GaussianNormQuantile99(clustered.block<3, 3>(k, k)))
-          clustered.block<3, 3>(k, k) = formal.block<3, 3>(k, k);
-      }
+      for (const int k : {0, 3})
+        clustered.block<3, 3>(k, k) =
+            CoveringBoth(clustered.block<3, 3>(k, k), formal.block<3, 3>(k, k));
     }
     WorstSigmas(clustered, &q->translation_clustered_sigma_m, &q->rotation_clustered_sigma_deg);
     q->rotation_statistical_deg =

@@ -35,8 +35,8 @@ struct QualityFigures {
   double rotation_sigma_deg = 0.0, translation_sigma_m = 0.0;  ///< formal, from J^T J
   /// The same from the cluster-robust covariance (clustered_covariance.hpp): honest about errors
   /// a board or a stretch of frames shares, widened for the few stretches it rests on
-  /// (FewClustersVarianceFactor), never narrower than the formal one (ErrorBound); infinite
-  /// where it cannot be estimated.
+  /// (FewClustersVarianceFactor), never narrower than the formal one in any direction
+  /// (ErrorBound); infinite where it cannot be estimated.
   double rotation_clustered_sigma_deg = std::numeric_limits<double>::infinity();
   double translation_clustered_sigma_m = std::numeric_limits<double>::infinity();
   /// What the systematic terms the checks measure could move the result by (ErrorBound in
@@ -44,7 +44,7 @@ struct QualityFigures {
   /// the time offset left, their estimates plus their sigmas at the bound's quantile.
   double rotation_systematic_deg = 0.0, translation_systematic_m = 0.0;
   /// The rotation bound's statistical part alone: the 99 % quantile of the norm of the clustered
-  /// covariance's rotation error (as above: never narrower than the formal one's), deg (infinite
+  /// covariance's rotation error (as above: never narrower than the formal one), deg (infinite
   /// where it cannot be estimated). Within the
   /// tolerance while the whole bound is not: the systematic part took it beyond.
   double rotation_statistical_deg = std::numeric_limits<double>::infinity();
