@@ -182,8 +182,8 @@ TEST(CalibrationEngineTest, SmallFarTagsAreRefusedNotTrusted) {
 // Still poses of a board, 3 sweeps each, are accepted with their error inside their bound, the
 // gate well above the angle's (a dense LiDAR's drive keeps the angle's:
 // PerCorrespondenceReprojectionErrorsAreTheQualityFigures). Their clustered covariance comes
-// out narrower than the formal one here (most of each board's few points inside its box's
-// hinge): the bound takes the formal one, or this result, 0.25 deg off, lay outside it.
+// out narrower than the formal one here (a sparse LiDAR's few points per board): the bound takes
+// the formal one, or this result, 0.25 deg off, lay outside it.
 TEST(CalibrationEngineTest, TheReprojectionGateFollowsTheLidarsPointSpacing) {
   sim::SessionOptions o = StillPoses("mid360", 40, 1, 2200.0);
   o.seed = 4;

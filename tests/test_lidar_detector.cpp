@@ -651,14 +651,13 @@ TEST_P(JoinedBoardTest, ABoardJoinedToTheWallBehindItIsFoundAsAPlaneOfItsCluster
     LidarDetections out;
     paper.Detect(ViewOf(scan), &out);
     // Whole clusters only: the board lost in the wall's cluster.
-    bool lost = out.boards.empty();
+    const bool lost = out.boards.empty();
     bool large = false;
     for (const LidarClusterReport& r : out.clusters)
       large = large || (r.gate != ClusterGate::kBoard && r.num_points > 500);
     extracting.Detect(ViewOf(scan), &out);
-    const std::string miss = setup.NotTheBoard(out, c.range_sigma_m);
     const LidarClusterReport* report = BoardReport(out);
-    std::string why = miss;
+    std::string why = setup.NotTheBoard(out, c.range_sigma_m);
     if (why.empty() && report == nullptr) why = "no report";
     if (why.empty() && report->attached_fraction > planes.max_attached_fraction)
       why = "attached " + std::to_string(report->attached_fraction);

@@ -16,7 +16,6 @@ std::string Bound(double x, int decimals) {
   return std::isfinite(x) ? FixedDecimal(x, decimals) : std::string("unknown");
 }
 
-// The rotation bound's larger part, and what would shrink it.
 // The camera's scale as the tags read it against the LiDAR, and how much was corrected.
 std::string CameraScaleText(const QualityFigures& q) {
   return FixedDecimal(q.camera_scale_error * 100.0, 2) + " +-" +
@@ -24,6 +23,7 @@ std::string CameraScaleText(const QualityFigures& q) {
          FixedDecimal(q.camera_scale_corrected * 100.0, 2) + " % corrected";
 }
 
+// The rotation bound's larger part, and what would shrink it.
 std::string RotationCause(const GateInput& in) {
   const QualityFigures& q = in.quality;
   // The scatter first only when it alone reaches the tolerance and outweighs the principal point.

@@ -45,8 +45,8 @@ struct QualityFigures {
   double rotation_systematic_deg = 0.0, translation_systematic_m = 0.0;
   /// The rotation bound's statistical part alone: the 99 % quantile of the norm of the clustered
   /// covariance's rotation error (as above: never narrower than the formal one), deg (infinite
-  /// where it cannot be estimated). Within the
-  /// tolerance while the whole bound is not: the systematic part took it beyond.
+  /// where it cannot be estimated). Within the tolerance while the whole bound is not: the
+  /// systematic part took it beyond.
   double rotation_statistical_deg = std::numeric_limits<double>::infinity();
   /// The mean direction from the camera to the boards (unit, camera frame): the one along which
   /// a range offset, a scale error or a time offset moves the translation.
