@@ -109,6 +109,26 @@ TEST(PrincipalPointCheckTest, TagsFacingTheCameraCannotTellAndTooFewAreNotFitted
   EXPECT_EQ(few.observations, 5);
 }
 
+// A statement far sharper than the tags' own sigma counts only kMaxStatedSharpening times
+// sharper: where the tags can hardly see the principal point (square-on boards), a wrong
+// intrinsic calibration would otherwise pass unseen under a bound resting on the statement alone.
+TEST(PrincipalPointCheckTest, AStatementIsTakenNoSharperThanTheTagsCouldCheck) {
+  PrincipalPointEstimate tags;
+  tags.fitted = true;
+  tags.shift_px = {2.0, -5.0};
+  tags.sigma_px = {4.5, 2.0};  // x: 1.5 px checked, beyond the 1 px stated; y: 0.67 px
+  tags.systematic_px = {0.0, 0.0};
+  const PrincipalPointBelief b = CombinePrincipalPoint(tags, 1.0, CornerBias::kNone);
+  // x: the statement as 4.5 / 3 px, so the tags weigh 1 / (1 + 3^2).
+  const double w = 1.0 / (1.0 + kMaxStatedSharpening * kMaxStatedSharpening);
+  EXPECT_NEAR(b.shift_px.x(), w * 2.0, 1e-12);
+  EXPECT_NEAR(b.sigma_px.x(), std::sqrt(w * 4.5 * 4.5), 1e-12);
+  EXPECT_GT(b.sigma_px.x(), 1.0);  // wider than the statement alone
+  // y: the statement as it is, 1 px against the tags' 2 px.
+  EXPECT_NEAR(b.shift_px.y(), -5.0 / 5.0, 1e-12);
+  EXPECT_NEAR(b.sigma_px.y(), std::sqrt(0.8), 1e-12);
+}
+
 }  // namespace
 }  // namespace calibd
 

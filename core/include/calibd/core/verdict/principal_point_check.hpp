@@ -84,13 +84,23 @@ inline constexpr double kStatedPrincipalPointChiSquare = 9.21;
 double StatedPrincipalPointChiSquare(const PrincipalPointEstimate& tags, double stated_sigma_px,
                                      CornerBias corners);
 
+/// The intrinsic calibration's stated sigma counts at most this many times sharper than the
+/// tags' own sigma of the principal point (PrincipalPointEstimate::sigma_px), axis by axis. A
+/// statement is only as good as what could refute it: on poses whose tags hardly see the principal
+/// point (square-on boards, few poses) a statement far sharper than the tags would carry the whole
+/// bound on a figure nothing in the session checks, so a wrong intrinsic calibration would pass
+/// unseen (docs/error-bound.md). Three keeps the stated sigma where the tags measure within three
+/// times it, as they do on still poses and drives with boards at varied angles.
+inline constexpr double kMaxStatedSharpening = 3.0;
+
 /// The tags' estimate (its sigma, and with CornerBias::kAssumed its blind spot in quadrature: the
 /// blind spot is a bias that no resampling shows) combined, axis by axis and weighted by inverse
 /// variances, with the intrinsic calibration's stated sigma (a prior centred on the configured
 /// principal point; `stated_sigma_px` 0: none stated). A stated sigma the tags refute in the
 /// same reading (StatedPrincipalPointChiSquare beyond kStatedPrincipalPointChiSquare) counts as
-/// none: weighing it would pull the belief back towards a principal point the data reject.
-/// Neither known: the sigma is infinite.
+/// none: weighing it would pull the belief back towards a principal point the data reject; one
+/// sharper than the tags' sigma over kMaxStatedSharpening counts as that. Neither known: the
+/// sigma is infinite.
 PrincipalPointBelief CombinePrincipalPoint(const PrincipalPointEstimate& tags,
                                            double stated_sigma_px, CornerBias corners);
 
