@@ -19,8 +19,8 @@ namespace calibd::bench {
 /// sessions compared one by one while the engine was reorganised), and 15 (held-out until its
 /// session 6, a false accept, was studied to fix it: the error bound's unbiased reading of the
 /// principal point, reported on seeds 16 and 17; VerdictsBenchTest runs that session), and 22
-/// (held-out for its 2000-session run at 79d7c53, whose false accept, session 1363, is studied to
-/// fix it: the fix is reported on a seed not run before).
+/// (held-out for its 2000-session run at 79d7c53, whose false accept, session 1363, was studied
+/// to fix it: kMaxStatedSharpening, reported on held-out seed 23).
 inline constexpr unsigned long long kTuningSeeds[] = {1, 2, 3, 4, 5, 7, 15, 22};
 
 /// The held-out seed `make test` runs (VerdictsBenchTest.HeldOutCleanSessionsLieInsideTheirBounds):
