@@ -125,28 +125,37 @@ TEST(VerdictsBenchTest, SessionsSharingARecordingAnswerAsIfRecordedAlone) {
     EXPECT_NE(shared["sessions"][k]["rotation_error_deg"], clean["rotation_error_deg"]) << k;
 }
 
+// Runs `seed`'s principal point session of `round` and checks it is the `mode` session it is
+// meant to be, its result more than 0.3 deg off, refused for poor observability naming the
+// principal point, its error inside its bound; returns it.
+nlohmann::json ExpectPrincipalPointRefused(int round, unsigned long long seed,
+                                           const std::string& mode) {
+  testing::TempDir dir;
+  std::string table;
+  bool ok = false;
+  const nlohmann::json session =
+      RunSessions({VerdictSessionIndex("principal_point", round)}, dir.file("pp.json"), &table, &ok,
+                  true, seed)["sessions"][0];
+  EXPECT_TRUE(ok) << table;
+  EXPECT_EQ(session["fault"], "principal_point");
+  EXPECT_EQ(session["mode"], mode);
+  EXPECT_GT(session["rotation_error_deg"].get<double>(), 0.3) << session.dump();
+  EXPECT_EQ(session["reason"], "poor_observability") << session["detail"];
+  EXPECT_NE(session["detail"].get<std::string>().find("most of it the camera's principal point"),
+            std::string::npos)
+      << session["detail"];
+  EXPECT_TRUE(session["inside_bound"].get<bool>()) << session["quality"].dump();
+  return session;
+}
+
 // A principal point the tags of a drive cannot tell from the stated 1 px (seed 15, an ot128 drive,
 // the config's principal point 6.5 px off: the tags read (2.2, 4.7) +-(1.9, 1.7) px beside a
 // blind spot of 7 px) turns the result 0.31 deg, beyond the accuracy it must be known to. Read
 // with their corners unbiased, the tags pull the bound over that: refused for the principal
 // point, not accepted, its error inside its bound.
 TEST(VerdictsBenchTest, APrincipalPointTheDrivesTagsCannotRefuteIsNotAcceptedBeyondItsBound) {
-  testing::TempDir dir;
-  std::string table;
-  bool ok = false;
-  const nlohmann::json session =
-      RunSessions({VerdictSessionIndex("principal_point", 0)}, dir.file("pp.json"), &table, &ok,
-                  true, 15)["sessions"][0];
-  EXPECT_TRUE(ok) << table;
-  EXPECT_EQ(session["fault"], "principal_point");
-  EXPECT_EQ(session["mode"], "drive");
-  EXPECT_GT(session["rotation_error_deg"].get<double>(), 0.3) << session.dump();
-  EXPECT_EQ(session["reason"], "poor_observability") << session["detail"];
-  EXPECT_NE(session["detail"].get<std::string>().find("most of it the camera's principal point"),
-            std::string::npos)
-      << session["detail"];
+  const nlohmann::json session = ExpectPrincipalPointRefused(0, 15, "drive");
   EXPECT_EQ(session["quality"]["principal_point_bound_corners"], "unbiased");
-  EXPECT_TRUE(session["inside_bound"].get<bool>()) << session["quality"].dump();
 }
 
 // Still poses whose tags hardly see the principal point (seed 22, round 59, OS1-64: they measure
@@ -155,24 +164,9 @@ TEST(VerdictsBenchTest, APrincipalPointTheDrivesTagsCannotRefuteIsNotAcceptedBey
 // statement now counts no sharper than the tags could check (kMaxStatedSharpening): refused, the
 // principal point named, the error inside the bound.
 TEST(VerdictsBenchTest, APrincipalPointNoPoseCanCheckIsNotTakenOnTheStatementAlone) {
-  testing::TempDir dir;
-  std::string table;
-  bool ok = false;
-  const nlohmann::json session =
-      RunSessions({VerdictSessionIndex("principal_point", 59)}, dir.file("pp.json"), &table, &ok,
-                  true, 22)["sessions"][0];
-  EXPECT_TRUE(ok) << table;
-  EXPECT_EQ(session["fault"], "principal_point");
-  EXPECT_EQ(session["mode"], "stills");
-  EXPECT_GT(session["rotation_error_deg"].get<double>(), 0.3) << session.dump();
-  EXPECT_GT(
-      session["quality"]["principal_point_sigma_px"][1].get<double>(),
-      kMaxStatedSharpening * session["quality"]["principal_point_stated_sigma_px"].get<double>());
-  EXPECT_EQ(session["reason"], "poor_observability") << session["detail"];
-  EXPECT_NE(session["detail"].get<std::string>().find("most of it the camera's principal point"),
-            std::string::npos)
-      << session["detail"];
-  EXPECT_TRUE(session["inside_bound"].get<bool>()) << session["quality"].dump();
+  const nlohmann::json q = ExpectPrincipalPointRefused(59, 22, "stills")["quality"];
+  EXPECT_GT(q["principal_point_sigma_px"][1].get<double>(),
+            kMaxStatedSharpening * q["principal_point_stated_sigma_px"].get<double>());
 }
 
 // Tuning seed 3's falcon drive whose config puts the tag 39.9 mm off the board's centre: every
