@@ -160,6 +160,13 @@ TEST(VerdictTest, EachGateRefusesTheFigureItJudges) {
          s->q.rotation_bound_deg = 0.41;
        },
        Reason::kPoorObservability, "a more precise intrinsic calibration"},
+      {"principal point stated sharper than the tags can check",
+       [](Session* s) {
+         s->q.principal_point_sigma_px = {2.0, 3.5};  // beyond kMaxStatedSharpening x 1 px
+         s->q.rotation_systematic_deg = 0.4;
+         s->q.rotation_bound_deg = 0.41;
+       },
+       Reason::kPoorObservability, "too loosely to check the intrinsic calibration's +-1.0 px"},
       {"range offset not told from the position",
        [](Session* s) {
          s->q.translation_bound_range_offset_m = 0.035;
