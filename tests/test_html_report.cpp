@@ -104,6 +104,14 @@ TEST(HtmlReportTest, RowsSayWhatTheVerdictDidWithTheirFigure) {
   std::string html = tools::RenderHtmlReport(in);
   EXPECT_EQ(Count(html, "class=\"fail\""), 0u) << html;
   EXPECT_NE(html.find("or within 4 sigma"), std::string::npos);
+  // The stated 1 px, which tags at +-10 px cannot check that sharply, as the bound takes it.
+  q.principal_point_stated_sigma_px = 1.0;
+  html = tools::RenderHtmlReport(in);
+  EXPECT_NE(html.find("within the stated +-1.0 px (taken as +-3.3 px"), std::string::npos);
+  q.principal_point_sigma_px = {2.0, 2.0};
+  html = tools::RenderHtmlReport(in);
+  EXPECT_NE(html.find("within the stated +-1.0 px<"), std::string::npos);
+  q.principal_point_sigma_px = {10.0, 10.0};
   q.lidar_range_offset_sigma_m = 0.002;  // measured: the gate refuses it
   html = tools::RenderHtmlReport(in);
   EXPECT_EQ(Count(html, "class=\"fail\""), 1u);

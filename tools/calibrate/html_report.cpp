@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 
+#include "calibd/core/verdict/principal_point_check.hpp"
 #include "calibd/core/verdict/verdict.hpp"
 #include "calibd/drivers/atomic_file.hpp"
 #include "calibd/drivers/calibration_export.hpp"
@@ -30,6 +31,16 @@ std::string Num(double v, int precision) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.*f", precision, v);
   return buf;
+}
+
+// Where the bound takes the stated principal point sigma wider than stated, because the tags
+// could not check it that sharply (StatedSigmaAsChecked); empty where it takes it as stated.
+std::string StatedAsCheckedText(const QualityFigures& q) {
+  const double taken = StatedSigmaAsChecked(q.principal_point_stated_sigma_px,
+                                            q.principal_point_sigma_px.maxCoeff());
+  if (!(q.principal_point_stated_sigma_px > 0.0) || !(taken > q.principal_point_stated_sigma_px))
+    return "";
+  return " (taken as +-" + Num(taken, 1) + " px: the tags could not check it sharper)";
 }
 
 // Scientific notation for figures spanning decades (plane conditioning, eigenvalues).
@@ -541,7 +552,7 @@ std::string RenderHtmlReport(const HtmlReportInput& in) {
         q.principal_point_turn_deg, 3,
         "<= " + Num(kPrincipalPointTurnTolerances * v.verify_rotation_deg, 3) +
             " or not shown beyond its sigma; within the stated +-" +
-            Num(q.principal_point_stated_sigma_px, 1) + " px",
+            Num(q.principal_point_stated_sigma_px, 1) + " px" + StatedAsCheckedText(q),
         {CheckLensModel, CheckPrincipalPoint, CheckStatedPrincipalPoint});
   if (q.time_offset_fitted)
     s += judged("camera time offset [ms] (sigma " + Num(q.time_offset_sigma_s * 1e3, 1) +

@@ -4,7 +4,6 @@
 #include <ceres/rotation.h>
 
 #include <Eigen/Geometry>
-#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -233,10 +232,10 @@ PrincipalPointBelief CombinePrincipalPoint(const PrincipalPointEstimate& tags,
       out.sigma_px(a) = std::sqrt(tags_var);
       continue;
     }
-    // The statement no sharper than the tags' own sigma could check (kMaxStatedSharpening; the
-    // blind spot is what no session checks, not the tags' precision).
-    const double checked_sigma = tags.sigma_px(a) / kMaxStatedSharpening;
-    const double checked_var = std::max(stated_var, checked_sigma * checked_sigma);
+    // The statement no sharper than the tags' own sigma could check (the blind spot is what no
+    // session checks, not the tags' precision).
+    const double checked_sigma = StatedSigmaAsChecked(std::sqrt(stated_var), tags.sigma_px(a));
+    const double checked_var = checked_sigma * checked_sigma;
     const double w = checked_var / (checked_var + tags_var);  // the tags' weight
     out.shift_px(a) = w * tags.shift_px(a);
     out.sigma_px(a) = std::sqrt(w * tags_var);

@@ -65,10 +65,11 @@ std::string RotationCause(const GateInput& in) {
                 FixedDecimal(PrincipalPointTurnDeg(q.principal_point_systematic_px, in.camera), 2) +
                 " deg"
           : "the tags could not measure it";
-  // The statement taken no sharper than the tags could check (kMaxStatedSharpening).
+  // The statement taken no sharper than the tags could check.
   const double tags_sigma_px = q.principal_point_sigma_px.maxCoeff();
   if (q.principal_point_stated_sigma_px > 0.0 && q.principal_point_fitted &&
-      tags_sigma_px > kMaxStatedSharpening * q.principal_point_stated_sigma_px)
+      StatedSigmaAsChecked(q.principal_point_stated_sigma_px, tags_sigma_px) >
+          q.principal_point_stated_sigma_px)
     return "most of it the camera's principal point, which the LiDAR cannot see (" + known +
            ", too loosely to check the intrinsic calibration's +-" +
            FixedDecimal(q.principal_point_stated_sigma_px, 1) + " px, taken at most " +

@@ -13,6 +13,7 @@
 /// consecutive groups of observations (consecutive frames share their errors).
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
 #include <limits>
 #include <vector>
@@ -92,6 +93,12 @@ double StatedPrincipalPointChiSquare(const PrincipalPointEstimate& tags, double 
 /// unseen (docs/error-bound.md). Three keeps the stated sigma where the tags measure within three
 /// times it, as they do on still poses and drives with boards at varied angles.
 inline constexpr double kMaxStatedSharpening = 3.0;
+
+/// The stated sigma as the bound takes it on an axis whose tags measure the principal point to
+/// `tags_sigma_px`: no sharper than tags_sigma_px / kMaxStatedSharpening.
+inline double StatedSigmaAsChecked(double stated_sigma_px, double tags_sigma_px) {
+  return std::max(stated_sigma_px, tags_sigma_px / kMaxStatedSharpening);
+}
 
 /// The tags' estimate (its sigma, and with CornerBias::kAssumed its blind spot in quadrature: the
 /// blind spot is a bias that no resampling shows) combined, axis by axis and weighted by inverse
