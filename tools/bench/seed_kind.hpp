@@ -20,8 +20,10 @@ namespace calibd::bench {
 /// session 6, a false accept, was studied to fix it: the error bound's unbiased reading of the
 /// principal point, reported on seeds 16 and 17; VerdictsBenchTest runs that session), and 22
 /// (held-out for its 2000-session run at 79d7c53, whose false accept, session 1363, was studied
-/// to fix it: kMaxStatedSharpening, reported on held-out seed 23).
-inline constexpr unsigned long long kTuningSeeds[] = {1, 2, 3, 4, 5, 7, 15, 22};
+/// to fix it: kMaxStatedSharpening, reported on held-out seeds 23 and 24), and 24 (held-out for
+/// its 1000-session run at a97b74d, whose VLP-16 still poses lay outside their translation bound:
+/// studied to fix it, the fix reported on a seed not run before).
+inline constexpr unsigned long long kTuningSeeds[] = {1, 2, 3, 4, 5, 7, 15, 22, 24};
 
 /// The held-out seed `make test` runs (VerdictsBenchTest.HeldOutCleanSessionsLieInsideTheirBounds):
 /// no constant is set on it, and no figure in the docs comes from it. Should the test fail, the
