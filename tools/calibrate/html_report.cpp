@@ -36,10 +36,9 @@ std::string Num(double v, int precision) {
 // Where the bound takes the stated principal point sigma wider than stated, because the tags
 // could not check it that sharply (StatedSigmaAsChecked); empty where it takes it as stated.
 std::string StatedAsCheckedText(const QualityFigures& q) {
-  const double taken = StatedSigmaAsChecked(q.principal_point_stated_sigma_px,
-                                            q.principal_point_sigma_px.maxCoeff());
-  if (!(q.principal_point_stated_sigma_px > 0.0) || !(taken > q.principal_point_stated_sigma_px))
-    return "";
+  const double taken =
+      StatedSigmaWidened(q.principal_point_stated_sigma_px, q.principal_point_sigma_px);
+  if (!(taken > 0.0)) return "";
   return " (taken as +-" + Num(taken, 1) + " px: the tags could not check it sharper)";
 }
 

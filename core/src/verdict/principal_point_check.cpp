@@ -234,7 +234,7 @@ PrincipalPointBelief CombinePrincipalPoint(const PrincipalPointEstimate& tags,
     }
     // The statement no sharper than the tags' own sigma could check (the blind spot is what no
     // session checks, not the tags' precision).
-    const double checked_sigma = StatedSigmaAsChecked(std::sqrt(stated_var), tags.sigma_px(a));
+    const double checked_sigma = StatedSigmaAsChecked(stated_sigma_px, tags.sigma_px(a));
     const double checked_var = checked_sigma * checked_sigma;
     const double w = checked_var / (checked_var + tags_var);  // the tags' weight
     out.shift_px(a) = w * tags.shift_px(a);

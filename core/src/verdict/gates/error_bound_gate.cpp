@@ -67,9 +67,7 @@ std::string RotationCause(const GateInput& in) {
           : "the tags could not measure it";
   // The statement taken no sharper than the tags could check.
   const double tags_sigma_px = q.principal_point_sigma_px.maxCoeff();
-  if (q.principal_point_stated_sigma_px > 0.0 && q.principal_point_fitted &&
-      StatedSigmaAsChecked(q.principal_point_stated_sigma_px, tags_sigma_px) >
-          q.principal_point_stated_sigma_px)
+  if (StatedSigmaWidened(q.principal_point_stated_sigma_px, q.principal_point_sigma_px) > 0.0)
     return "most of it the camera's principal point, which the LiDAR cannot see (" + known +
            ", too loosely to check the intrinsic calibration's +-" +
            FixedDecimal(q.principal_point_stated_sigma_px, 1) + " px, taken at most " +

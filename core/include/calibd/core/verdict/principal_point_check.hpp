@@ -100,6 +100,16 @@ inline double StatedSigmaAsChecked(double stated_sigma_px, double tags_sigma_px)
   return std::max(stated_sigma_px, tags_sigma_px / kMaxStatedSharpening);
 }
 
+/// Where the bound takes a stated sigma wider than stated on either axis because tags of sigma
+/// `tags_sigma_px` could not check it that sharply: the wider of the two axes'
+/// StatedSigmaAsChecked; 0 where it takes the statement as stated, none is stated, or the tags
+/// measured nothing.
+inline double StatedSigmaWidened(double stated_sigma_px, const Eigen::Vector2d& tags_sigma_px) {
+  if (!(stated_sigma_px > 0.0) || !tags_sigma_px.allFinite()) return 0.0;
+  const double taken = StatedSigmaAsChecked(stated_sigma_px, tags_sigma_px.maxCoeff());
+  return taken > stated_sigma_px ? taken : 0.0;
+}
+
 /// The tags' estimate (its sigma, and with CornerBias::kAssumed its blind spot in quadrature: the
 /// blind spot is a bias that no resampling shows) combined, axis by axis and weighted by inverse
 /// variances, with the intrinsic calibration's stated sigma (a prior centred on the configured
