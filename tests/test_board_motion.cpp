@@ -276,6 +276,41 @@ TEST(BoardObservationTest, KeepOnlyKeepsTheChosenObservationsWithTheirPoints) {
   EXPECT_EQ(set.observations[1].first_point, 2);
 }
 
+TEST(BoardObservationTest, KeepPointsKeepsTheChosenPointsOfEveryObservation) {
+  ObservationSet set;
+  set.Reserve(3, 6);
+  for (int k = 0; k < 3; ++k) {
+    BoardObservation o;
+    o.frame = k;
+    std::vector<Eigen::Vector3f> points;
+    std::vector<float> dt;
+    for (int i = 0; i <= k; ++i) {
+      points.emplace_back(static_cast<float>(k), static_cast<float>(i), 0.0f);
+      dt.push_back(0.01f * static_cast<float>(10 * k + i));
+    }
+    ASSERT_TRUE(set.Add(o, points.data(), dt.data(), k + 1));
+  }
+  // Points: frame 0: i 0; frame 1: i 0, 1; frame 2: i 0, 1, 2. Drop frame 1's first and frame
+  // 2's middle one.
+  EXPECT_EQ(set.KeepPoints({1, 0, 1, 1, 0, 1}), 2);
+  ASSERT_EQ(set.observations.size(), 3u);
+  ASSERT_EQ(set.points.size(), 4u);
+  ASSERT_EQ(set.point_dt.size(), 4u);
+  const std::vector<std::vector<int>> kept = {{0}, {1}, {0, 2}};
+  for (const BoardObservation& o : set.observations) {
+    const std::vector<int>& want = kept[static_cast<size_t>(o.frame)];
+    ASSERT_EQ(o.num_points, static_cast<int>(want.size()));
+    for (int j = 0; j < o.num_points; ++j) {
+      const auto p = static_cast<size_t>(o.first_point + j);
+      EXPECT_EQ(set.points[p].x(), static_cast<float>(o.frame));
+      EXPECT_EQ(set.points[p].y(), static_cast<float>(want[static_cast<size_t>(j)]));
+      EXPECT_FLOAT_EQ(set.point_dt[p],
+                      0.01f * static_cast<float>(10 * o.frame + want[static_cast<size_t>(j)]));
+    }
+  }
+  EXPECT_EQ(set.observations[2].first_point, 2);
+}
+
 // Compensated observations of three boards turned differently whose apparent velocity along the
 // camera's axis follows `speed(k)` (frame k), seen by a camera `offset_s` later than its stamps:
 // the camera's board pose is where the board was then, the points where it was at the stamp

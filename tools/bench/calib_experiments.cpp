@@ -255,7 +255,8 @@ ScoredRun RunEngine(const CalibConfig& config, const SessionObservations& s,
   const Eigen::AngleAxisd delta(T_camera_lidar_true.linear().transpose() * T_est.linear());
   r.error_rpy_deg = delta.angle() * delta.axis() * kRad2Deg;
   r.rotation_error_deg = RotationAngle(T_est.linear(), T_camera_lidar_true.linear()) * kRad2Deg;
-  r.translation_error_m = (T_est.translation() - T_camera_lidar_true.translation()).norm();
+  r.translation_error_xyz_m = T_est.translation() - T_camera_lidar_true.translation();
+  r.translation_error_m = r.translation_error_xyz_m.norm();
   r.reprojection_mean_px = outcome.quality.reprojection_mean_px;
   return r;
 }

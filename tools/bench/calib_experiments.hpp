@@ -159,6 +159,8 @@ struct ScoredRun {
   bool has_estimate = false;
   double rotation_error_deg = 0.0;  ///< angle of R_est^T R_true
   double translation_error_m = 0.0;
+  /// t_est - t_true on the camera's axes (x right, y down, z forward), m.
+  Eigen::Vector3d translation_error_xyz_m = Eigen::Vector3d::Zero();
   /// log(R_true^T R_est) on the LiDAR's axes, deg: x forward (roll), y (pitch), z (yaw).
   Eigen::Vector3d error_rpy_deg = Eigen::Vector3d::Zero();
   double reprojection_mean_px = 0.0;        ///< paper Table I metric

@@ -821,6 +821,10 @@ bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ost
     if (r.run.has_estimate) {
       j["rotation_error_deg"] = r.run.rotation_error_deg;
       j["translation_error_m"] = r.run.translation_error_m;
+      const Eigen::Vector3d& t = r.run.translation_error_xyz_m;
+      const Eigen::Vector3d& rpy = r.run.error_rpy_deg;
+      j["translation_error_xyz_m"] = {t.x(), t.y(), t.z()};
+      j["rotation_error_rpy_deg"] = {rpy.x(), rpy.y(), rpy.z()};
     }
     if (r.run.has_estimate) {
       const QualityFigures& q = r.run.quality;

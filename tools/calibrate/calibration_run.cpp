@@ -72,6 +72,8 @@ nlohmann::json ReportJson(const CalibrationRun& run, const CalibConfig& config,
   // paired with a camera board they did not lie on at the solution.
   report["lidar_clusters_dropped"] = {{"static_scenery", out.static_scenery_clusters},
                                       {"not_on_their_board", out.dropped_correspondences}};
+  // LiDAR points the engine set aside: beyond their board's outline at the solution (a stand's).
+  report["lidar_points_dropped"] = {{"off_their_board", out.points_off_their_boards}};
   report["board_pose_refinement"] = {{"refined_boards", out.refined_boards},
                                      {"mean_rotation_change_deg", out.board_rotation_change_deg},
                                      {"mean_translation_change_m", out.board_translation_change_m}};

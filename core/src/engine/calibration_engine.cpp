@@ -116,6 +116,7 @@ CalibrationOutcome CalibrateInCaptureOrder(const CalibConfig& config,
       failed(r))
     return Reject(out, r, detail);
   out.optimise_ms = MsSince(t_opt);
+  out.points_off_their_boards = solution.points_off_their_boards;
   TakeSolution(config, solution.direct, &out);
 
   // 5. Quality figures, then the verdict's gates (verdict.hpp).

@@ -45,12 +45,15 @@ Reason CheckCorrespondences(const CalibConfig& config, const VerdictConfig& v,
 
 // The solution: the direct optimisation (paper §III-E) or the indirect baseline, from the grid
 // search's extrinsic, with the camera's time offset and scale corrected where they are measured
-// and the boards that do not fit dropped (solve_session.cpp). `dropped_total` counts those.
+// and the points and boards that do not fit dropped (solve_session.cpp). `dropped_total` counts
+// the boards.
 struct Solution {
   DirectResult direct;
   /// The boards as the solve sees them: the configured ones, their patterns scaled when the
   /// camera's scale was corrected.
   std::vector<BoardGeometry> boards;
+  /// LiDAR points trimmed as off their boards (a stand's) before the final solve.
+  int points_off_their_boards = 0;
 };
 Reason Solve(const CalibConfig& config, const EngineConfig& engine, const CameraModel& camera,
              const Pose& T_start, ObservationSet* corr, QualityFigures* q, int* dropped_total,

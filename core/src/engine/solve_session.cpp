@@ -19,30 +19,92 @@ constexpr double kFitSigmas = 3.0;
 // Drop-and-solve rounds at most.
 constexpr int kMaxDropRounds = 3;
 
-// Per observation, whether its points' centroid fits its board (above) with the extrinsic and
-// board poses of `direct`. The noise sigma is the median over the boards of their points' RMS
-// distance to their plane: most boards are right, a wrong one does not move the median.
-std::vector<char> BoardsThatFit(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
-                                const DirectResult& direct) {
+// A LiDAR point is not its board's when, at the solution, it lies beyond the board's outline by
+// more than this or by kFitSigmas range noise sigmas, whichever is larger: a return from the
+// stand under the board or from a hand holding it, which the segmentation joined to the board's
+// cluster (its range jump too small to part them). The box cost pulls the board towards such
+// points in the board's plane and along its normal alike (behind it: the stand), by about
+// a centimetre on a 16-ring LiDAR's few edge rows (docs/error-bound.md). Far beyond the
+// solution's own error and a beam's footprint at the edge, and beyond the catalogue's
+// configuration faults (a board 5 % smaller than configured sticks out by 2.3 cm at 0.9 m).
+constexpr double kOffBoardMarginM = 0.05;
+// At most this share of an observation's points is trimmed as off its board; beyond it the
+// observation stays whole, for BoardsThatFit to judge.
+constexpr double kMaxOffBoardShare = 0.5;
+
+// Each observation's points in its board's frame with the extrinsic and board poses of
+// `direct`, and the range noise sigma: the median over the boards of their points' RMS distance
+// to their plane (most boards are right, a wrong one does not move the median).
+struct PointsOnBoards {
+  std::vector<Eigen::Vector3d> q;  ///< per point of the set, in its board's frame
+  double noise_sigma_m = 0.0;
+};
+
+PointsOnBoards InBoardFrames(const ObservationSet& set, const DirectResult& direct) {
+  PointsOnBoards out;
+  out.q.resize(set.points.size(), Eigen::Vector3d::Zero());
   const size_t n = set.observations.size();
-  std::vector<char> fits(n, 1);
-  if (direct.T_camera_board.size() != n) return fits;
-  std::vector<double> rms(n, 0.0);
-  std::vector<Eigen::Vector3d> centroid(n, Eigen::Vector3d::Zero());
+  std::vector<double> rms;
   for (size_t i = 0; i < n; ++i) {
     const BoardObservation& o = set.observations[i];
     if (o.num_points == 0) continue;
     const Pose T_board_lidar = direct.T_camera_board[i].inverse() * direct.T_camera_lidar;
     double sum = 0.0;
     for (int k = o.first_point; k < o.first_point + o.num_points; ++k) {
-      const Eigen::Vector3d q = T_board_lidar * set.points[static_cast<size_t>(k)].cast<double>();
-      centroid[i] += q;
-      sum += q.z() * q.z();
+      const auto index = static_cast<size_t>(k);
+      out.q[index] = T_board_lidar * set.points[index].cast<double>();
+      sum += out.q[index].z() * out.q[index].z();
     }
-    centroid[i] /= o.num_points;
-    rms[i] = std::sqrt(sum / o.num_points);
+    rms.push_back(std::sqrt(sum / o.num_points));
   }
-  const double max_z = kFitSigmas * std::max(Median(rms), 0.005);
+  out.noise_sigma_m = std::max(rms.empty() ? 0.0 : Median(rms), 0.005);
+  return out;
+}
+
+// Removes from `set` the points off their board (kOffBoardMarginM) at `direct`'s solution;
+// returns how many.
+int TrimPointsOffTheirBoards(const std::vector<BoardGeometry>& boards, const DirectResult& direct,
+                             ObservationSet* set) {
+  if (direct.T_camera_board.size() != set->observations.size()) return 0;
+  const PointsOnBoards on = InBoardFrames(*set, direct);
+  const double margin = std::max(kOffBoardMarginM, kFitSigmas * on.noise_sigma_m);
+  std::vector<char> keep(set->points.size(), 1);
+  int trimmed = 0;
+  for (const BoardObservation& o : set->observations) {
+    const BoardGeometry& g = boards[static_cast<size_t>(o.board_index)];
+    int off = 0;
+    for (int k = o.first_point; k < o.first_point + o.num_points; ++k) {
+      const Eigen::Vector3d& q = on.q[static_cast<size_t>(k)];
+      off += std::fabs(q.x()) > 0.5 * g.width_m + margin ||
+             std::fabs(q.y()) > 0.5 * g.height_m + margin;
+    }
+    if (off == 0 || off > kMaxOffBoardShare * o.num_points) continue;
+    for (int k = o.first_point; k < o.first_point + o.num_points; ++k) {
+      const Eigen::Vector3d& q = on.q[static_cast<size_t>(k)];
+      keep[static_cast<size_t>(k)] = std::fabs(q.x()) <= 0.5 * g.width_m + margin &&
+                                     std::fabs(q.y()) <= 0.5 * g.height_m + margin;
+    }
+    trimmed += off;
+  }
+  return trimmed == 0 ? 0 : set->KeepPoints(keep);
+}
+
+// Per observation, whether its points' centroid fits its board (above) with the extrinsic and
+// board poses of `direct`.
+std::vector<char> BoardsThatFit(const std::vector<BoardGeometry>& boards, const ObservationSet& set,
+                                const DirectResult& direct) {
+  const size_t n = set.observations.size();
+  std::vector<char> fits(n, 1);
+  if (direct.T_camera_board.size() != n) return fits;
+  const PointsOnBoards on = InBoardFrames(set, direct);
+  std::vector<Eigen::Vector3d> centroid(n, Eigen::Vector3d::Zero());
+  for (size_t i = 0; i < n; ++i) {
+    const BoardObservation& o = set.observations[i];
+    for (int k = o.first_point; k < o.first_point + o.num_points; ++k)
+      centroid[i] += on.q[static_cast<size_t>(k)];
+    if (o.num_points > 0) centroid[i] /= o.num_points;
+  }
+  const double max_z = kFitSigmas * on.noise_sigma_m;
   for (size_t i = 0; i < n; ++i) {
     const BoardGeometry& g = boards[static_cast<size_t>(set.observations[i].board_index)];
     const Eigen::Vector3d& c = centroid[i];
@@ -161,6 +223,10 @@ Reason Solve(const CalibConfig& config, const EngineConfig& engine, const Camera
   // Both corrections once before dropping boards that do not fit (a large offset or scale
   // would make good boards look unfitting), and once after.
   if (!solve.Solve() || !solve.Correct())
+    return Refuse(detail, Reason::kSolverFailed, direct.reason);
+  // Points off their boards (the stands) pull the solution: trimmed, then solved again.
+  solution->points_off_their_boards = TrimPointsOffTheirBoards(solution->boards, direct, corr);
+  if (solution->points_off_their_boards > 0 && !solve.Solve())
     return Refuse(detail, Reason::kSolverFailed, direct.reason);
   // A board paired with a cluster that is not on it pulls the solution: dropped, then solved
   // again without it, until none is dropped (a pulled solution can hide some at first).

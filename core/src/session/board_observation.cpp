@@ -59,4 +59,25 @@ int ObservationSet::KeepOnly(const std::vector<char>& keep) {
   return removed;
 }
 
+int ObservationSet::KeepPoints(const std::vector<char>& keep_point) {
+  size_t next_point = 0;
+  for (BoardObservation& o : observations) {
+    const auto first = static_cast<size_t>(o.first_point);
+    const auto end = first + static_cast<size_t>(o.num_points);
+    o.first_point = static_cast<int>(next_point);
+    // Moving down never overwrites points still to be read: next_point <= k.
+    for (size_t k = first; k < end; ++k) {
+      if (!keep_point[k]) continue;
+      points[next_point] = points[k];
+      point_dt[next_point] = point_dt[k];
+      ++next_point;
+    }
+    o.num_points = static_cast<int>(next_point) - o.first_point;
+  }
+  const int removed = static_cast<int>(points.size() - next_point);
+  points.resize(next_point);
+  point_dt.resize(next_point);
+  return removed;
+}
+
 }  // namespace calibd

@@ -73,8 +73,12 @@ struct CalibrationOutcome {
   int frames_out_of_order = 0, duplicate_frames = 0;
   /// Correspondences dropped before the final solve: the grid search had paired the camera's
   /// board with a cluster whose points do not lie on that board at the solution (furniture in
-  /// its predicted region). See DropBoardsThatDoNotFit in calibration_engine.cpp.
+  /// its predicted region). See DropBoardsThatDoNotFit in solve_session.cpp.
   int dropped_correspondences = 0;
+  /// LiDAR points trimmed before the final solve as off their boards: beyond a board's outline
+  /// at the solution by more than 5 cm (or three range noise sigmas), a stand's or a hand's that
+  /// the segmentation joined to the board. See TrimPointsOffTheirBoards in solve_session.cpp.
+  int points_off_their_boards = 0;
   GridSearchResult grid;
   MotionCompensationStats motion;
   /// Board-pose refinement (DirectOptimizerConfig::refine_board_poses): boards refined and the

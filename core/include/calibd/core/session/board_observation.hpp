@@ -53,6 +53,9 @@ struct ObservationSet {
   /// Keeps the observations i with keep[i] != 0 (and their points), in order, in place; returns
   /// how many were removed. `keep` has one entry per observation.
   int KeepOnly(const std::vector<char>& keep);
+  /// Keeps the points k with keep_point[k] != 0, in order, in place (every observation stays,
+  /// with fewer points); returns how many were removed. `keep_point` has one entry per point.
+  int KeepPoints(const std::vector<char>& keep_point);
 };
 
 }  // namespace calibd
