@@ -43,11 +43,15 @@ bool EstimateBoardVelocity(const SessionObservations& s, int frame, int board_in
       s.camera.begin(), s.camera.end(), frame,
       [](const SessionObservations::CameraBoard& b, int f) { return b.frame < f; });
   // Sums for the least-squares line through (t_i, c_i): slope = Sxy / Sxx after centring.
-  int n = 0;
-  double st = 0.0, stt = 0.0, tmin = 1e30, tmax = -1e30;
+  int n = 0, own = 0;
+  double st = 0.0, stt = 0.0, tmin = 0.0, tmax = 0.0;  // the span includes the frame's own time
   Eigen::Vector3d sc = Eigen::Vector3d::Zero(), stc = Eigen::Vector3d::Zero();
   auto take = [&](const SessionObservations::CameraBoard& b) {
     if (b.board_index != board_index) return;
+    if (b.frame == frame) {
+      own = 1;
+      return;
+    }
     const double t = static_cast<double>(s.frame_times[b.frame].camera_utime - t0) * 1e-6;
     const Eigen::Vector3d c = b.T_camera_board.translation();
     ++n;
@@ -64,7 +68,9 @@ bool EstimateBoardVelocity(const SessionObservations& s, int frame, int board_in
   };
   for (auto it = mid; it != s.camera.end() && in_window(*it); ++it) take(*it);
   for (auto it = mid; it != s.camera.begin() && in_window(*(it - 1)); --it) take(*(it - 1));
-  if (n < config.min_samples || tmax - tmin < config.min_span_share * config.window_s) return false;
+  if (n < 2 || n + own < config.min_samples ||
+      tmax - tmin < config.min_span_share * config.window_s)
+    return false;
   const double sxx = stt - st * st / n;
   if (!(sxx > 0.0)) return false;
   const Eigen::Vector3d u = (stc - st * sc / n) / sxx;

@@ -49,7 +49,11 @@ struct MotionCompensationConfig {
 inline constexpr double kMaxMotionWindowS = 2.0;  ///< the longest window_s
 
 /// Least-squares line c(t) = c0 + u (t - t_frame) through the board centres (camera frame) of
-/// `board_index` in frames whose capture time lies within the window of `frame`'s. False (and
+/// `board_index` in the other frames whose capture time lies within the window of `frame`'s: not
+/// the frame's own, whose PnP noise would otherwise enter both its velocity and its distance,
+/// and turn a still board's noise into a time offset (errors in the regressor: still poses read
+/// 0.2-0.3 s at 3-4 sigma). The frame's own detection counts towards min_samples and its time
+/// towards the span. False (and
 /// `velocity` untouched) when the frame times are unknown or the samples are too few, too short
 /// in time or too fast.
 bool EstimateBoardVelocity(const SessionObservations& session, int frame, int board_index,
