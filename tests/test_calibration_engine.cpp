@@ -554,7 +554,9 @@ TEST(CalibrationEngineTest, PairsOutOfOrderOrRepeatedAreTakenInCaptureOrderOnce)
     ASSERT_GE(b.lidar_cluster, 0);
     const auto& cluster = arrived.lidar[static_cast<size_t>(b.lidar_cluster)];
     EXPECT_EQ(cluster.frame, b.frame);
-    EXPECT_EQ(cluster.num_points, b.num_points);
+    // Its points, less those off the board (a stand's, trimmed: at most half of them).
+    EXPECT_LE(b.num_points, cluster.num_points);
+    EXPECT_GE(2 * b.num_points, cluster.num_points);
   }
 }
 
