@@ -1,5 +1,6 @@
 #include "engine/engine_steps.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "calibd/core/common/stats.hpp"
@@ -72,17 +73,17 @@ int TrimPointsOffTheirBoards(const std::vector<BoardGeometry>& boards, const Dir
   int trimmed = 0;
   for (const BoardObservation& o : set->observations) {
     const BoardGeometry& g = boards[static_cast<size_t>(o.board_index)];
+    const auto first = static_cast<size_t>(o.first_point);
+    const auto end = first + static_cast<size_t>(o.num_points);
     int off = 0;
-    for (int k = o.first_point; k < o.first_point + o.num_points; ++k) {
-      const Eigen::Vector3d& q = on.q[static_cast<size_t>(k)];
-      off += std::fabs(q.x()) > 0.5 * g.width_m + margin ||
-             std::fabs(q.y()) > 0.5 * g.height_m + margin;
+    for (size_t k = first; k < end; ++k) {
+      keep[k] = std::fabs(on.q[k].x()) <= 0.5 * g.width_m + margin &&
+                std::fabs(on.q[k].y()) <= 0.5 * g.height_m + margin;
+      off += !keep[k];
     }
-    if (off == 0 || off > kMaxOffBoardShare * o.num_points) continue;
-    for (int k = o.first_point; k < o.first_point + o.num_points; ++k) {
-      const Eigen::Vector3d& q = on.q[static_cast<size_t>(k)];
-      keep[static_cast<size_t>(k)] = std::fabs(q.x()) <= 0.5 * g.width_m + margin &&
-                                     std::fabs(q.y()) <= 0.5 * g.height_m + margin;
+    if (off > kMaxOffBoardShare * o.num_points) {
+      std::fill(keep.begin() + first, keep.begin() + end, 1);
+      continue;
     }
     trimmed += off;
   }
