@@ -265,6 +265,49 @@ TEST_F(CameraDetectorSimTest, TrackingAgreesWithFullFrameSearchWhileDriving) {
   EXPECT_LT(Median(e.corner_px), 0.3);
 }
 
+// Detectors of one image with other intrinsics and tag sizes take AprilTag's searches of the
+// windows another left in a TagSearchMemo: their detections are those they find alone, exactly.
+TEST_F(CameraDetectorSimTest, DetectorsSharingTheSearchesOfAnImageDetectAsAlone) {
+  sim::SessionSimulator s;
+  std::string error;
+  ASSERT_TRUE(s.Init(SimOptions("drive", 10.0, "spread"), &error)) << error;
+  CameraIntrinsics longer = s.options().camera;
+  longer.fx *= 1.02;
+  longer.fy *= 1.02;
+  std::vector<BoardGeometry> smaller = s.workshop().geometries;
+  for (BoardGeometry& g : smaller) g.tag_size_m *= 0.97;
+  CameraDetector first({}, s.options().camera, s.workshop().geometries);
+  CameraDetector shared({}, longer, smaller), alone({}, longer, smaller);
+  ASSERT_TRUE(first.ok() && shared.ok() && alone.ok());
+  TagSearchMemo memo;
+  first.UseSearchMemo(&memo);
+  shared.UseSearchMemo(&memo);
+  cv::Mat image;
+  sim::LidarScan scan;
+  sim::FrameTruth truth;
+  CameraDetections a, b, c;
+  int boards = 0;
+  for (int k = 0; k < 20; ++k) {
+    s.SimulateFrame(k, &image, &scan, &truth);
+    memo.Clear();
+    first.Detect(View(image), &a, truth.camera_utime);
+    shared.Detect(View(image), &b, truth.camera_utime);
+    alone.Detect(View(image), &c, truth.camera_utime);
+    ASSERT_EQ(b.boards.size(), c.boards.size()) << "frame " << k;
+    EXPECT_EQ(b.full_frame_search, c.full_frame_search) << "frame " << k;
+    EXPECT_EQ(b.rejected, c.rejected) << "frame " << k;
+    for (size_t i = 0; i < b.boards.size(); ++i) {
+      EXPECT_EQ(b.boards[i].board_id, c.boards[i].board_id);
+      for (size_t j = 0; j < 4; ++j)
+        EXPECT_EQ(b.boards[i].corners_px[j], c.boards[i].corners_px[j]);
+      EXPECT_EQ(b.boards[i].T_camera_board.matrix(), c.boards[i].T_camera_board.matrix());
+    }
+    boards += static_cast<int>(b.boards.size());
+  }
+  EXPECT_GT(boards, 20);
+  EXPECT_GE(memo.reused(), 20) << "the second detector's searches came from the memo";
+}
+
 // The search policy (CameraDetectorConfig::track_rois): with every configured board tracked, no
 // full-frame search after the first unless full_frame_every asks for them.
 TEST_F(CameraDetectorSimTest, SearchesTheFullFrameOnlyWhenABoardIsMissing) {

@@ -324,6 +324,49 @@ TEST(CameraRender, ARepeatedViewIsTheRenderOfItsSeedWithinRounding) {
   EXPECT_GT(cv::norm(first, repeat, cv::NORM_INF), 0.0) << "exposure and noise drawn anew";
 }
 
+// Seen again from the same pose, only the tiles where something changed are traced again (a
+// board carried, another moved away, clutter added, a board's tag changed): the image is a whole
+// trace's, bit for bit, and the changes show.
+TEST(CameraRender, AViewFromTheSamePoseTracesWhatChangedAsAWholeTraceWould) {
+  TestScene ts;
+  ts.AddBoard(0, BoardPose({6.0, 0.0, 1.5}, 0.2));
+  ts.AddBoard(1, BoardPose({9.0, 2.5, 1.2}, -0.3));
+  ts.Add(Pole({8.0, 1.0, 0.0}, 0.1, 2.5, 0.4f));
+  ts.scene.Finalize();
+  const CameraRenderer incremental(CameraIntrinsics{}, CameraImaging{});
+  cv::Mat before, after, whole;
+  incremental.Render(ts.scene, ts.faces, CameraPose(), 3, &before);
+  auto expect_as_whole = [&](const char* what) {
+    incremental.Render(ts.scene, ts.faces, CameraPose(), 4, &after);
+    const CameraRenderer fresh(CameraIntrinsics{}, CameraImaging{});
+    fresh.Render(ts.scene, ts.faces, CameraPose(), 4, &whole);
+    EXPECT_EQ(cv::norm(after, whole, cv::NORM_INF), 0.0) << what;
+  };
+  expect_as_whole("nothing changed");
+  // Board 0 carried 5 cm to the side: its slab and its board pose move together.
+  const auto carry = [&](size_t b, const Eigen::Vector3d& by) {
+    ts.scene.boards[b].T_world_board.translation() += by;
+    ts.scene.primitives[static_cast<size_t>(ts.scene.boards[b].primitive_index)]
+        .T_world_local.translation() += by;
+    ts.scene.Finalize();
+  };
+  carry(0, {0.0, 0.05, 0.0});
+  expect_as_whole("a board carried");
+  EXPECT_GT(cv::norm(before, after, cv::NORM_INF), 50.0) << "the tag's edges moved";
+  carry(1, {0.0, 3.0, 0.0});
+  ts.Add(Box(SurfaceKind::kClutter, {7.0, -1.5, 0.5}, 0.4, {0.4, 0.3, 0.5}, 0.2f));
+  ts.scene.Finalize();
+  expect_as_whole("a board moved away, a box added");
+  BoardGeometry other = ts.geometries[0];
+  other.tag_id = 7;
+  std::string error;
+  ASSERT_TRUE(ts.faces[0].Build(other, &error)) << error;
+  expect_as_whole("another tag printed on a board");
+  ts.scene.primitives.pop_back();
+  ts.scene.Finalize();
+  expect_as_whole("the box taken away");
+}
+
 // A rolling shutter: with the camera sliding sideways during the readout, each tag corner is
 // found where the camera saw it at its own row's time (the sheared tag's corners), not where a
 // global shutter at any one time would put all four; a constant pose renders as Render does.

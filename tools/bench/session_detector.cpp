@@ -77,6 +77,10 @@ void DetectedSession::DetectFrame(const SimulatedFrame& frame, FrameDetections* 
   if (same_camera && !frame.image.empty()) out->camera = *same_camera;
 }
 
+void DetectedSession::UseTagSearchMemo(TagSearchMemo* memo) {
+  if (camera_detector_) camera_detector_->UseSearchMemo(memo);
+}
+
 void DetectedSession::DetectOnly(const SimulatedFrame& frame, bool lidar, bool camera,
                                  FrameDetections* out) {
   out->truth = frame.truth;

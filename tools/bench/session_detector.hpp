@@ -86,6 +86,9 @@ class DetectedSession {
   void DetectFrame(const SimulatedFrame& frame, FrameDetections* out,
                    const LidarDetections* same_lidar = nullptr,
                    const CameraDetections* same_camera = nullptr);
+  /// The camera detector takes AprilTag's searches of an image from `memo` where another
+  /// detector of the same image left them (CameraDetector::UseSearchMemo); nullptr: none.
+  void UseTagSearchMemo(TagSearchMemo* memo);
   /// The detectors of the sensors asked for only, on a pair simulated as for DetectFrame: to keep
   /// a detector whose output other sessions copy in step with the frames (the camera's tracks).
   void DetectOnly(const SimulatedFrame& frame, bool lidar, bool camera, FrameDetections* out);

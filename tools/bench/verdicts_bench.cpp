@@ -636,6 +636,11 @@ void RunSessions(const sim::SessionOptions& clean, const std::vector<Session>& s
       active[m] = 0;
     }
   }
+  // The sessions that detect the shared image search each AprilTag window of it once.
+  TagSearchMemo shared_image_searches;
+  for (size_t m = 0; m < n; ++m)
+    if (active[m] && !own_image(m))
+      runs[m]->recorder().session().UseTagSearchMemo(&shared_image_searches);
   std::vector<double> simulation_s(n, 0.0);
   // Each with a buffer of its own to render into: an image rendered into a cv::Mat that shares
   // its buffer with another frame's would overwrite that one.
@@ -653,6 +658,7 @@ void RunSessions(const sim::SessionOptions& clean, const std::vector<Session>& s
     if (recording == 0) break;
     auto t0 = std::chrono::steady_clock::now();
     base->Simulate(k, true, &shared);
+    shared_image_searches.Clear();  // searches of the last frame's image
     const double shared_s = SecondsSince(t0);
     for (size_t m = 0; m < n; ++m) {
       if (!active[m] && !lidar_needed[m] && !camera_needed[m]) continue;

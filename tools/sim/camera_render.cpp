@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <mutex>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <thread>
@@ -152,22 +153,44 @@ bool NormalisedRect(const std::array<Eigen::Vector3d, 8>& corners_camera, Rect* 
   return true;
 }
 
+bool SameIntrinsics(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+  return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&
+         a.cx == b.cx && a.cy == b.cy && a.model == b.model && a.k1 == b.k1 && a.k2 == b.k2 &&
+         a.p1 == b.p1 && a.p2 == b.p2 && a.k3 == b.k3 && a.k4 == b.k4;
+}
+
 }  // namespace
 
-CameraRenderer::CameraRenderer(const CameraIntrinsics& intrinsics, const CameraImaging& imaging)
-    : model_(intrinsics), imaging_(imaging) {
+std::shared_ptr<const CameraRenderer::RayTable> CameraRenderer::SharedRayTable(
+    const CameraModel& model, int num_threads) {
+  // The sessions of a campaign share one camera: each used to spend a quarter of a second of
+  // Newton iterations on the same table.
+  static std::mutex mutex;
+  static std::vector<std::pair<CameraIntrinsics, std::weak_ptr<const RayTable>>> cache;
+  const CameraIntrinsics& intrinsics = model.intrinsics();
+  const std::lock_guard<std::mutex> lock(mutex);
+  cache.erase(std::remove_if(cache.begin(), cache.end(),
+                             [](const auto& entry) { return entry.second.expired(); }),
+              cache.end());
+  for (const auto& [key, table] : cache) {
+    if (SameIntrinsics(key, intrinsics)) {
+      if (auto shared = table.lock()) return shared;
+    }
+  }
+  auto table = std::make_shared<RayTable>();
   const int W = intrinsics.width, H = intrinsics.height;
-  ray_lut_.assign(static_cast<size_t>(W) * static_cast<size_t>(H) * 2, kNaN);
-  ParallelRows(H, imaging_.num_threads, [&](int v0, int v1) {
+  std::vector<float>& lut = table->ray_lut;
+  lut.assign(static_cast<size_t>(W) * static_cast<size_t>(H) * 2, kNaN);
+  ParallelRows(H, num_threads, [&](int v0, int v1) {
     for (int v = v0; v < v1; ++v) {
       Eigen::Vector2d prev;
       bool have_prev = false;
-      float* row = ray_lut_.data() + static_cast<size_t>(v) * static_cast<size_t>(W) * 2;
+      float* row = lut.data() + static_cast<size_t>(v) * static_cast<size_t>(W) * 2;
       for (int u = 0; u < W; ++u) {
         const Eigen::Vector2d uv(u, v);
         Eigen::Vector2d xy;
         // Warm start from the left neighbour in the same row only, so that rows are independent.
-        const bool ok = have_prev ? model_.Unproject(uv, prev, &xy) : model_.Unproject(uv, &xy);
+        const bool ok = have_prev ? model.Unproject(uv, prev, &xy) : model.Unproject(uv, &xy);
         have_prev = ok;
         if (!ok) continue;
         prev = xy;
@@ -179,17 +202,18 @@ CameraRenderer::CameraRenderer(const CameraIntrinsics& intrinsics, const CameraI
 
   // Ray bounds of each tile over its pixels +- 1 px, padded for sub-samples that extrapolate
   // half a pixel beyond the image border.
-  tiles_x_ = (W + kTile - 1) / kTile;
-  tiles_y_ = (H + kTile - 1) / kTile;
-  tile_bounds_.resize(static_cast<size_t>(tiles_x_) * static_cast<size_t>(tiles_y_));
+  table->tiles_x = (W + kTile - 1) / kTile;
+  table->tiles_y = (H + kTile - 1) / kTile;
+  table->tile_bounds.resize(static_cast<size_t>(table->tiles_x) *
+                            static_cast<size_t>(table->tiles_y));
   const auto pad = static_cast<float>(2.0 / std::min(intrinsics.fx, intrinsics.fy));
-  for (int ty = 0; ty < tiles_y_; ++ty) {
-    for (int tx = 0; tx < tiles_x_; ++tx) {
+  for (int ty = 0; ty < table->tiles_y; ++ty) {
+    for (int tx = 0; tx < table->tiles_x; ++tx) {
       TileBounds b{std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
                    std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()};
       for (int v = std::max(0, ty * kTile - 1); v < std::min(H, (ty + 1) * kTile + 1); ++v) {
         for (int u = std::max(0, tx * kTile - 1); u < std::min(W, (tx + 1) * kTile + 1); ++u) {
-          const float* r = &ray_lut_[(static_cast<size_t>(v) * static_cast<size_t>(W) + u) * 2];
+          const float* r = &lut[(static_cast<size_t>(v) * static_cast<size_t>(W) + u) * 2];
           if (std::isnan(r[0])) continue;
           b.x_lo = std::min(b.x_lo, r[0]);
           b.x_hi = std::max(b.x_hi, r[0]);
@@ -201,12 +225,56 @@ CameraRenderer::CameraRenderer(const CameraIntrinsics& intrinsics, const CameraI
       b.x_hi += pad;
       b.y_lo -= pad;
       b.y_hi += pad;
-      tile_bounds_[static_cast<size_t>(ty * tiles_x_ + tx)] = b;
+      table->tile_bounds[static_cast<size_t>(ty * table->tiles_x + tx)] = b;
     }
   }
-  shaded_.create(H, W, CV_8UC1);
-  radiance_.create(H, W, CV_32FC1);
+  cache.emplace_back(intrinsics, table);
+  return table;
 }
+
+CameraRenderer::CameraRenderer(const CameraIntrinsics& intrinsics, const CameraImaging& imaging)
+    : model_(intrinsics), imaging_(imaging), rays_(SharedRayTable(model_, imaging.num_threads)) {
+  shaded_.create(intrinsics.height, intrinsics.width, CV_8UC1);
+  radiance_.create(intrinsics.height, intrinsics.width, CV_32FC1);
+  radiance64_.create(intrinsics.height, intrinsics.width, CV_64FC1);
+}
+
+CameraRenderer::~CameraRenderer() = default;
+CameraRenderer::CameraRenderer(CameraRenderer&&) noexcept = default;
+CameraRenderer& CameraRenderer::operator=(CameraRenderer&&) noexcept = default;
+
+namespace {
+
+bool SameFace(const BoardFace& a, const BoardFace& b) {
+  const BoardGeometry &g = a.geometry, &h = b.geometry;
+  return g.pattern == h.pattern && g.tag_size_m == h.tag_size_m &&
+         g.tag_offset_m == h.tag_offset_m && g.checker_inner_rows == h.checker_inner_rows &&
+         g.checker_inner_cols == h.checker_inner_cols &&
+         g.checker_square_size_m == h.checker_square_size_m && a.grid == b.grid &&
+         a.grid_at_border == b.grid_at_border && a.bits == b.bits &&
+         a.white_albedo == b.white_albedo && a.black_albedo == b.black_albedo;
+}
+
+bool SamePrimitive(const Primitive& a, const Primitive& b) {
+  return a.shape == b.shape && a.kind == b.kind &&
+         a.T_world_local.matrix() == b.T_world_local.matrix() && a.half_extents == b.half_extents &&
+         a.radius == b.radius && a.height == b.height && a.albedo == b.albedo &&
+         a.board_index == b.board_index && a.bow_m == b.bow_m;
+}
+
+}  // namespace
+
+/// What a whole-frame trace saw, per scene primitive, for the next one from the same pose to
+/// find the tiles that changed.
+struct CameraRenderer::LastView {
+  Pose T_world_camera = Pose::Identity();
+  std::vector<Primitive> primitives;
+  std::vector<char> has_face;     ///< whether the primitive was shaded as a board's face
+  std::vector<Pose> board_poses;  ///< T_world_board of its board (has_face only)
+  std::vector<BoardFace> faces;   ///< its face (has_face only)
+  std::vector<char> on_screen;    ///< whether the primitive had a screen rectangle
+  std::vector<Rect> rects;        ///< its rectangle, with the board margin for boards
+};
 
 void CameraRenderer::DrawFrame(uint64_t seed, double* exposure, uint64_t* noise_seed) const {
   // Exposure first, then the noise seed (std::mt19937_64 is fully specified, so the sequence is
@@ -230,7 +298,7 @@ bool CameraRenderer::RenderRepeat(uint64_t seed, cv::Mat* image) const {
 Eigen::Vector2d CameraRenderer::RayAt(int u, int v) const {
   const size_t i =
       (static_cast<size_t>(v) * static_cast<size_t>(model_.intrinsics().width) + u) * 2;
-  return {ray_lut_[i], ray_lut_[i + 1]};
+  return {rays_->ray_lut[i], rays_->ray_lut[i + 1]};
 }
 
 void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& faces,
@@ -250,17 +318,20 @@ void CameraRenderer::Render(const Scene& scene, const std::vector<BoardFace>& fa
   for (int b = 0; b < bands; ++b) {
     const int v0 = H * b / bands, v1 = H * (b + 1) / bands;
     const double middle_row = 0.5 * (v0 + v1);
-    TraceRows(scene, faces, T_world_camera_at(middle_row / H), v0, v1, exposure);
+    TraceRows(scene, faces, T_world_camera_at(middle_row / H), v0, v1, exposure, bands == 1);
   }
   has_radiance_ = true;
   Finish(noise_seed, image);
 }
 
 void CameraRenderer::TraceRows(const Scene& scene, const std::vector<BoardFace>& faces,
-                               const Pose& T_world_camera, int v_begin, int v_end,
-                               double exposure) const {
+                               const Pose& T_world_camera, int v_begin, int v_end, double exposure,
+                               bool whole_frame) const {
   const CameraIntrinsics& cam = model_.intrinsics();
   const int W = cam.width, H = cam.height;
+  const std::vector<float>& ray_lut = rays_->ray_lut;
+  const std::vector<TileBounds>& tile_bounds = rays_->tile_bounds;
+  const int tiles_x = rays_->tiles_x;
   const Eigen::Matrix3d R_world_camera = T_world_camera.linear();
   const Eigen::Matrix3d R_camera_world = R_world_camera.transpose();
   const Eigen::Vector3d origin = T_world_camera.translation();
@@ -270,8 +341,9 @@ void CameraRenderer::TraceRows(const Scene& scene, const std::vector<BoardFace>&
   // Prepare primitives and their screen rectangles (normalised coordinates).
   std::vector<FramePrimitive> prims;
   std::vector<Rect> rects;
-  std::vector<int> board_prims;  // indices into prims of board slabs with a face
-  bool has_ground = false;       // the z = 0 plane is tested by every ray
+  std::vector<int> board_prims;     // indices into prims of board slabs with a face
+  std::vector<size_t> scene_index;  // of each of prims
+  bool has_ground = false;          // the z = 0 plane is tested by every ray
   const double board_margin = 3.0 / std::min(cam.fx, cam.fy);  // >= 2 px after distortion
   for (size_t i = 0; i < scene.primitives.size(); ++i) {
     const Primitive& p = scene.primitives[i];
@@ -301,10 +373,11 @@ void CameraRenderer::TraceRows(const Scene& scene, const std::vector<BoardFace>&
     }
     prims.push_back(fp);
     rects.push_back(rect);
+    scene_index.push_back(i);
   }
 
   // Bin primitives and supersampled board rectangles into tiles (CSR lists, primitive order).
-  const size_t num_tiles = tile_bounds_.size();
+  const size_t num_tiles = tile_bounds.size();
   std::vector<int> tile_prim_begin(num_tiles + 1, 0), tile_prims;
   std::vector<int> tile_board_begin(num_tiles + 1, 0), tile_boards;
   std::vector<Rect> board_rects;
@@ -320,16 +393,16 @@ void CameraRenderer::TraceRows(const Scene& scene, const std::vector<BoardFace>&
     return r.x_hi >= t.x_lo && r.x_lo <= t.x_hi && r.y_hi >= t.y_lo && r.y_lo <= t.y_hi;
   };
   // Only the tiles of rows [v_begin, v_end) are traced: the others keep empty lists.
-  const size_t first_tile = static_cast<size_t>(v_begin / kTile) * static_cast<size_t>(tiles_x_);
+  const size_t first_tile = static_cast<size_t>(v_begin / kTile) * static_cast<size_t>(tiles_x);
   const size_t end_tile = std::min(
-      num_tiles, static_cast<size_t>((v_end - 1) / kTile + 1) * static_cast<size_t>(tiles_x_));
+      num_tiles, static_cast<size_t>((v_end - 1) / kTile + 1) * static_cast<size_t>(tiles_x));
   for (size_t t = 0; t < num_tiles; ++t) {
     if (t < first_tile || t >= end_tile) {
       tile_prim_begin[t + 1] = static_cast<int>(tile_prims.size());
       tile_board_begin[t + 1] = static_cast<int>(tile_boards.size());
       continue;
     }
-    const TileBounds& tb = tile_bounds_[t];
+    const TileBounds& tb = tile_bounds[t];
     for (size_t k = 0; k < prims.size(); ++k) {
       if (overlaps(tb, rects[k])) tile_prims.push_back(static_cast<int>(k));
     }
@@ -338,6 +411,59 @@ void CameraRenderer::TraceRows(const Scene& scene, const std::vector<BoardFace>&
       if (overlaps(tb, board_rects[k])) tile_boards.push_back(static_cast<int>(k));
     }
     tile_board_begin[t + 1] = static_cast<int>(tile_boards.size());
+  }
+
+  // Which tiles to trace: every one, unless the last whole frame was traced from this very pose;
+  // then those whose lists held, then or now, a primitive that changed (its pose, size, albedo,
+  // or its board's pose or face). The others' rays meet the same primitives, in the same order,
+  // as then: their radiance is kept.
+  const size_t num_scene = scene.primitives.size();
+  LastView now;
+  if (whole_frame) {
+    now.T_world_camera = T_world_camera;
+    now.primitives = scene.primitives;
+    now.has_face.assign(num_scene, 0);
+    now.board_poses.assign(num_scene, Pose::Identity());
+    now.faces.assign(num_scene, BoardFace{});
+    now.on_screen.assign(num_scene, 0);
+    now.rects.assign(num_scene, Rect{});
+    for (size_t k = 0; k < prims.size(); ++k) {
+      const size_t i = scene_index[k];
+      now.on_screen[i] = 1;
+      now.rects[i] = rects[k];
+      if (prims[k].face == nullptr) continue;
+      now.has_face[i] = 1;
+      now.faces[i] = *prims[k].face;
+      now.board_poses[i] = scene.boards[static_cast<size_t>(prims[k].p->board_index)].T_world_board;
+    }
+    for (size_t b = 0; b < board_prims.size(); ++b)
+      now.rects[scene_index[static_cast<size_t>(board_prims[b])]] = board_rects[b];
+  }
+  std::vector<char> trace_tile(num_tiles, 1);
+  const LastView* last = last_view_.get();
+  if (whole_frame && last != nullptr && last->T_world_camera.matrix() == T_world_camera.matrix()) {
+    std::fill(trace_tile.begin(), trace_tile.end(), 0);
+    bool all = false;
+    auto mark = [&](const LastView& view, size_t i) {
+      if (i >= view.primitives.size()) return;
+      if (view.primitives[i].shape == Primitive::Shape::kPlaneZ0) all = true;  // every ray's
+      if (!view.on_screen[i]) return;
+      for (size_t t = 0; t < num_tiles; ++t) {
+        if (overlaps(tile_bounds[t], view.rects[i])) trace_tile[t] = 1;
+      }
+    };
+    for (size_t i = 0; i < std::max(num_scene, last->primitives.size()) && !all; ++i) {
+      const bool same =
+          i < num_scene && i < last->primitives.size() &&
+          SamePrimitive(now.primitives[i], last->primitives[i]) &&
+          now.has_face[i] == last->has_face[i] &&
+          (!now.has_face[i] || (now.board_poses[i].matrix() == last->board_poses[i].matrix() &&
+                                SameFace(now.faces[i], last->faces[i])));
+      if (same) continue;
+      mark(*last, i);
+      mark(now, i);
+    }
+    if (all) std::fill(trace_tile.begin(), trace_tile.end(), 1);
   }
 
   // Linear radiance (albedo times Lambert-with-ambient shading) along the camera ray through
@@ -436,7 +562,7 @@ void CameraRenderer::TraceRows(const Scene& scene, const std::vector<BoardFace>&
     const int i0 = std::clamp(static_cast<int>(FastFloor(su)), 0, W - 2);
     const int j0 = std::clamp(static_cast<int>(FastFloor(sv)), 0, H - 2);
     const double fu = su - i0, fv = sv - j0;
-    const float* r0 = &ray_lut_[(static_cast<size_t>(j0) * static_cast<size_t>(W) + i0) * 2];
+    const float* r0 = &ray_lut[(static_cast<size_t>(j0) * static_cast<size_t>(W) + i0) * 2];
     const float* r1 = r0 + static_cast<size_t>(W) * 2;
     for (int c = 0; c < 2; ++c) {
       const double top = r0[c] + (r0[c + 2] - r0[c]) * fu;
@@ -451,10 +577,15 @@ void CameraRenderer::TraceRows(const Scene& scene, const std::vector<BoardFace>&
     for (int v = v_begin + r0; v < v_begin + r1; ++v) {
       uint8_t* out = shaded_.ptr<uint8_t>(v);
       float* kept = radiance_.ptr<float>(v);
-      const float* lut_row = &ray_lut_[static_cast<size_t>(v) * static_cast<size_t>(W) * 2];
+      const float* lut_row = &ray_lut[static_cast<size_t>(v) * static_cast<size_t>(W) * 2];
       const int ty = v / kTile;
+      double* traced = radiance64_.ptr<double>(v);
       for (int u = 0; u < W; ++u) {
-        const size_t tile = static_cast<size_t>(ty * tiles_x_ + u / kTile);
+        const size_t tile = static_cast<size_t>(ty * tiles_x + u / kTile);
+        if (!trace_tile[tile]) {
+          out[u] = cv::saturate_cast<uint8_t>(gain * traced[u]);  // kept[u] holds it already
+          continue;
+        }
         const int* list = tile_prims.data() + tile_prim_begin[tile];
         const int list_size = tile_prim_begin[tile + 1] - tile_prim_begin[tile];
         const double x = lut_row[2 * u], y = lut_row[2 * u + 1];
@@ -493,9 +624,14 @@ void CameraRenderer::TraceRows(const Scene& scene, const std::vector<BoardFace>&
         }
         out[u] = cv::saturate_cast<uint8_t>(gain * value);
         kept[u] = static_cast<float>(value);
+        traced[u] = value;
       }
     }
   });
+  if (whole_frame)
+    last_view_ = std::make_unique<LastView>(std::move(now));
+  else
+    last_view_.reset();  // a rolling shutter's bands: no one pose
 }
 
 void CameraRenderer::Finish(uint64_t noise_seed, cv::Mat* image) const {

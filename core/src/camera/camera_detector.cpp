@@ -104,6 +104,9 @@ struct CameraDetector::Impl {
   std::vector<int> tag_boards;  // indices into boards of the AprilTag boards
   int checker_board = -1;       // index of the (single) checkerboard board, or -1
 
+  TagSearchMemo* memo = nullptr;  // UseSearchMemo's
+  std::string memo_settings;      // what besides the window makes AprilTag's results differ
+
   // Tracking state (per board index).
   std::vector<Track> tracks;
   int frames_since_full = std::numeric_limits<int>::max() / 2;
@@ -182,6 +185,10 @@ struct CameraDetector::Impl {
       td->quad_sigma = static_cast<float>(config.quad_sigma);
       td->refine_edges = config.refine_edges;
       td->decode_sharpening = config.decode_sharpening;
+      memo_settings =
+          std::string(family_entry->name) + "/" + std::to_string(config.max_bits_corrected) + "/" +
+          std::to_string(config.threads) + "/" + std::to_string(config.quad_sigma) + "/" +
+          std::to_string(config.refine_edges) + "/" + std::to_string(config.decode_sharpening);
     }
     tracks.assign(boards.size(), Track{});
     candidates.reserve(4 * boards.size() + 16);
@@ -216,6 +223,38 @@ struct CameraDetector::Impl {
   void SearchWindow(const ImageView& im, int x0, int y0, int w, int h, float decimate,
                     CameraDetections* out) {
     if (w < 16 || h < 16) return;
+    auto take = [&](int id, float decision_margin, const double(*p)[2]) {
+      const int board = BoardIndexForTag(id);
+      if (board < 0 || decision_margin < config.min_decision_margin) {
+        ++out->rejected;
+        return;
+      }
+      Candidate c;
+      c.board_index = board;
+      c.decision_margin = decision_margin;
+      // libapriltag reports pixel centres at i + 0.5 (docs/conventions.md#apriltag-pixels).
+      for (size_t k = 0; k < 4; ++k) c.corners_px[k] = {p[k][0] - 0.5 + x0, p[k][1] - 0.5 + y0};
+      AddCandidate(c, out);
+    };
+    TagSearchMemo::Search* kept = nullptr;
+    if (memo != nullptr) {
+      for (TagSearchMemo::Search& s : memo->searches_) {
+        if (s.data != im.data || s.stride != im.stride || s.x0 != x0 || s.y0 != y0 ||
+            s.width != w || s.height != h || s.decimate != decimate || s.settings != memo_settings)
+          continue;
+        for (const TagSearchMemo::Tag& t : s.tags) {
+          const double p[4][2] = {{t.corners[0].x(), t.corners[0].y()},
+                                  {t.corners[1].x(), t.corners[1].y()},
+                                  {t.corners[2].x(), t.corners[2].y()},
+                                  {t.corners[3].x(), t.corners[3].y()}};
+          take(t.id, t.decision_margin, p);
+        }
+        ++memo->reused_;
+        return;
+      }
+      kept = &memo->searches_.emplace_back();
+      *kept = {im.data, im.stride, x0, y0, w, h, decimate, memo_settings, {}};
+    }
     uint8_t* buf = const_cast<uint8_t*>(im.data) + static_cast<size_t>(y0) * im.stride + x0;
     int stride = im.stride;
     // libapriltag blurs (quad_sigma) the quad-search image in place, and at decimation 1 that is
@@ -234,18 +273,13 @@ struct CameraDetector::Impl {
     for (int i = 0; i < zarray_size(dets.get()); ++i) {
       apriltag_detection_t* d = nullptr;
       zarray_get(dets.get(), i, &d);
-      const int board = BoardIndexForTag(d->id);
-      if (board < 0 || d->decision_margin < config.min_decision_margin) {
-        ++out->rejected;
-        continue;
+      if (kept != nullptr) {
+        TagSearchMemo::Tag& t = kept->tags.emplace_back();
+        t.id = d->id;
+        t.decision_margin = d->decision_margin;
+        for (size_t k = 0; k < 4; ++k) t.corners[k] = {d->p[k][0], d->p[k][1]};
       }
-      Candidate c;
-      c.board_index = board;
-      c.decision_margin = d->decision_margin;
-      // libapriltag reports pixel centres at i + 0.5 (docs/conventions.md#apriltag-pixels).
-      for (size_t k = 0; k < 4; ++k)
-        c.corners_px[k] = {d->p[k][0] - 0.5 + x0, d->p[k][1] - 0.5 + y0};
-      AddCandidate(c, out);
+      take(d->id, d->decision_margin, d->p);
     }
   }
 
@@ -486,5 +520,7 @@ void CameraDetector::ReserveOutput(CameraDetections* out) const {
 }
 
 void CameraDetector::ResetTracking() { impl_->ForgetTracks(); }
+
+void CameraDetector::UseSearchMemo(TagSearchMemo* memo) { impl_->memo = memo; }
 
 }  // namespace calibd

@@ -99,6 +99,40 @@ struct CameraDetections {
   int rejected = 0;                      ///< candidates dropped (unknown id, margin, PnP error)
 };
 
+/// The AprilTag searches of one image, kept for other detectors that search the same image with
+/// the same tag family and AprilTag settings (their boards, intrinsics and gates may differ): a
+/// window searched once is not searched again. For an evaluation that detects one image under
+/// several configurations (calibd-bench verdicts); the agent has one detector per camera and no
+/// use for it. Not thread-safe.
+class TagSearchMemo {
+ public:
+  /// One tag as AprilTag reported it: id, decision margin, corners in the window's pixels
+  /// (AprilTag's pixel-centre convention).
+  struct Tag {
+    int id = 0;
+    float decision_margin = 0.0f;
+    std::array<Eigen::Vector2d, 4> corners;
+  };
+
+  /// Forgets every search: call before the detectors see the next image.
+  void Clear() { searches_.clear(); }
+  /// Searches answered from the memo since it was made.
+  int reused() const { return reused_; }
+
+ private:
+  friend class CameraDetector;
+  struct Search {
+    const uint8_t* data = nullptr;  ///< the image's first pixel, and its row stride
+    int stride = 0;
+    int x0 = 0, y0 = 0, width = 0, height = 0;
+    float decimate = 0.0f;
+    std::string settings;  ///< tag family and AprilTag settings
+    std::vector<Tag> tags;
+  };
+  std::vector<Search> searches_;
+  int reused_ = 0;
+};
+
 /// Detects the configured boards in mono8 images (paper §III-B). AprilTag boards must all use one
 /// tag family (one AprilTag detector, created once). At most one checkerboard board is supported,
 /// searched in every frame without tracking. Not thread-safe: one detector per camera thread.
@@ -125,6 +159,11 @@ class CameraDetector {
 
   /// Forgets tracked regions (next frame searches the full image).
   void ResetTracking();
+
+  /// Takes AprilTag's results for a window `memo` holds (same image, family and settings) from
+  /// it, and keeps those of the windows it searches there; nullptr (the default): none. The same
+  /// detections as without, in less time when another detector searched the image before.
+  void UseSearchMemo(TagSearchMemo* memo);
 
  private:
   struct Impl;
