@@ -41,6 +41,27 @@ nlohmann::json RunSessions(const std::vector<int>& only, const std::string& json
   return nlohmann::json::parse(in);
 }
 
+// `--faults` keeps the sessions of the faults named, of the range or of `--only`, in order.
+TEST(VerdictsBenchTest, FaultsPickTheirSessionsOfTheRangeOrOfTheList) {
+  EXPECT_TRUE(IsVerdictFault("none"));
+  EXPECT_TRUE(IsVerdictFault("boards_far"));
+  EXPECT_FALSE(IsVerdictFault("clean"));
+  VerdictsBenchOptions o;
+  o.sessions = 3 * VerdictSessionIndex("none", 1);  // three rounds
+  o.faults = {"none", "range_bias"};
+  EXPECT_EQ(
+      VerdictSessionIndices(o),
+      (std::vector<int>{VerdictSessionIndex("none", 0), VerdictSessionIndex("range_bias", 0),
+                        VerdictSessionIndex("none", 1), VerdictSessionIndex("range_bias", 1),
+                        VerdictSessionIndex("none", 2), VerdictSessionIndex("range_bias", 2)}));
+  o.only = {VerdictSessionIndex("range_bias", 4), VerdictSessionIndex("occluded", 4),
+            VerdictSessionIndex("none", 7)};
+  EXPECT_EQ(VerdictSessionIndices(o), (std::vector<int>{VerdictSessionIndex("range_bias", 4),
+                                                        VerdictSessionIndex("none", 7)}));
+  o.faults.clear();
+  EXPECT_EQ(VerdictSessionIndices(o), o.only);
+}
+
 TEST(VerdictsBenchTest, ACleanSessionIsAcceptedAndSizeAndCentreFaultsAreRefusedForThem) {
   testing::TempDir dir;
   std::string table;

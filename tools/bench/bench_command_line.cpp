@@ -187,6 +187,17 @@ bool VerdictsOption(CommandLine& line, VerdictsBenchOptions* v) {
   } else if (line.Is("--only")) {  // each --only adds to the list
     if (line.Integers(tools::Count{1}, 0, 1000000, &only))
       v->only.insert(v->only.end(), only.begin(), only.end());
+  } else if (line.Is("--faults")) {
+    std::string text;
+    if (!line.Value(&text)) return true;
+    std::vector<std::string> names = tools::SplitList(text);
+    for (const std::string& name : names) {
+      if (IsVerdictFault(name)) continue;
+      line.Error("unknown fault '" + name + "' in " + line.arg() + " (expected any of " +
+                 VerdictFaultNames() + ")");
+      return true;
+    }
+    v->faults = std::move(names);
   } else if (line.Is("--unshared")) {
     v->share_recordings = false;
   } else if (line.Is("--json")) {

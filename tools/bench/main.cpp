@@ -172,6 +172,9 @@ verdicts the fault campaign: simulated sessions (every LiDAR model, drives at 4-
                       recording are one)
   --only LIST         only these sessions (comma-separated indices, as in --json): to look
                       again at one
+  --faults LIST       only the sessions of these faults among them (comma-separated names, as
+                      in the tables: none, camera_delay_stamped, ...; `--faults none`: the
+                      clean sessions alone, the false rejects' measure)
   --unshared          each session simulated and detected on its own, none from its round's
                       clean recording (the same answers, slower: a check of the sharing)
   --json FILE         also write every session as JSON

@@ -724,15 +724,32 @@ std::string VerdictFaultNames() {
   return out;
 }
 
+bool IsVerdictFault(const std::string& name) { return VerdictSessionIndex(name, 0) >= 0; }
+
+std::vector<int> VerdictSessionIndices(const VerdictsBenchOptions& o) {
+  std::vector<int> indices = o.only;
+  if (indices.empty())
+    for (int i = 0; i < o.sessions; ++i) indices.push_back(i);
+  if (o.faults.empty()) return indices;
+  std::vector<int> kept;
+  for (const int i : indices) {
+    const std::string fault = kFaults[i % kNumFaults].name;
+    if (std::find(o.faults.begin(), o.faults.end(), fault) != o.faults.end()) kept.push_back(i);
+  }
+  return kept;
+}
+
 bool RunVerdictsBench(const VerdictsBenchOptions& o, std::ostream& out, std::ostream* progress,
                       std::string* error) {
   // A false accept: beyond the accuracy a result must be known to (the error bound's gate).
   const VerdictConfig tolerance;
   const double max_deg = tolerance.max_rotation_bound_deg;
   const double max_m = tolerance.max_translation_bound_m;
-  std::vector<int> indices = o.only;
-  if (indices.empty())
-    for (int i = 0; i < o.sessions; ++i) indices.push_back(i);
+  const std::vector<int> indices = VerdictSessionIndices(o);
+  if (indices.empty()) {
+    if (error) *error = "no session of the faults asked for among the sessions asked for";
+    return false;
+  }
   const int count = static_cast<int>(indices.size());
   std::vector<SessionResult> results(indices.size());
   // Tasks: the sessions of a round that share its clean recording together, each other session

@@ -22,6 +22,9 @@ struct VerdictsBenchOptions {
   /// Only these sessions (indices of a full run with the same seed and mode): to look again at
   /// one. Empty: sessions 0 .. sessions - 1.
   std::vector<int> only;
+  /// Only the sessions of these faults (names as VerdictFaultNames(); "none": the clean
+  /// sessions, for the false rejects alone). Empty: every fault.
+  std::vector<std::string> faults;
   /// A round's sessions whose faults change only the config, the stamps, the order of the pairs,
   /// the LiDAR's noise or the camera take what they can of its clean session's recording (one
   /// simulation and detection for all: the same answers as each on its own, several times
@@ -32,6 +35,13 @@ struct VerdictsBenchOptions {
 
 /// The fault families' names, comma-separated (for --help).
 std::string VerdictFaultNames();
+
+/// Whether `name` is one of VerdictFaultNames().
+bool IsVerdictFault(const std::string& name);
+
+/// The sessions a run takes, in order: `only` (or 0 .. sessions - 1), less those whose fault is
+/// not one of `faults` when some are given.
+std::vector<int> VerdictSessionIndices(const VerdictsBenchOptions& options);
 
 /// The index of the session of `fault` in round `round` (sessions are drawn round-robin over the
 /// fault families: even rounds drive, odd rounds pose still, the LiDAR model changes every two
