@@ -47,7 +47,13 @@ RingElevationCheck CheckRingElevations(const std::vector<BoardGeometry>& boards,
     std::fill(obs.begin(), obs.end(), Sums{});
     for (int k = 0; k < o.num_points; ++k) {
       const Eigen::Vector3d p = set.points[static_cast<size_t>(o.first_point + k)].cast<double>();
-      const Eigen::Vector3d b = T_board_lidar * p;
+      // Inside the board where the point's ray meets the board's plane, not where the point lies:
+      // its range noise moves it along the ray, and a ray slanted to the board carries it across
+      // the inner part's edge, so a cut on the point would keep the short returns of the rings
+      // along one edge and the long ones along the other (a ring biased by the cut alone).
+      const double along = n.dot(p);
+      if (!(along * offset > 0.0)) continue;
+      const Eigen::Vector3d b = T_board_lidar * (p * (offset / along));
       if (std::abs(b.x()) > kInnerShare * g.width_m / 2.0 ||
           std::abs(b.y()) > kInnerShare * g.height_m / 2.0)
         continue;
